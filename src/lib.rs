@@ -1,0 +1,16 @@
+//! ispm: real-time global illumination by Image Space Photon Mapping on raw Vulkan.
+//!
+//! Module map (see `docs/overview.md`):
+//! - [`scene`]: glTF → [`scene::Scene`]; no Vulkan.
+//! - [`photon`]: über-BSDF, photon types, RNG, BVH and watertight tracing, CPU photon tracer;
+//!   no Vulkan.
+//! - [`reference`]: CPU reference renderers; no Vulkan.
+//! - [`gpu`]: the only place raw `ash` lives.
+//! - [`passes`]: one explicit GPU pass per file.
+#![deny(unsafe_op_in_unsafe_fn)]
+
+pub mod gpu;
+pub mod passes;
+pub mod photon;
+pub mod reference;
+pub mod scene;

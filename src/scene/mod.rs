@@ -1,0 +1,268 @@
+//! The renderer's scene: triangle meshes, instances, über-BSDF materials, lights and a camera.
+//!
+//! This module never touches Vulkan. The GPU passes, the CPU photon tracer and the reference
+//! renderers all read the same [`Scene`], so the physics can be tested without a GPU.
+//!
+//! Units and frames follow glTF: right-handed, +Y up, metres. Every radiometric quantity in a
+//! `Scene` is already converted from glTF's photometric units (see [`units`]), so nothing
+//! downstream needs to know about lumens or candela.
+
+pub mod load;
+pub mod units;
+
+use glam::{Mat4, Vec2, Vec3};
+
+/// Index of a [`Mesh`] in [`Scene::meshes`].
+pub type MeshId = usize;
+/// Index of a [`Material`] in [`Scene::materials`].
+pub type MaterialId = usize;
+/// Index of a [`Texture`] in [`Scene::textures`].
+pub type TextureId = usize;
+
+/// A whole scene, ready to render.
+#[derive(Clone, Debug, Default)]
+pub struct Scene {
+    /// Triangle meshes in object space, one per glTF primitive.
+    pub meshes: Vec<Mesh>,
+    /// Placements of meshes in the world (glTF node hierarchy flattened).
+    pub instances: Vec<Instance>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub lights: Vec<Light>,
+    /// The camera the renderer uses: the file's first camera, or [`Camera::framing`] of the
+    /// scene when the file has none.
+    pub camera: Camera,
+    /// Every camera in the file, in node order (may be empty).
+    pub cameras: Vec<Camera>,
+}
+
+/// An indexed triangle mesh in object space with one material (one glTF primitive).
+///
+/// Invariants (established by the loader, relied on everywhere else): `normals` and `uvs` have
+/// one entry per position; every index is `< positions.len()`; every value is finite; every
+/// normal has unit length.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mesh {
+    pub name: String,
+    pub positions: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    pub uvs: Vec<Vec2>,
+    pub triangles: Vec<[u32; 3]>,
+    pub material: MaterialId,
+}
+
+/// One placement of a mesh in the world.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Instance {
+    pub name: String,
+    pub mesh: MeshId,
+    /// World-from-object transform (finite, invertible).
+    pub transform: Mat4,
+}
+
+/// Parameters of the über-BSDF (DESIGN.md §2; `photon::bsdf` owns the formulas).
+///
+/// The lobes are, in the order importance sampling picks them: Lambertian (`lambertian`),
+/// glossy or perfect mirror (`glossy`, `exponent`), refraction (`transmission`, `ior`).
+/// Reflectances are linear RGB in [0, 1]; their sum per channel is kept ≤ 1 by the loader.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    /// ρL: Lambertian reflectance.
+    pub lambertian: Vec3,
+    /// Multiplies `lambertian` (sRGB texture, decoded to linear when sampled).
+    pub lambertian_texture: Option<TextureId>,
+    /// ρS: glossy/mirror reflectance at normal incidence.
+    pub glossy: Vec3,
+    /// Glossy exponent σ ≥ 0 of the normalised lobe; `f32::INFINITY` means a perfect mirror.
+    pub exponent: f32,
+    /// ρt: fraction refracted through the surface.
+    pub transmission: Vec3,
+    /// η of the material's interior (the outside is vacuum, η = 1).
+    pub ior: f32,
+    /// When true the glossy and transmitted weights follow the exact dielectric Fresnel term for
+    /// `ior` (glass, water, plastics); when false `glossy` is used as it is (metals, paint).
+    pub fresnel: bool,
+    /// Emitted radiance, W/(m²·sr), linear RGB.
+    pub emission: Vec3,
+    /// Rendered from both sides (glTF `doubleSided`).
+    pub double_sided: bool,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        // glTF's default material: white, rough, dielectric.
+        Self {
+            name: String::from("default"),
+            lambertian: Vec3::splat(0.8),
+            lambertian_texture: None,
+            glossy: Vec3::ZERO,
+            exponent: 0.0,
+            transmission: Vec3::ZERO,
+            ior: 1.5,
+            fresnel: false,
+            emission: Vec3::ZERO,
+            double_sided: false,
+        }
+    }
+}
+
+impl Material {
+    /// True when the material has a delta (perfect mirror or refraction) lobe.
+    pub fn has_delta_lobe(&self) -> bool {
+        (self.glossy.max_element() > 0.0 && self.exponent.is_infinite())
+            || self.transmission.max_element() > 0.0
+    }
+}
+
+/// An RGBA8 image in sRGB encoding, row-major, top row first.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    pub rgba8: Vec<u8>,
+}
+
+/// A punctual light (KHR_lights_punctual), in radiometric units.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Light {
+    pub name: String,
+    pub kind: LightKind,
+    /// World-space position (ignored for directional lights).
+    pub position: Vec3,
+    /// World-space unit vector along which the light travels (spot and directional).
+    pub direction: Vec3,
+    /// Linear RGB radiant intensity in W/sr for point and spot lights; irradiance in W/m² on a
+    /// surface facing the light for directional lights.
+    pub intensity: Vec3,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LightKind {
+    Point,
+    /// Cone angles in radians from the axis, `0 ≤ inner < outer ≤ π/2` (KHR_lights_punctual).
+    Spot {
+        inner_cone_angle: f32,
+        outer_cone_angle: f32,
+    },
+    Directional,
+}
+
+/// A perspective camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// World-from-camera transform; the camera looks down its local −Z with +Y up.
+    pub transform: Mat4,
+    /// Vertical field of view in radians.
+    pub yfov: f32,
+    /// Near clip distance in metres (> 0).
+    pub znear: f32,
+    /// Far clip distance in metres; `None` for an infinite far plane.
+    pub zfar: Option<f32>,
+}
+
+impl Default for Camera {
+    fn default() -> Self {
+        Self {
+            transform: Mat4::IDENTITY,
+            yfov: 45f32.to_radians(),
+            znear: 0.05,
+            zfar: None,
+        }
+    }
+}
+
+/// An axis-aligned bounding box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Aabb {
+    pub const EMPTY: Self = Self {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
+
+    pub fn is_empty(&self) -> bool {
+        self.min.cmpgt(self.max).any()
+    }
+
+    pub fn grow(&mut self, p: Vec3) {
+        self.min = self.min.min(p);
+        self.max = self.max.max(p);
+    }
+
+    pub fn center(&self) -> Vec3 {
+        (self.min + self.max) * 0.5
+    }
+
+    pub fn extent(&self) -> Vec3 {
+        self.max - self.min
+    }
+}
+
+impl Scene {
+    /// Number of triangles over all instances (what the paper's Table 2 counts).
+    pub fn triangle_count(&self) -> usize {
+        self.instances
+            .iter()
+            .map(|i| self.meshes[i.mesh].triangles.len())
+            .sum()
+    }
+
+    /// World-space bounds of all instanced geometry.
+    pub fn bounds(&self) -> Aabb {
+        let mut b = Aabb::EMPTY;
+        for inst in &self.instances {
+            for &p in &self.meshes[inst.mesh].positions {
+                b.grow(inst.transform.transform_point3(p));
+            }
+        }
+        b
+    }
+
+    /// World-space triangles of every instance, with the material of each, in instance order.
+    pub fn world_triangles(&self) -> Vec<([Vec3; 3], MaterialId)> {
+        let mut out = Vec::with_capacity(self.triangle_count());
+        for inst in &self.instances {
+            let mesh = &self.meshes[inst.mesh];
+            for t in &mesh.triangles {
+                let p = t.map(|i| inst.transform.transform_point3(mesh.positions[i as usize]));
+                out.push((p, mesh.material));
+            }
+        }
+        out
+    }
+}
+
+impl Camera {
+    /// A camera that frames `bounds`: looking down −Z at the box's centre from far enough back
+    /// that the whole box fits the vertical field of view.
+    pub fn framing(bounds: Aabb) -> Self {
+        let mut cam = Camera::default();
+        if bounds.is_empty() {
+            cam.transform = Mat4::from_translation(Vec3::new(0.0, 0.0, 5.0));
+            return cam;
+        }
+        let center = bounds.center();
+        let radius = (bounds.extent().length() * 0.5).max(1e-3);
+        let dist = radius / (cam.yfov * 0.5).sin();
+        let eye = center + Vec3::new(0.0, 0.0, dist);
+        cam.transform = glam::camera::rh::view::look_at_mat4(eye, center, Vec3::Y).inverse();
+        cam.znear = (dist - radius).max(radius * 1e-3);
+        cam.zfar = Some(dist + radius * 2.0);
+        cam
+    }
+
+    pub fn position(&self) -> Vec3 {
+        self.transform.w_axis.truncate()
+    }
+
+    /// Camera-from-world transform.
+    pub fn view(&self) -> Mat4 {
+        self.transform.inverse()
+    }
+}
