@@ -14,3 +14,8 @@ pub mod passes;
 pub mod photon;
 pub mod reference;
 pub mod scene;
+
+/// Constants shared with GLSL (generated into `shared_constants.glsl` by `build.rs`).
+pub mod shared_constants {
+    include!("shared_constants.rs");
+}

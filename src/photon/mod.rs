@@ -1,1 +1,10 @@
-//! photon (in progress)
+//! Light transport on the CPU: the über-BSDF, photon records, random numbers, ray tracing
+//! against a BVH, and the photon tracer. Never touches Vulkan.
+
+pub mod bsdf;
+pub mod bvh;
+pub mod ray;
+pub mod rng;
+pub mod sampling;
+pub mod triangle;
+pub mod types;

@@ -1,0 +1,1 @@
+//! (bsdf work in progress)
