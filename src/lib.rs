@@ -10,6 +10,9 @@
 #![deny(unsafe_op_in_unsafe_fn)]
 
 pub mod gpu;
+pub mod gpu_scene;
+pub mod layout;
+pub mod lighting;
 pub mod passes;
 pub mod photon;
 pub mod reference;

@@ -7,4 +7,9 @@
 // only `//` comments (this file is included as items, so inner doc comments are not allowed).
 
 /// π, as the shaders spell it.
-pub const PI: f32 = 3.141_592_7;
+pub const PI: f32 = core::f32::consts::PI;
+
+// Tonemapping operators (`--tonemap`), as ids the tonemap shader switches on.
+pub const TONEMAP_LINEAR: u32 = 0;
+pub const TONEMAP_ACES: u32 = 1;
+pub const TONEMAP_PBR_NEUTRAL: u32 = 2;

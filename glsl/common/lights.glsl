@@ -1,0 +1,57 @@
+// Punctual lights and their shadow-map lookups (KHR_lights_punctual conventions).
+#ifndef LIGHTS_GLSL
+#define LIGHTS_GLSL
+#include "shared.glsl"
+
+// Radiance-carrying quantities of one light at a surface point.
+struct LightSample {
+    vec3 wi;          // unit direction from the surface towards the light
+    vec3 irradiance;  // W/m^2 on a surface facing the light (before the cosine)
+};
+
+// KHR_lights_punctual spot falloff: a smooth ramp between the outer and inner cone.
+float spot_falloff(GpuLight light, vec3 to_point) {
+    float cos_outer = light.direction.w;
+    float cos_inner = light.intensity.w;
+    float cd = dot(light.direction.xyz, to_point);
+    float scale = 1.0 / max(1e-4, cos_inner - cos_outer);
+    float t = clamp((cd - cos_outer) * scale, 0.0, 1.0);
+    return t * t;
+}
+
+LightSample sample_light(GpuLight light, vec3 p) {
+    LightSample s;
+    if (light.shadow.x == LIGHT_DIRECTIONAL) {
+        s.wi = -light.direction.xyz;
+        s.irradiance = light.intensity.rgb;
+        return s;
+    }
+    vec3 d = light.position.xyz - p;
+    float dist2 = max(dot(d, d), 1e-12);
+    s.wi = d * inversesqrt(dist2);
+    s.irradiance = light.intensity.rgb / dist2;
+    if (light.shadow.x == LIGHT_SPOT) {
+        s.irradiance *= spot_falloff(light, -s.wi);
+    }
+    return s;
+}
+
+// Which of a light's shadow views covers `p`: cube lights pick the face by the major axis of
+// the light -> point direction, in the face order +X, -X, +Y, -Y, +Z, -Z.
+uint shadow_view_index(GpuLight light, vec3 p) {
+    if (light.shadow.z < 6u) {
+        return light.shadow.y;
+    }
+    vec3 d = p - light.position.xyz;
+    vec3 a = abs(d);
+    uint face;
+    if (a.x >= a.y && a.x >= a.z) {
+        face = d.x >= 0.0 ? 0u : 1u;
+    } else if (a.y >= a.z) {
+        face = d.y >= 0.0 ? 2u : 3u;
+    } else {
+        face = d.z >= 0.0 ? 4u : 5u;
+    }
+    return light.shadow.y + face;
+}
+#endif

@@ -1,0 +1,60 @@
+// Struct layouts shared with the CPU. Each struct here has a `#[repr(C)]` twin in
+// src/layout.rs with compile-time size/offset asserts; tests/layouts.rs checks both against the
+// offsets the compiled SPIR-V declares. Everything is camera-relative world space: positions
+// have the camera position subtracted on the CPU in double precision, so scenes far from the
+// origin keep their precision.
+#ifndef SHARED_GLSL
+#define SHARED_GLSL
+
+#include "shared_constants.glsl"
+
+// Per-frame camera data (uniform buffer, std140).
+struct FrameUniforms {
+    mat4 view_proj;      // camera-relative world -> clip
+    mat4 inv_view_proj;  // clip -> camera-relative world
+    vec4 camera_pos;     // absolute world position of the camera (xyz)
+    uvec4 counts;        // x: lights, y: shadow views, z: width, w: height
+    vec4 params;         // x: shadow texel size (1/res), y: scene scale (m), z, w: unused
+};
+
+// An über-BSDF material (storage buffer, std430).
+struct GpuMaterial {
+    vec4 lambertian;    // rgb: rho_L; a: unused
+    vec4 glossy;        // rgb: rho_S; a: exponent (1e30 for a perfect mirror)
+    vec4 transmission;  // rgb: rho_t; a: eta
+    vec4 emission;      // rgb: W/(m^2 sr); a: unused
+    uvec4 flags;        // x: MATERIAL_FRESNEL | MATERIAL_TEXTURED | MATERIAL_DOUBLE_SIDED
+};
+
+// A punctual light (storage buffer, std430).
+struct GpuLight {
+    vec4 position;    // xyz: camera-relative position; w: unused
+    vec4 direction;   // xyz: unit direction light travels; w: cos(outer cone)
+    vec4 intensity;   // rgb: W/sr (point, spot) or W/m^2 (directional); w: cos(inner cone)
+    uvec4 shadow;     // x: kind (LIGHT_*); y: first shadow view; z: shadow view count; w: unused
+};
+
+// One shadow-map view (storage buffer, std430): a layer of the shadow atlas.
+struct ShadowView {
+    mat4 view_proj;   // camera-relative world -> light clip
+    vec4 params;      // x: world-space texel size at unit distance (normal offset), y: is_ortho
+};
+
+// Per-draw push constants of the raster passes (128 bytes: the guaranteed minimum).
+struct DrawPush {
+    mat4 model;       // object -> camera-relative world (eye) or object -> light clip (shadow)
+    vec4 normal0;     // rows of the object -> world normal matrix (inverse transpose)
+    vec4 normal1;
+    vec4 normal2;
+    uvec4 material;   // x: material index
+};
+
+const uint MATERIAL_FRESNEL = 1u;
+const uint MATERIAL_TEXTURED = 2u;
+const uint MATERIAL_DOUBLE_SIDED = 4u;
+
+const uint LIGHT_POINT = 0u;
+const uint LIGHT_SPOT = 1u;
+const uint LIGHT_DIRECTIONAL = 2u;
+
+#endif

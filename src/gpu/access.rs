@@ -1,0 +1,159 @@
+//! One vocabulary of resource accesses, and the one table that turns it into synchronization2
+//! barriers. Passes never spell out stage masks: they say how they are about to use a resource
+//! and [`Cmd::transition`](super::Cmd::transition) emits the barrier from the last access.
+
+use ash::vk;
+
+/// How a pass uses a buffer or an image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Access {
+    /// Not used yet (contents undefined).
+    Nothing,
+    ColorAttachmentWrite,
+    /// Colour attachment read-modify-write (additive blending).
+    ColorAttachmentBlend,
+    DepthAttachmentWrite,
+    /// Depth test without writes, while the image may also be sampled.
+    DepthAttachmentRead,
+    /// Sampled or fetched by a fragment shader.
+    FragmentSampledRead,
+    /// Sampled or fetched by a compute shader.
+    ComputeSampledRead,
+    /// Storage image or buffer written (and maybe read) by a compute shader.
+    ComputeStorageWrite,
+    /// Storage image or buffer read by a compute shader.
+    ComputeStorageRead,
+    /// Storage buffer read by a vertex or fragment shader.
+    GraphicsStorageRead,
+    VertexInput,
+    IndexInput,
+    TransferSrc,
+    TransferDst,
+    HostRead,
+    HostWrite,
+    Present,
+}
+
+/// The synchronization2 view of an [`Access`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AccessInfo {
+    pub stage: vk::PipelineStageFlags2,
+    pub access: vk::AccessFlags2,
+    pub layout: vk::ImageLayout,
+}
+
+impl Access {
+    /// The one table.
+    pub fn info(self) -> AccessInfo {
+        use vk::AccessFlags2 as A;
+        use vk::ImageLayout as L;
+        use vk::PipelineStageFlags2 as S;
+        let (stage, access, layout) = match self {
+            Access::Nothing => (S::NONE, A::NONE, L::UNDEFINED),
+            Access::ColorAttachmentWrite => (
+                S::COLOR_ATTACHMENT_OUTPUT,
+                A::COLOR_ATTACHMENT_WRITE,
+                L::COLOR_ATTACHMENT_OPTIMAL,
+            ),
+            Access::ColorAttachmentBlend => (
+                S::COLOR_ATTACHMENT_OUTPUT,
+                A::COLOR_ATTACHMENT_READ | A::COLOR_ATTACHMENT_WRITE,
+                L::COLOR_ATTACHMENT_OPTIMAL,
+            ),
+            Access::DepthAttachmentWrite => (
+                S::EARLY_FRAGMENT_TESTS | S::LATE_FRAGMENT_TESTS,
+                A::DEPTH_STENCIL_ATTACHMENT_READ | A::DEPTH_STENCIL_ATTACHMENT_WRITE,
+                L::DEPTH_ATTACHMENT_OPTIMAL,
+            ),
+            Access::DepthAttachmentRead => (
+                S::EARLY_FRAGMENT_TESTS | S::LATE_FRAGMENT_TESTS,
+                A::DEPTH_STENCIL_ATTACHMENT_READ,
+                L::DEPTH_READ_ONLY_OPTIMAL,
+            ),
+            Access::FragmentSampledRead => (
+                S::FRAGMENT_SHADER,
+                A::SHADER_SAMPLED_READ,
+                L::SHADER_READ_ONLY_OPTIMAL,
+            ),
+            Access::ComputeSampledRead => (
+                S::COMPUTE_SHADER,
+                A::SHADER_SAMPLED_READ,
+                L::SHADER_READ_ONLY_OPTIMAL,
+            ),
+            Access::ComputeStorageWrite => (
+                S::COMPUTE_SHADER,
+                A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE,
+                L::GENERAL,
+            ),
+            Access::ComputeStorageRead => (S::COMPUTE_SHADER, A::SHADER_STORAGE_READ, L::GENERAL),
+            Access::GraphicsStorageRead => (
+                S::VERTEX_SHADER | S::FRAGMENT_SHADER,
+                A::SHADER_STORAGE_READ,
+                L::GENERAL,
+            ),
+            Access::VertexInput => (
+                S::VERTEX_ATTRIBUTE_INPUT,
+                A::VERTEX_ATTRIBUTE_READ,
+                L::UNDEFINED,
+            ),
+            Access::IndexInput => (S::INDEX_INPUT, A::INDEX_READ, L::UNDEFINED),
+            Access::TransferSrc => (S::COPY, A::TRANSFER_READ, L::TRANSFER_SRC_OPTIMAL),
+            Access::TransferDst => (S::COPY, A::TRANSFER_WRITE, L::TRANSFER_DST_OPTIMAL),
+            Access::HostRead => (S::HOST, A::HOST_READ, L::GENERAL),
+            Access::HostWrite => (S::HOST, A::HOST_WRITE, L::GENERAL),
+            Access::Present => (S::NONE, A::NONE, L::PRESENT_SRC_KHR),
+        };
+        AccessInfo {
+            stage,
+            access,
+            layout,
+        }
+    }
+
+    /// Whether the access writes (a write needs a barrier even after the same access).
+    pub fn writes(self) -> bool {
+        let w = vk::AccessFlags2::SHADER_STORAGE_WRITE
+            | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE
+            | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE
+            | vk::AccessFlags2::TRANSFER_WRITE
+            | vk::AccessFlags2::HOST_WRITE;
+        self.info().access.intersects(w)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_access_has_a_consistent_stage_and_layout() {
+        let all = [
+            Access::Nothing,
+            Access::ColorAttachmentWrite,
+            Access::ColorAttachmentBlend,
+            Access::DepthAttachmentWrite,
+            Access::DepthAttachmentRead,
+            Access::FragmentSampledRead,
+            Access::ComputeSampledRead,
+            Access::ComputeStorageWrite,
+            Access::ComputeStorageRead,
+            Access::GraphicsStorageRead,
+            Access::VertexInput,
+            Access::IndexInput,
+            Access::TransferSrc,
+            Access::TransferDst,
+            Access::HostRead,
+            Access::HostWrite,
+            Access::Present,
+        ];
+        for a in all {
+            let i = a.info();
+            // An access with memory effects must name the stage that performs them.
+            if !i.access.is_empty() {
+                assert_ne!(i.stage, vk::PipelineStageFlags2::NONE, "{a:?}");
+            }
+        }
+        assert!(Access::ComputeStorageWrite.writes());
+        assert!(!Access::FragmentSampledRead.writes());
+    }
+}

@@ -1,0 +1,540 @@
+//! Command recording and submission.
+//!
+//! A [`Recording`] owns a command pool and one primary command buffer for one queue role.
+//! Passes record through [`Cmd`], which wraps every `vkCmd*` the renderer uses, so passes never
+//! call ash themselves. [`Gpu::submit`] signals the queue's timeline and returns the
+//! [`TimelinePoint`] that other queues and the host wait on.
+
+use super::access::Access;
+use super::device::{Gpu, QueueRole, Retired, TimelinePoint};
+use super::error::{vk_err, GpuResult};
+use super::pipeline::{DescriptorSet, Pipeline};
+use super::resources::{aspect_of, Buffer, Image};
+use super::timestamps::Timestamps;
+use ash::vk;
+use std::sync::Arc;
+
+/// A command buffer being recorded for one queue role.
+pub struct Recording {
+    gpu: Arc<Gpu>,
+    pool: vk::CommandPool,
+    raw: vk::CommandBuffer,
+    pub role: QueueRole,
+    timestamps: Option<Arc<Timestamps>>,
+}
+
+/// How a colour attachment starts.
+#[derive(Clone, Copy, Debug)]
+pub enum Load {
+    Clear([f32; 4]),
+    Keep,
+}
+
+/// A colour or depth attachment of a rendering scope.
+pub struct Attachment<'a> {
+    pub image: &'a Image,
+    pub layer: u32,
+    pub load: Load,
+}
+
+/// A host wait or a cross-queue wait on a timeline point, before `stage`.
+#[derive(Clone, Copy, Debug)]
+pub struct Wait {
+    pub point: TimelinePoint,
+    pub stage: vk::PipelineStageFlags2,
+}
+
+impl Gpu {
+    /// Starts recording commands for `role`. With `timestamps`, every [`Cmd::scope`] also
+    /// writes GPU timestamps.
+    pub fn record(
+        self: &Arc<Self>,
+        role: QueueRole,
+        name: &str,
+        timestamps: Option<Arc<Timestamps>>,
+    ) -> GpuResult<Recording> {
+        let family = self.queue(role).family;
+        let info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(family)
+            .flags(vk::CommandPoolCreateFlags::TRANSIENT);
+        // SAFETY: the device is live and `family` is one of its queue families.
+        let pool = unsafe { self.raw().create_command_pool(&info, None) }
+            .map_err(vk_err("vkCreateCommandPool"))?;
+        self.set_name(pool, &format!("{name}.pool"));
+        let alloc = vk::CommandBufferAllocateInfo::default()
+            .command_pool(pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        // SAFETY: the pool is live and owned by this recording.
+        let raw = match unsafe { self.raw().allocate_command_buffers(&alloc) } {
+            Ok(v) => v[0],
+            Err(e) => {
+                self.retire(Retired::CommandPool(pool));
+                return Err(vk_err("vkAllocateCommandBuffers")(e));
+            }
+        };
+        self.set_name(raw, name);
+        let begin = vk::CommandBufferBeginInfo::default()
+            .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+        // SAFETY: the command buffer was just allocated and is in the initial state.
+        if let Err(e) = unsafe { self.raw().begin_command_buffer(raw, &begin) } {
+            self.retire(Retired::CommandPool(pool));
+            return Err(vk_err("vkBeginCommandBuffer")(e));
+        }
+        Ok(Recording {
+            gpu: self.clone(),
+            pool,
+            raw,
+            role,
+            timestamps,
+        })
+    }
+
+    /// Ends `rec`, submits it to its queue after `waits`, and returns the timeline point its
+    /// completion signals.
+    pub fn submit(&self, mut rec: Recording, waits: &[Wait]) -> GpuResult<TimelinePoint> {
+        let queue_index = self.queue_index(rec.role);
+        let queue = &self.queues[queue_index];
+        // SAFETY: the buffer is in the recording state (Recording's invariant).
+        unsafe { self.raw().end_command_buffer(rec.raw) }.map_err(vk_err("vkEndCommandBuffer"))?;
+        let wait_infos: Vec<_> = waits
+            .iter()
+            .map(|w| {
+                vk::SemaphoreSubmitInfo::default()
+                    .semaphore(self.queues[w.point.queue].timeline)
+                    .value(w.point.value)
+                    .stage_mask(w.stage)
+            })
+            .collect();
+        let cmd_infos = [vk::CommandBufferSubmitInfo::default().command_buffer(rec.raw)];
+        let guard = queue.raw();
+        let value = queue.next_value();
+        let signal = [vk::SemaphoreSubmitInfo::default()
+            .semaphore(queue.timeline)
+            .value(value)
+            .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)];
+        let submit = vk::SubmitInfo2::default()
+            .wait_semaphore_infos(&wait_infos)
+            .command_buffer_infos(&cmd_infos)
+            .signal_semaphore_infos(&signal);
+        // SAFETY: the queue is externally synchronised by its mutex (held); the command buffer
+        // is executable; the semaphores are live timelines; `value` increases monotonically
+        // because next_value is called under the queue lock.
+        let result = unsafe {
+            self.raw()
+                .queue_submit2(*guard, &[submit], vk::Fence::null())
+        };
+        drop(guard);
+        // The pool (and its buffer) is destroyed once this submission completes.
+        let pool = std::mem::replace(&mut rec.pool, vk::CommandPool::null());
+        self.retire(Retired::CommandPool(pool));
+        result.map_err(vk_err("vkQueueSubmit2"))?;
+        Ok(TimelinePoint {
+            queue: queue_index,
+            value,
+        })
+    }
+
+    /// Blocks the host until `point` has completed.
+    pub fn wait(&self, point: TimelinePoint) -> GpuResult<()> {
+        let sems = [self.queues[point.queue].timeline];
+        let values = [point.value];
+        let info = vk::SemaphoreWaitInfo::default()
+            .semaphores(&sems)
+            .values(&values);
+        // SAFETY: the semaphore is a live timeline of this device.
+        unsafe { self.raw().wait_semaphores(&info, u64::MAX) }.map_err(vk_err("vkWaitSemaphores"))
+    }
+
+    /// Whether `point` has completed (no blocking).
+    pub fn is_complete(&self, point: TimelinePoint) -> bool {
+        self.completed(point.queue) >= point.value
+    }
+
+    /// Records with `f`, submits to `role`, and waits: for set-up and one-shot tools only.
+    pub fn one_shot(
+        self: &Arc<Self>,
+        role: QueueRole,
+        name: &str,
+        f: impl FnOnce(&Cmd),
+    ) -> GpuResult<()> {
+        let rec = self.record(role, name, None)?;
+        f(&rec.cmd());
+        let point = self.submit(rec, &[])?;
+        self.wait(point)
+    }
+}
+
+impl Drop for Recording {
+    fn drop(&mut self) {
+        // Dropped without submitting (an error path): nothing of it reached the GPU.
+        if self.pool != vk::CommandPool::null() {
+            self.gpu.retire(Retired::CommandPool(self.pool));
+        }
+    }
+}
+
+impl Recording {
+    /// The recorder for this command buffer.
+    pub fn cmd(&self) -> Cmd<'_> {
+        Cmd {
+            gpu: &self.gpu,
+            raw: self.raw,
+            timestamps: self.timestamps.as_deref(),
+        }
+    }
+}
+
+/// Records commands into a [`Recording`]. Every method is one `vkCmd*` (or a barrier derived
+/// from the [`Access`] table); the command buffer is always in the recording state.
+pub struct Cmd<'a> {
+    gpu: &'a Gpu,
+    raw: vk::CommandBuffer,
+    timestamps: Option<&'a Timestamps>,
+}
+
+/// An open debug label / timestamp scope; closes when dropped.
+pub struct Scope<'c, 'a> {
+    cmd: &'c Cmd<'a>,
+    index: Option<usize>,
+}
+
+impl Drop for Scope<'_, '_> {
+    fn drop(&mut self) {
+        if let (Some(t), Some(i)) = (self.cmd.timestamps, self.index) {
+            t.write_end(self.cmd, i);
+        }
+        // SAFETY: the label was opened by `Cmd::scope` on this command buffer.
+        unsafe {
+            self.cmd
+                .gpu
+                .debug_utils
+                .cmd_end_debug_utils_label(self.cmd.raw)
+        };
+    }
+}
+
+impl<'a> Cmd<'a> {
+    pub(super) fn raw(&self) -> vk::CommandBuffer {
+        self.raw
+    }
+
+    pub(super) fn device(&self) -> &ash::Device {
+        self.gpu.raw()
+    }
+
+    /// Opens a named scope: a debug label and, when timing, a pair of GPU timestamps. The
+    /// name is the pass's name, so a RenderDoc capture and a trace read like the code.
+    pub fn scope(&self, name: &str) -> Scope<'_, 'a> {
+        let cname = std::ffi::CString::new(name).unwrap_or_default();
+        let label = vk::DebugUtilsLabelEXT::default().label_name(&cname);
+        // SAFETY: recording state; the label string outlives the call.
+        unsafe {
+            self.gpu
+                .debug_utils
+                .cmd_begin_debug_utils_label(self.raw, &label)
+        };
+        let index = self.timestamps.and_then(|t| t.write_begin(self, name));
+        Scope { cmd: self, index }
+    }
+
+    /// Makes the next `to` access of `image` wait for its last access, changing its layout.
+    pub fn transition(&self, image: &Image, to: Access) {
+        let mut last = image.access.lock().unwrap_or_else(|e| e.into_inner());
+        let from = *last;
+        if from == to && !to.writes() {
+            return;
+        }
+        let (f, t) = (from.info(), to.info());
+        let barrier = vk::ImageMemoryBarrier2::default()
+            .src_stage_mask(f.stage)
+            .src_access_mask(f.access)
+            .dst_stage_mask(t.stage)
+            .dst_access_mask(t.access)
+            .old_layout(f.layout)
+            .new_layout(t.layout)
+            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .image(image.raw)
+            .subresource_range(vk::ImageSubresourceRange {
+                aspect_mask: image.aspect(),
+                base_mip_level: 0,
+                level_count: 1,
+                base_array_layer: 0,
+                layer_count: image.layers,
+            });
+        let barriers = [barrier];
+        let dep = vk::DependencyInfo::default().image_memory_barriers(&barriers);
+        // SAFETY: recording state; the image is live; synchronization2 is enabled.
+        unsafe { self.device().cmd_pipeline_barrier2(self.raw, &dep) };
+        *last = to;
+    }
+
+    /// Makes the next `to` access of `buffer` wait for its last access.
+    pub fn transition_buffer(&self, buffer: &Buffer, to: Access) {
+        let mut last = buffer.access.lock().unwrap_or_else(|e| e.into_inner());
+        let from = *last;
+        if (from == to && !to.writes()) || from == Access::Nothing {
+            *last = to;
+            return;
+        }
+        let (f, t) = (from.info(), to.info());
+        let barrier = vk::BufferMemoryBarrier2::default()
+            .src_stage_mask(f.stage)
+            .src_access_mask(f.access)
+            .dst_stage_mask(t.stage)
+            .dst_access_mask(t.access)
+            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .buffer(buffer.raw)
+            .offset(0)
+            .size(vk::WHOLE_SIZE);
+        let barriers = [barrier];
+        let dep = vk::DependencyInfo::default().buffer_memory_barriers(&barriers);
+        // SAFETY: recording state; the buffer is live; synchronization2 is enabled.
+        unsafe { self.device().cmd_pipeline_barrier2(self.raw, &dep) };
+        *last = to;
+    }
+
+    /// Begins dynamic rendering into `colors` (+ `depth`), with viewport and scissor set to the
+    /// full extent of the first attachment. Transitions the attachments first.
+    pub fn begin_rendering(&self, colors: &[Attachment], depth: Option<&Attachment>) {
+        let extent = colors
+            .first()
+            .or(depth)
+            .map(|a| a.image.extent())
+            .unwrap_or_default();
+        for c in colors {
+            let access = match c.load {
+                Load::Clear(_) => Access::ColorAttachmentWrite,
+                Load::Keep => Access::ColorAttachmentBlend,
+            };
+            self.transition(c.image, access);
+        }
+        if let Some(d) = depth {
+            self.transition(d.image, Access::DepthAttachmentWrite);
+        }
+        let color_infos: Vec<_> = colors
+            .iter()
+            .map(|c| {
+                let (load_op, clear) = match c.load {
+                    Load::Clear(v) => (vk::AttachmentLoadOp::CLEAR, v),
+                    Load::Keep => (vk::AttachmentLoadOp::LOAD, [0.0; 4]),
+                };
+                vk::RenderingAttachmentInfo::default()
+                    .image_view(c.image.layer_view(c.layer))
+                    .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+                    .load_op(load_op)
+                    .store_op(vk::AttachmentStoreOp::STORE)
+                    .clear_value(vk::ClearValue {
+                        color: vk::ClearColorValue { float32: clear },
+                    })
+            })
+            .collect();
+        let depth_info = depth.map(|d| {
+            let (load_op, clear) = match d.load {
+                Load::Clear(v) => (vk::AttachmentLoadOp::CLEAR, v[0]),
+                Load::Keep => (vk::AttachmentLoadOp::LOAD, 0.0),
+            };
+            vk::RenderingAttachmentInfo::default()
+                .image_view(d.image.layer_view(d.layer))
+                .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
+                .load_op(load_op)
+                .store_op(vk::AttachmentStoreOp::STORE)
+                .clear_value(vk::ClearValue {
+                    depth_stencil: vk::ClearDepthStencilValue {
+                        depth: clear,
+                        stencil: 0,
+                    },
+                })
+        });
+        let area = vk::Rect2D {
+            offset: vk::Offset2D::default(),
+            extent,
+        };
+        let mut info = vk::RenderingInfo::default()
+            .render_area(area)
+            .layer_count(1)
+            .color_attachments(&color_infos);
+        if let Some(d) = &depth_info {
+            info = info.depth_attachment(d);
+        }
+        let viewport = vk::Viewport {
+            x: 0.0,
+            y: 0.0,
+            width: extent.width as f32,
+            height: extent.height as f32,
+            min_depth: 0.0,
+            max_depth: 1.0,
+        };
+        // SAFETY: recording state, outside any rendering scope; attachments are live and in
+        // the layouts named (transitioned above); dynamic rendering is enabled.
+        unsafe {
+            self.device().cmd_begin_rendering(self.raw, &info);
+            self.device().cmd_set_viewport(self.raw, 0, &[viewport]);
+            self.device().cmd_set_scissor(self.raw, 0, &[area]);
+        }
+    }
+
+    pub fn end_rendering(&self) {
+        // SAFETY: paired with begin_rendering by the caller.
+        unsafe { self.device().cmd_end_rendering(self.raw) };
+    }
+
+    pub fn bind_pipeline(&self, pipeline: &Pipeline) {
+        // SAFETY: recording state; the pipeline is live.
+        unsafe {
+            self.device()
+                .cmd_bind_pipeline(self.raw, pipeline.bind_point, pipeline.raw)
+        };
+    }
+
+    pub fn bind_sets(&self, pipeline: &Pipeline, first: u32, sets: &[DescriptorSet]) {
+        let raw: Vec<_> = sets.iter().map(|s| s.0).collect();
+        // SAFETY: recording state; sets are compatible with the pipeline's layout by
+        // construction (created from the same DescriptorLayouts).
+        unsafe {
+            self.device().cmd_bind_descriptor_sets(
+                self.raw,
+                pipeline.bind_point,
+                pipeline.layout,
+                first,
+                &raw,
+                &[],
+            )
+        };
+    }
+
+    pub fn push_constants<T: bytemuck::Pod>(&self, pipeline: &Pipeline, value: &T) {
+        // SAFETY: recording state; the pipeline layout declares a push range covering
+        // size_of::<T>() bytes for these stages (checked by the pass that owns both).
+        unsafe {
+            self.device().cmd_push_constants(
+                self.raw,
+                pipeline.layout,
+                pipeline.push_stages,
+                0,
+                bytemuck::bytes_of(value),
+            )
+        };
+    }
+
+    pub fn bind_vertex_buffer(&self, buffer: &Buffer) {
+        // SAFETY: recording state; the buffer is live with VERTEX_BUFFER usage.
+        unsafe {
+            self.device()
+                .cmd_bind_vertex_buffers(self.raw, 0, &[buffer.raw], &[0])
+        };
+    }
+
+    pub fn bind_index_buffer(&self, buffer: &Buffer) {
+        // SAFETY: recording state; the buffer is live with INDEX_BUFFER usage.
+        unsafe {
+            self.device()
+                .cmd_bind_index_buffer(self.raw, buffer.raw, 0, vk::IndexType::UINT32)
+        };
+    }
+
+    pub fn draw(&self, vertices: u32, instances: u32) {
+        // SAFETY: recording state inside a rendering scope with a graphics pipeline bound.
+        unsafe { self.device().cmd_draw(self.raw, vertices, instances, 0, 0) };
+    }
+
+    pub fn draw_indexed(&self, indices: u32, first_index: u32, vertex_offset: i32) {
+        // SAFETY: recording state inside a rendering scope; index/vertex buffers bound.
+        unsafe {
+            self.device()
+                .cmd_draw_indexed(self.raw, indices, 1, first_index, vertex_offset, 0)
+        };
+    }
+
+    pub fn dispatch(&self, x: u32, y: u32, z: u32) {
+        // SAFETY: recording state with a compute pipeline bound.
+        unsafe { self.device().cmd_dispatch(self.raw, x, y, z) };
+    }
+
+    /// Copies the first layer of `image` into `buffer` (tightly packed rows).
+    pub fn copy_image_to_buffer(&self, image: &Image, buffer: &Buffer) {
+        self.transition(image, Access::TransferSrc);
+        self.transition_buffer(buffer, Access::TransferDst);
+        let region = vk::BufferImageCopy::default()
+            .image_subresource(vk::ImageSubresourceLayers {
+                aspect_mask: aspect_of(image.format),
+                mip_level: 0,
+                base_array_layer: 0,
+                layer_count: 1,
+            })
+            .image_extent(vk::Extent3D {
+                width: image.width,
+                height: image.height,
+                depth: 1,
+            });
+        // SAFETY: recording state; the image is in TRANSFER_SRC_OPTIMAL (transitioned above);
+        // the buffer is large enough (checked by the caller that sized it).
+        unsafe {
+            self.device().cmd_copy_image_to_buffer(
+                self.raw,
+                image.raw,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                buffer.raw,
+                &[region],
+            )
+        };
+    }
+
+    /// Copies `buffer` (tightly packed rows) into layer `layer` of `image`.
+    pub fn copy_buffer_to_image(&self, buffer: &Buffer, image: &Image) {
+        self.transition(image, Access::TransferDst);
+        self.transition_buffer(buffer, Access::TransferSrc);
+        let region = vk::BufferImageCopy::default()
+            .image_subresource(vk::ImageSubresourceLayers {
+                aspect_mask: aspect_of(image.format),
+                mip_level: 0,
+                base_array_layer: 0,
+                layer_count: image.layers,
+            })
+            .image_extent(vk::Extent3D {
+                width: image.width,
+                height: image.height,
+                depth: 1,
+            });
+        // SAFETY: recording state; the image is in TRANSFER_DST_OPTIMAL; the buffer holds
+        // the whole image (checked by the caller).
+        unsafe {
+            self.device().cmd_copy_buffer_to_image(
+                self.raw,
+                buffer.raw,
+                image.raw,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &[region],
+            )
+        };
+    }
+
+    /// Copies all of `src` into the start of `dst`.
+    pub fn copy_buffer(&self, src: &Buffer, dst: &Buffer) {
+        self.transition_buffer(src, Access::TransferSrc);
+        self.transition_buffer(dst, Access::TransferDst);
+        let region = vk::BufferCopy {
+            src_offset: 0,
+            dst_offset: 0,
+            size: src.size.min(dst.size),
+        };
+        // SAFETY: recording state; both buffers are live and the region fits both.
+        unsafe {
+            self.device()
+                .cmd_copy_buffer(self.raw, src.raw, dst.raw, &[region])
+        };
+    }
+
+    /// Fills `buffer` with the 32-bit `value`.
+    pub fn fill_buffer(&self, buffer: &Buffer, value: u32) {
+        self.transition_buffer(buffer, Access::TransferDst);
+        // SAFETY: recording state; the buffer is live with TRANSFER_DST usage and its size is
+        // a multiple of 4 (Buffer::new rounds up to at least 4; WHOLE_SIZE rounds down).
+        unsafe {
+            self.device()
+                .cmd_fill_buffer(self.raw, buffer.raw, 0, vk::WHOLE_SIZE, value)
+        };
+    }
+}

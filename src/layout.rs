@@ -1,0 +1,148 @@
+//! The `#[repr(C)]` twins of the structs in `glsl/common/shared.glsl`, with compile-time size
+//! and offset asserts. `tests/layouts.rs` checks both sides against the member offsets the
+//! compiled SPIR-V declares, so a change on one side alone fails the build or the tests.
+
+use bytemuck::{Pod, Zeroable};
+use core::mem::{offset_of, size_of};
+use glam::{Mat4, UVec4, Vec4};
+
+/// `FrameUniforms` (uniform buffer, std140).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct FrameUniforms {
+    pub view_proj: Mat4,
+    pub inv_view_proj: Mat4,
+    pub camera_pos: Vec4,
+    pub counts: UVec4,
+    pub params: Vec4,
+}
+const _: () = assert!(size_of::<FrameUniforms>() == 176);
+const _: () = assert!(offset_of!(FrameUniforms, inv_view_proj) == 64);
+const _: () = assert!(offset_of!(FrameUniforms, camera_pos) == 128);
+const _: () = assert!(offset_of!(FrameUniforms, counts) == 144);
+const _: () = assert!(offset_of!(FrameUniforms, params) == 160);
+
+/// `GpuMaterial` (storage buffer, std430).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuMaterial {
+    pub lambertian: Vec4,
+    pub glossy: Vec4,
+    pub transmission: Vec4,
+    pub emission: Vec4,
+    pub flags: UVec4,
+}
+const _: () = assert!(size_of::<GpuMaterial>() == 80);
+const _: () = assert!(offset_of!(GpuMaterial, glossy) == 16);
+const _: () = assert!(offset_of!(GpuMaterial, transmission) == 32);
+const _: () = assert!(offset_of!(GpuMaterial, emission) == 48);
+const _: () = assert!(offset_of!(GpuMaterial, flags) == 64);
+
+/// `GpuLight` (storage buffer, std430).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuLight {
+    pub position: Vec4,
+    pub direction: Vec4,
+    pub intensity: Vec4,
+    pub shadow: UVec4,
+}
+const _: () = assert!(size_of::<GpuLight>() == 64);
+const _: () = assert!(offset_of!(GpuLight, direction) == 16);
+const _: () = assert!(offset_of!(GpuLight, intensity) == 32);
+const _: () = assert!(offset_of!(GpuLight, shadow) == 48);
+
+/// `ShadowView` (storage buffer, std430).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct ShadowView {
+    pub view_proj: Mat4,
+    pub params: Vec4,
+}
+const _: () = assert!(size_of::<ShadowView>() == 80);
+const _: () = assert!(offset_of!(ShadowView, params) == 64);
+
+/// `DrawPush` (push constants of the raster passes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct DrawPush {
+    pub model: Mat4,
+    pub normal0: Vec4,
+    pub normal1: Vec4,
+    pub normal2: Vec4,
+    pub material: UVec4,
+}
+const _: () = assert!(size_of::<DrawPush>() == 128);
+const _: () = assert!(offset_of!(DrawPush, normal0) == 64);
+const _: () = assert!(offset_of!(DrawPush, normal1) == 80);
+const _: () = assert!(offset_of!(DrawPush, normal2) == 96);
+const _: () = assert!(offset_of!(DrawPush, material) == 112);
+
+/// The interleaved vertex of every mesh (vertex attributes 0, 1, 2).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct Vertex {
+    pub position: [f32; 3],
+    pub normal: [f32; 3],
+    pub uv: [f32; 2],
+}
+const _: () = assert!(size_of::<Vertex>() == 32);
+const _: () = assert!(offset_of!(Vertex, normal) == 12);
+const _: () = assert!(offset_of!(Vertex, uv) == 24);
+
+pub const MATERIAL_FRESNEL: u32 = 1;
+pub const MATERIAL_TEXTURED: u32 = 2;
+pub const MATERIAL_DOUBLE_SIDED: u32 = 4;
+
+pub const LIGHT_POINT: u32 = 0;
+pub const LIGHT_SPOT: u32 = 1;
+pub const LIGHT_DIRECTIONAL: u32 = 2;
+
+/// A shared struct's name and its members' (name, offset), for the SPIR-V layout test.
+pub struct LayoutDescription {
+    pub name: &'static str,
+    pub size: usize,
+    pub members: &'static [(&'static str, usize)],
+}
+
+macro_rules! describe {
+    ($t:ident { $($m:ident),* }) => {
+        LayoutDescription {
+            name: stringify!($t),
+            size: size_of::<$t>(),
+            members: &[$((stringify!($m), offset_of!($t, $m))),*],
+        }
+    };
+}
+
+/// Every struct shared with GLSL.
+pub const SHARED_LAYOUTS: &[LayoutDescription] = &[
+    describe!(FrameUniforms {
+        view_proj,
+        inv_view_proj,
+        camera_pos,
+        counts,
+        params
+    }),
+    describe!(GpuMaterial {
+        lambertian,
+        glossy,
+        transmission,
+        emission,
+        flags
+    }),
+    describe!(GpuLight {
+        position,
+        direction,
+        intensity,
+        shadow
+    }),
+    describe!(ShadowView { view_proj, params }),
+    describe!(DrawPush {
+        model,
+        normal0,
+        normal1,
+        normal2,
+        material
+    }),
+];

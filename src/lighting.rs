@@ -1,0 +1,244 @@
+//! Lights as the GPU sees them, and the shadow-map views that cover them.
+//!
+//! Every light gets one or more layers of the shadow atlas (a 2D array depth image):
+//!
+//! ```text
+//!   spot, outer cone ≤ 60°  → 1 perspective view along the axis (fov = 2·outer + margin)
+//!   point, or a wider spot  → 6 perspective views of 90°, the faces of a cube
+//!   directional             → 1 orthographic view fitted around the scene's bounds
+//! ```
+//!
+//! All matrices map *camera-relative* world space (world minus the camera position, computed
+//! in f64) to the light's clip space, so precision does not depend on the distance from the
+//! world origin.
+
+use crate::layout::{GpuLight, ShadowView, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
+use crate::scene::{Aabb, Light, LightKind};
+use glam::{DMat4, DVec3, UVec4, Vec3};
+
+/// Above this outer-cone angle a spot light is covered by a cube of views, not one frustum.
+const MAX_SINGLE_VIEW_CONE: f32 = std::f32::consts::FRAC_PI_3;
+
+/// The lights of a frame and the shadow views that cover them.
+#[derive(Clone, Debug, Default)]
+pub struct LightSetup {
+    pub lights: Vec<GpuLight>,
+    pub views: Vec<ShadowView>,
+    /// For each view: camera-relative world → light clip (what the shadow pass draws with).
+    pub view_matrices: Vec<DMat4>,
+}
+
+fn any_perpendicular(d: DVec3) -> DVec3 {
+    if d.y.abs() < 0.99 {
+        DVec3::Y
+    } else {
+        DVec3::X
+    }
+}
+
+/// Near and far planes for a perspective view from `eye` that must see all of `bounds`.
+fn near_far(eye: DVec3, bounds: &Aabb) -> (f64, f64) {
+    let min = bounds.min.as_dvec3();
+    let max = bounds.max.as_dvec3();
+    let diag = (max - min).length().max(1e-6);
+    let mut far: f64 = 0.0;
+    for i in 0..8 {
+        let c = DVec3::new(
+            if i & 1 == 0 { min.x } else { max.x },
+            if i & 2 == 0 { min.y } else { max.y },
+            if i & 4 == 0 { min.z } else { max.z },
+        );
+        far = far.max((c - eye).length());
+    }
+    // The near plane follows the scene's scale: a light touching a surface still sees it.
+    let near = diag * 1e-4;
+    (near, (far * 1.01).max(near * 2.0))
+}
+
+fn perspective(fov: f64, near: f64, far: f64) -> DMat4 {
+    glam::dcamera::rh::proj::vulkan::perspective(fov, 1.0, near, far)
+}
+
+impl LightSetup {
+    /// Builds the lights and shadow views of `lights` for a camera at `camera` over a scene
+    /// with `bounds`, with shadow maps of `resolution`² texels.
+    pub fn new(lights: &[Light], camera: DVec3, bounds: &Aabb, resolution: u32) -> LightSetup {
+        let mut setup = LightSetup::default();
+        let res = f64::from(resolution.max(1));
+        for light in lights {
+            let pos = light.position.as_dvec3();
+            let dir = light.direction.normalize_or(Vec3::NEG_Y).as_dvec3();
+            let first = setup.views.len() as u32;
+            let (kind, cos_outer, cos_inner) = match light.kind {
+                LightKind::Point => (LIGHT_POINT, -1.0, -1.0),
+                LightKind::Spot {
+                    inner_cone_angle,
+                    outer_cone_angle,
+                } => (LIGHT_SPOT, outer_cone_angle.cos(), inner_cone_angle.cos()),
+                LightKind::Directional => (LIGHT_DIRECTIONAL, -1.0, -1.0),
+            };
+            let to_relative = DMat4::from_translation(camera);
+            match light.kind {
+                LightKind::Spot {
+                    outer_cone_angle, ..
+                } if outer_cone_angle <= MAX_SINGLE_VIEW_CONE => {
+                    let fov = (2.0 * f64::from(outer_cone_angle) * 1.05).max(1e-3);
+                    let (near, far) = near_far(pos, bounds);
+                    let view =
+                        glam::dcamera::rh::view::look_to_mat4(pos, dir, any_perpendicular(dir));
+                    let m = perspective(fov, near, far) * view * to_relative;
+                    setup.push_view(m, (2.0 * (fov * 0.5).tan() / res) as f32, false);
+                }
+                LightKind::Point | LightKind::Spot { .. } => {
+                    let (near, far) = near_far(pos, bounds);
+                    let proj = perspective(std::f64::consts::FRAC_PI_2, near, far);
+                    let faces = [
+                        (DVec3::X, DVec3::NEG_Y),
+                        (DVec3::NEG_X, DVec3::NEG_Y),
+                        (DVec3::Y, DVec3::Z),
+                        (DVec3::NEG_Y, DVec3::NEG_Z),
+                        (DVec3::Z, DVec3::NEG_Y),
+                        (DVec3::NEG_Z, DVec3::NEG_Y),
+                    ];
+                    for (forward, up) in faces {
+                        let view = glam::dcamera::rh::view::look_to_mat4(pos, forward, up);
+                        setup.push_view(proj * view * to_relative, (2.0 / res) as f32, false);
+                    }
+                }
+                LightKind::Directional => {
+                    let center = bounds.center().as_dvec3();
+                    let radius = (bounds.extent().as_dvec3().length() * 0.5).max(1e-6);
+                    let eye = center - dir * radius * 2.0;
+                    let view =
+                        glam::dcamera::rh::view::look_to_mat4(eye, dir, any_perpendicular(dir));
+                    let proj = glam::dcamera::rh::proj::vulkan::orthographic(
+                        -radius,
+                        radius,
+                        -radius,
+                        radius,
+                        radius * 1e-3,
+                        radius * 4.0,
+                    );
+                    setup.push_view(proj * view * to_relative, (2.0 * radius / res) as f32, true);
+                }
+            }
+            let count = setup.views.len() as u32 - first;
+            let rel = (pos - camera).as_vec3();
+            setup.lights.push(GpuLight {
+                position: rel.extend(0.0),
+                direction: dir.as_vec3().extend(cos_outer),
+                intensity: light.intensity.extend(cos_inner),
+                shadow: UVec4::new(kind, first, count, 0),
+            });
+        }
+        setup
+    }
+
+    fn push_view(&mut self, m: DMat4, texel: f32, ortho: bool) {
+        self.views.push(ShadowView {
+            view_proj: m.as_mat4(),
+            params: glam::Vec4::new(texel, if ortho { 1.0 } else { 0.0 }, 0.0, 0.0),
+        });
+        self.view_matrices.push(m);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn unit_bounds() -> Aabb {
+        Aabb {
+            min: Vec3::splat(-1.0),
+            max: Vec3::splat(1.0),
+        }
+    }
+
+    fn light(kind: LightKind) -> Light {
+        Light {
+            name: "l".into(),
+            kind,
+            position: Vec3::new(0.0, 0.9, 0.0),
+            direction: Vec3::NEG_Y,
+            intensity: Vec3::ONE,
+        }
+    }
+
+    #[test]
+    fn each_light_kind_gets_the_views_that_cover_it() {
+        let lights = [
+            light(LightKind::Point),
+            light(LightKind::Spot {
+                inner_cone_angle: 0.3,
+                outer_cone_angle: 0.5,
+            }),
+            light(LightKind::Spot {
+                inner_cone_angle: 1.0,
+                outer_cone_angle: 1.5,
+            }),
+            light(LightKind::Directional),
+        ];
+        let s = LightSetup::new(&lights, DVec3::ZERO, &unit_bounds(), 256);
+        let counts: Vec<u32> = s.lights.iter().map(|l| l.shadow.z).collect();
+        assert_eq!(counts, vec![6, 1, 6, 1]);
+        assert_eq!(s.views.len(), 14);
+        let firsts: Vec<u32> = s.lights.iter().map(|l| l.shadow.y).collect();
+        assert_eq!(firsts, vec![0, 6, 7, 13]);
+    }
+
+    #[test]
+    fn a_point_below_a_spot_projects_inside_its_view_and_in_depth_range() {
+        let lights = [light(LightKind::Spot {
+            inner_cone_angle: 0.3,
+            outer_cone_angle: 0.5,
+        })];
+        let camera = DVec3::new(0.0, 0.0, 3.0);
+        let s = LightSetup::new(&lights, camera, &unit_bounds(), 256);
+        let p = DVec3::new(0.1, -1.0, 0.0) - camera;
+        let clip = s.view_matrices[0] * p.extend(1.0);
+        let ndc = clip.truncate() / clip.w;
+        assert!(ndc.x.abs() < 1.0 && ndc.y.abs() < 1.0, "{ndc}");
+        assert!(ndc.z > 0.0 && ndc.z < 1.0, "{ndc}");
+    }
+
+    #[test]
+    fn cube_faces_cover_every_direction() {
+        let lights = [light(LightKind::Point)];
+        let s = LightSetup::new(&lights, DVec3::ZERO, &unit_bounds(), 256);
+        let pos = DVec3::new(0.0, 0.9, 0.0);
+        for d in [
+            DVec3::X,
+            DVec3::NEG_X,
+            DVec3::Y,
+            DVec3::NEG_Y,
+            DVec3::Z,
+            DVec3::NEG_Z,
+        ] {
+            let p = pos + d * 0.5 + d.any_orthonormal_vector() * 0.2;
+            let a = d.abs();
+            let face = if a.x > 0.5 {
+                if d.x > 0.0 {
+                    0
+                } else {
+                    1
+                }
+            } else if a.y > 0.5 {
+                if d.y > 0.0 {
+                    2
+                } else {
+                    3
+                }
+            } else if d.z > 0.0 {
+                4
+            } else {
+                5
+            };
+            let clip = s.view_matrices[face] * p.extend(1.0);
+            let ndc = clip.truncate() / clip.w;
+            assert!(
+                clip.w > 0.0 && ndc.x.abs() <= 1.0 && ndc.y.abs() <= 1.0,
+                "{d}: {ndc}"
+            );
+        }
+    }
+}
