@@ -8,3 +8,13 @@
 
 /// π, as the shaders spell it.
 pub const PI: f32 = 3.141_592_7;
+
+// Path density (DESIGN.md §2.2, paper §5): ρp is multiplied at each bounce by the chosen lobe's
+// mean reflectance divided by these (Lambertian ρL/1000, glossy ρS/10; mirror and refraction
+// divide by 1).
+pub const PATH_DENSITY_LAMBERTIAN_DIVISOR: f32 = 1000.0;
+pub const PATH_DENSITY_GLOSSY_DIVISOR: f32 = 10.0;
+// Packed directions store ω·(ρp + 1); ρp is clamped to [0, this] so that ‖v‖² stays finite in f32.
+pub const PATH_DENSITY_MAX: f32 = 1.0e15;
+// Squared length below which a normal or direction counts as degenerate (the BSDF returns zero).
+pub const BSDF_MIN_LENGTH_SQUARED: f32 = 1.0e-12;
