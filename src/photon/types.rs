@@ -67,8 +67,11 @@ pub fn pack_direction(w: Vec3, rho_p: f32) -> Vec3 {
     if !(len2.is_finite() && len2 > 0.0) {
         return Vec3::ZERO;
     }
-    // `max` first maps NaN to 0 (f32::max returns the non-NaN operand).
-    let rho = rho_p.max(0.0).min(PATH_DENSITY_MAX);
+    let rho = if rho_p.is_nan() {
+        0.0
+    } else {
+        rho_p.clamp(0.0, PATH_DENSITY_MAX)
+    };
     w * (len2.sqrt().recip() * (rho + 1.0))
 }
 
@@ -135,7 +138,7 @@ mod tests {
     fn zero_path_density_unpacks_to_exactly_zero_not_negative() {
         for w in [Vec3::X, Vec3::new(1.0, 1.0, 1.0), Vec3::new(-0.2, 0.9, 0.1)] {
             let (_, rho) = roundtrip(w, 0.0);
-            assert!(rho >= 0.0 && rho < 1e-6, "{rho}");
+            assert!((0.0..1e-6).contains(&rho), "{rho}");
         }
         assert_eq!(roundtrip(Vec3::Y, -5.0).1, 0.0);
         assert_eq!(roundtrip(Vec3::Y, f32::NAN).1, 0.0);
