@@ -39,10 +39,15 @@ pub fn hash2(a: u32, b: u32) -> u32 {
     pcg_hash(pcg_hash(a) ^ b)
 }
 
-/// Bits of `x` with `-0.0` mapped to `+0.0`, so equal positions hash equally.
+/// Bits of `x` with `-0.0` mapped to `+0.0`, so equal positions hash equally. (A comparison,
+/// not `x + 0.0`, which a shader compiler may fold away.)
 #[inline]
 fn canonical_bits(x: f32) -> u32 {
-    (x + 0.0).to_bits()
+    if x == 0.0 {
+        0
+    } else {
+        x.to_bits()
+    }
 }
 
 /// Hashes the bit patterns of a point's coordinates.
@@ -141,6 +146,24 @@ mod tests {
             let mut rng = Rng::new(seed);
             let got = [0; 4].map(|_: u32| rng.next_u32());
             assert_eq!(got, outs, "seed {seed}");
+        }
+    }
+
+    #[test]
+    fn glsl_twin_carries_the_same_constants_and_test_vectors() {
+        let glsl = include_str!("../../glsl/common/rng.glsl");
+        for c in [LCG_MULTIPLIER, LCG_INCREMENT, RXS_M_XS_MULTIPLIER] {
+            assert!(glsl.contains(&format!("{c}u")), "rng.glsl lacks {c}");
+        }
+        let outputs = PCG_HASH_TEST_VECTORS
+            .iter()
+            .map(|&(_, h)| h)
+            .chain(RNG_TEST_VECTORS.iter().flat_map(|(_, o)| o.iter().copied()));
+        for h in outputs {
+            assert!(
+                glsl.contains(&format!("{h}u")),
+                "rng.glsl lacks test vector {h}"
+            );
         }
     }
 
