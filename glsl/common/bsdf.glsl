@@ -257,24 +257,23 @@ vec2 bsdf_glossy_shape_and_pdf(Bsdf bsdf, BsdfOriented o, vec3 wi, float cos_i) 
     return vec2(d / (4.0 * wo_h * max(o.cos_o, cos_i)), d / (4.0 * wo_h));
 }
 
-vec3 bsdf_eval_oriented(Bsdf bsdf, BsdfOriented o, vec3 c[4], vec3 wi, float cos_i) {
-    vec3 f = c[LOBE_LAMBERTIAN] * (1.0 / PI);
-    if (any(notEqual(c[LOBE_GLOSSY], vec3(0.0)))) {
-        f += c[LOBE_GLOSSY] * bsdf_glossy_shape_and_pdf(bsdf, o, wi, cos_i).x;
-    }
-    return f;
-}
-
-float bsdf_pdf_oriented(Bsdf bsdf, BsdfOriented o, vec4 w, vec3 wi, float cos_i) {
+// f (non-delta lobes) and the mixture pdf of wi, sharing the glossy lobe's evaluation.
+void bsdf_eval_and_pdf_oriented(Bsdf bsdf, BsdfOriented o, vec3 c[4], vec4 w, vec3 wi,
+                                float cos_i, out vec3 f, out float pdf) {
+    f = vec3(0.0);
+    pdf = 0.0;
     float total = w.x + w.y + w.z + w.w;
     if (total <= 0.0) {
-        return 0.0;
+        return;
     }
-    float pdf = w[LOBE_LAMBERTIAN] * cosine_hemisphere_pdf(cos_i);
+    f = c[LOBE_LAMBERTIAN] * (1.0 / PI);
+    pdf = w[LOBE_LAMBERTIAN] * cosine_hemisphere_pdf(cos_i);
     if (w[LOBE_GLOSSY] > 0.0) {
-        pdf += w[LOBE_GLOSSY] * bsdf_glossy_shape_and_pdf(bsdf, o, wi, cos_i).y;
+        vec2 glossy = bsdf_glossy_shape_and_pdf(bsdf, o, wi, cos_i);
+        f += c[LOBE_GLOSSY] * glossy.x;
+        pdf += w[LOBE_GLOSSY] * glossy.y;
     }
-    return pdf / total;
+    pdf /= total;
 }
 
 // f(wo, wi) of the non-delta lobes, without the cosine.
@@ -290,7 +289,10 @@ vec3 bsdf_eval(Bsdf bsdf, vec3 wo, vec3 wi, vec3 n_s, vec3 n_g) {
     }
     vec3 c[4];
     bsdf_lobe_reflectances(bsdf, o, c);
-    return bsdf_eval_oriented(bsdf, o, c, w, cos_i);
+    vec3 f;
+    float pdf;
+    bsdf_eval_and_pdf_oriented(bsdf, o, c, bsdf_weights_of(c), w, cos_i, f, pdf);
+    return f;
 }
 
 // Solid-angle pdf of bsdf_sample through a non-delta lobe, with the lobe-selection probability.
@@ -306,7 +308,10 @@ float bsdf_pdf(Bsdf bsdf, vec3 wo, vec3 wi, vec3 n_s, vec3 n_g) {
     }
     vec3 c[4];
     bsdf_lobe_reflectances(bsdf, o, c);
-    return bsdf_pdf_oriented(bsdf, o, bsdf_weights_of(c), w, cos_i);
+    vec3 f;
+    float pdf;
+    bsdf_eval_and_pdf_oriented(bsdf, o, c, bsdf_weights_of(c), w, cos_i, f, pdf);
+    return pdf;
 }
 
 // Direction of `lobe` alone; writes eta crossed (1 when reflected, also under TIR).
@@ -430,12 +435,13 @@ bool bsdf_sample(Bsdf bsdf, vec3 wo, vec3 n_s, vec3 n_g, vec3 u, out BsdfSample 
         return true;
     }
     float cos_i = min(dot(wi, o.n), 1.0);
-    float pdf = bsdf_pdf_oriented(bsdf, o, w, wi, cos_i);
+    vec3 f;
+    float pdf;
+    bsdf_eval_and_pdf_oriented(bsdf, o, c, w, wi, cos_i, f, pdf);
     if (!(pdf > 0.0) || isinf(pdf)) {
         return false;
     }
-    s = BsdfSample(wi, bsdf_eval_oriented(bsdf, o, c, wi, cos_i) * (cos_i / pdf), pdf, lobe, eta,
-                   density);
+    s = BsdfSample(wi, f * (cos_i / pdf), pdf, lobe, eta, density);
     return true;
 }
 

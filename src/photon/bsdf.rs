@@ -282,24 +282,27 @@ impl Bsdf {
         (d / (4.0 * wo_h * o.cos_o.max(cos_i)), d / (4.0 * wo_h))
     }
 
-    fn eval_oriented(&self, o: &Oriented, c: &[Vec3; 4], wi: Vec3, cos_i: f32) -> Vec3 {
-        let mut f = c[Lobe::Lambertian as usize] * (1.0 / PI);
-        if c[Lobe::Glossy as usize] != Vec3::ZERO {
-            f += c[Lobe::Glossy as usize] * self.glossy_shape_and_pdf(o, wi, cos_i).0;
-        }
-        f
-    }
-
-    fn pdf_oriented(&self, o: &Oriented, w: &[f32; 4], wi: Vec3, cos_i: f32) -> f32 {
+    /// f (non-delta lobes) and the mixture pdf of `wi`, sharing the glossy lobe's evaluation.
+    fn eval_and_pdf_oriented(
+        &self,
+        o: &Oriented,
+        c: &[Vec3; 4],
+        w: &[f32; 4],
+        wi: Vec3,
+        cos_i: f32,
+    ) -> (Vec3, f32) {
         let total: f32 = w.iter().sum();
         if total <= 0.0 {
-            return 0.0;
+            return (Vec3::ZERO, 0.0);
         }
+        let mut f = c[Lobe::Lambertian as usize] * (1.0 / PI);
         let mut pdf = w[Lobe::Lambertian as usize] * cosine_hemisphere_pdf(cos_i);
         if w[Lobe::Glossy as usize] > 0.0 {
-            pdf += w[Lobe::Glossy as usize] * self.glossy_shape_and_pdf(o, wi, cos_i).1;
+            let (shape, glossy_pdf) = self.glossy_shape_and_pdf(o, wi, cos_i);
+            f += c[Lobe::Glossy as usize] * shape;
+            pdf += w[Lobe::Glossy as usize] * glossy_pdf;
         }
-        pdf / total
+        (f, pdf / total)
     }
 
     /// f(wo, wi) of the non-delta lobes (Lambertian + glossy), without the cosine.
@@ -308,7 +311,11 @@ impl Bsdf {
             let o = self.orient(wo, n_s, n_g)?;
             let wi = unit(wi)?;
             let cos_i = Self::reflected_cos(&o, wi)?;
-            Some(self.eval_oriented(&o, &self.lobe_reflectances(&o), wi, cos_i))
+            let c = self.lobe_reflectances(&o);
+            Some(
+                self.eval_and_pdf_oriented(&o, &c, &c.map(mean), wi, cos_i)
+                    .0,
+            )
         })()
         .unwrap_or(Vec3::ZERO);
         debug_assert!(f.is_finite() && f.min_element() >= 0.0, "eval = {f}");
@@ -322,8 +329,11 @@ impl Bsdf {
             let o = self.orient(wo, n_s, n_g)?;
             let wi = unit(wi)?;
             let cos_i = Self::reflected_cos(&o, wi)?;
-            let w = self.lobe_reflectances(&o).map(mean);
-            Some(self.pdf_oriented(&o, &w, wi, cos_i))
+            let c = self.lobe_reflectances(&o);
+            Some(
+                self.eval_and_pdf_oriented(&o, &c, &c.map(mean), wi, cos_i)
+                    .1,
+            )
         })()
         .unwrap_or(0.0);
         debug_assert!(pdf.is_finite() && pdf >= 0.0, "pdf = {pdf}");
@@ -427,13 +437,13 @@ impl Bsdf {
             }
         } else {
             let cos_i = wi.dot(o.frame.n).min(1.0);
-            let pdf = self.pdf_oriented(&o, &w, wi, cos_i);
+            let (f, pdf) = self.eval_and_pdf_oriented(&o, &c, &w, wi, cos_i);
             if !(pdf > 0.0 && pdf.is_finite()) {
                 return None;
             }
             BsdfSample {
                 wi,
-                weight: self.eval_oriented(&o, &c, wi, cos_i) * (cos_i / pdf),
+                weight: f * (cos_i / pdf),
                 pdf,
                 lobe,
                 eta,

@@ -9,7 +9,7 @@ pub const THETA_BINS: usize = 80;
 pub const PHI_BINS: usize = 160;
 pub const MIN_EXPECTED: f64 = 5.0;
 /// Simpson sub-intervals per bin and axis for the pdf integral.
-const SUBDIVISIONS: usize = 8;
+const SUBDIVISIONS: usize = 4;
 
 /// Bin of a unit direction given in the local frame (+z is the normal).
 pub fn bin_of(w: Vec3) -> usize {
