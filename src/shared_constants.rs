@@ -18,3 +18,9 @@ pub const PATH_DENSITY_GLOSSY_DIVISOR: f32 = 10.0;
 pub const PATH_DENSITY_MAX: f32 = 1.0e15;
 // Squared length below which a normal or direction counts as degenerate (the BSDF returns zero).
 pub const BSDF_MIN_LENGTH_SQUARED: f32 = 1.0e-12;
+// Cosine (to the shading normal) below which wo or a reflected wi counts as tangent: the BSDF
+// returns zero there, which bounds the glossy f (≤ ~1e19) and costs no measurable energy.
+pub const BSDF_MIN_COS: f32 = 1.0e-7;
+// Largest finite glossy exponent σ (a lobe about 0.1° wide); larger finite values are clamped to
+// it so that f stays finite in f32 even at grazing angles. σ = ∞ is the perfect mirror.
+pub const GLOSSY_EXPONENT_MAX: f32 = 1.0e6;

@@ -129,14 +129,16 @@ vec3 bsdf_sanitize_reflectance(vec3 v) {
 }
 
 // The twin of Bsdf::new: clamps reflectances to [0, 1], scales their sum to <= 1 per channel,
-// exponent >= 0, ior finite and > 0 (else 1).
+// exponent in [0, GLOSSY_EXPONENT_MAX] or +inf, ior finite and > 0 (else 1).
 Bsdf bsdf_make(vec3 lambertian, vec3 glossy, float exponent, vec3 transmission, float ior,
                bool fresnel) {
     vec3 l = bsdf_sanitize_reflectance(lambertian);
     vec3 g = bsdf_sanitize_reflectance(glossy);
     vec3 t = bsdf_sanitize_reflectance(transmission);
     vec3 scale = vec3(1.0) / max(l + g + t, vec3(1.0));
-    float e = isnan(exponent) ? 0.0 : max(exponent, 0.0);
+    float e = isnan(exponent) ? 0.0
+            : ((isinf(exponent) && exponent > 0.0) ? exponent
+                                                   : clamp(exponent, 0.0, GLOSSY_EXPONENT_MAX));
     float eta = (!isinf(ior) && ior > 0.0) ? ior : 1.0;
     return Bsdf(l * scale, g * scale, e, t * scale, eta, fresnel);
 }
@@ -199,7 +201,7 @@ bool bsdf_orient(Bsdf bsdf, vec3 wo, vec3 n_s, vec3 n_g, out BsdfOriented o) {
         ng = -ng;
     }
     float cos_o = dot(w, ns);
-    if (!(cos_o > 0.0)) {
+    if (!(cos_o >= BSDF_MIN_COS)) {
         return false;
     }
     o.wo = w;
@@ -240,7 +242,7 @@ vec4 bsdf_albedo_weights(Bsdf bsdf, vec3 wo, vec3 n_s, vec3 n_g) {
 // cos_i when wi is on the reflection side of both normals, else a value <= 0.
 float bsdf_reflected_cos(BsdfOriented o, vec3 wi) {
     float cos_i = dot(wi, o.n);
-    return (cos_i > 0.0 && dot(wi, o.ng) > 0.0) ? min(cos_i, 1.0) : 0.0;
+    return (cos_i >= BSDF_MIN_COS && dot(wi, o.ng) > 0.0) ? min(cos_i, 1.0) : 0.0;
 }
 
 // x: glossy shape g without c; y: pdf of wi from the glossy lobe alone.

@@ -8,7 +8,8 @@
 //! Both are flipped to `wo`'s side of the **geometric** normal; that side also decides the
 //! relative index of refraction: `wo` on the front (`wo·n_g > 0`) means entering the material,
 //! η = ior, else leaving it, η = 1/ior. Degenerate input (zero, non-finite, `wo` exactly tangent
-//! to `n_g`, `wo` below the shading hemisphere) gives 0 or `None`, never NaN.
+//! to `n_g`, `wo` below or within `BSDF_MIN_COS` = 10⁻⁷ of the shading hemisphere's horizon)
+//! gives 0 or `None`, never NaN.
 //!
 //! # Lobes, with their reflectances c (RGB) and shapes g (∫ g cos dω ≤ 1)
 //! - **Lambertian** `c_L/π`, sampled by cosine-weighted hemisphere sampling.
@@ -30,7 +31,9 @@
 //! reflectance at normal incidence, and ρS = F0, ρt = 1 − F0 is exactly a smooth dielectric. S
 //! uses the shading normal (not the half vector), so the lobe weights depend on `wo` alone and
 //! the photon tracer can play Russian roulette before sampling. Without Fresnel, c = ρ.
-//! [`Bsdf::new`] scales ρL + ρS + ρt down to ≤ 1 per channel if a texture pushed it over.
+//! [`Bsdf::new`] scales ρL + ρS + ρt down to ≤ 1 per channel if a texture pushed it over, and
+//! clamps a finite σ to `GLOSSY_EXPONENT_MAX` = 10⁶ (a 0.1°-wide lobe), which keeps f finite in
+//! `f32` at grazing angles; σ = ∞ is the mirror.
 //!
 //! # Sampling
 //! [`Bsdf::sample`] (path tracing) picks a lobe with probability ∝ [`Bsdf::albedo_weights`]
@@ -51,7 +54,8 @@ use super::sampling::{
 };
 use crate::scene::Material;
 use crate::shared_constants::{
-    BSDF_MIN_LENGTH_SQUARED, PATH_DENSITY_GLOSSY_DIVISOR, PATH_DENSITY_LAMBERTIAN_DIVISOR, PI,
+    BSDF_MIN_COS, BSDF_MIN_LENGTH_SQUARED, GLOSSY_EXPONENT_MAX, PATH_DENSITY_GLOSSY_DIVISOR,
+    PATH_DENSITY_LAMBERTIAN_DIVISOR, PI,
 };
 use glam::Vec3;
 
@@ -101,7 +105,7 @@ pub struct Bsdf {
     pub lambertian: Vec3,
     /// ρS at normal incidence.
     pub glossy: Vec3,
-    /// σ ≥ 0; `f32::INFINITY` for a perfect mirror.
+    /// σ in [0, `GLOSSY_EXPONENT_MAX`] (10⁶), or `f32::INFINITY` for a perfect mirror.
     pub exponent: f32,
     /// ρt.
     pub transmission: Vec3,
@@ -190,10 +194,10 @@ impl Bsdf {
         lambertian *= scale;
         glossy *= scale;
         transmission *= scale;
-        let exponent = if material.exponent.is_nan() {
-            0.0
-        } else {
-            material.exponent.max(0.0)
+        let exponent = match material.exponent {
+            e if e.is_nan() => 0.0,
+            e if e.is_infinite() && e > 0.0 => f32::INFINITY,
+            e => e.clamp(0.0, GLOSSY_EXPONENT_MAX),
         };
         let ior = if material.ior.is_finite() && material.ior > 0.0 {
             material.ior
@@ -226,7 +230,7 @@ impl Bsdf {
             ng = -ng;
         }
         let cos_o = wo.dot(ns);
-        (cos_o > 0.0).then(|| Oriented {
+        (cos_o >= BSDF_MIN_COS).then(|| Oriented {
             wo,
             frame: Frame::from_normal(ns),
             ng,
@@ -263,10 +267,11 @@ impl Bsdf {
             .map_or([0.0; 4], |o| self.lobe_reflectances(&o).map(mean))
     }
 
-    /// Is `wi` (unit) on the reflection side of both normals? Returns cos θi if so.
+    /// Is `wi` (unit) on the reflection side of both normals (and not within `BSDF_MIN_COS` of
+    /// tangent)? Returns cos θi if so.
     fn reflected_cos(o: &Oriented, wi: Vec3) -> Option<f32> {
         let cos_i = wi.dot(o.frame.n);
-        (cos_i > 0.0 && wi.dot(o.ng) > 0.0).then_some(cos_i.min(1.0))
+        (cos_i >= BSDF_MIN_COS && wi.dot(o.ng) > 0.0).then_some(cos_i.min(1.0))
     }
 
     /// Glossy shape g (without c) and the pdf of sampling `wi` from the glossy lobe alone.

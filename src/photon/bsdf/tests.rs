@@ -405,6 +405,8 @@ fn degenerate_inputs_give_zero_or_none_never_nan() {
         bsdf(0.5, 0.5, 0.0, 0.0, 1.5, false),
         bsdf(0.2, 0.5, 1e6, 0.3, 1.5, true),
         bsdf(0.0, 1.0, 1e30, 0.0, 1.5, false),
+        bsdf(0.0, 1.0, f32::MAX, 0.0, 1.5, true),
+        bsdf(0.5, 0.5, f32::NEG_INFINITY, 0.0, 1.5, false),
         bsdf(0.0, 0.5, f32::INFINITY, 0.5, 1.0, true),
         bsdf(0.1, 0.1, 5.0, 0.8, 1.0, false),
         bsdf(f32::NAN, 2.0, f32::NAN, -1.0, f32::NAN, true),
@@ -426,6 +428,9 @@ fn degenerate_inputs_give_zero_or_none_never_nan() {
         Vec3::ZERO,
         Vec3::splat(f32::NAN),
         Vec3::new(1.0, 0.0, 1e-30),
+        // A near-grazing pair in exact mirror configuration: the sharpest glossy peak.
+        Vec3::new(1.0, 0.0, 1e-6),
+        Vec3::new(-1.0, 0.0, 1e-6),
     ];
     let mut rng = Rng::new(1);
     dirs.extend((0..40).map(|_| uniform_sphere(rng.next_2())));
@@ -441,7 +446,7 @@ fn degenerate_inputs_give_zero_or_none_never_nan() {
                 for &wo in &dirs {
                     let w = b.albedo_weights(wo, ns, ng);
                     assert!(w.iter().all(|x| x.is_finite() && *x >= 0.0));
-                    for &wi in dirs.iter().step_by(3) {
+                    for &wi in dirs.iter().step_by(3).chain(&dirs[6..8]) {
                         let f = b.eval(wo, wi, ns, ng);
                         let p = b.pdf(wo, wi, ns, ng);
                         assert!(f.is_finite() && f.min_element() >= 0.0, "{b:?} {f}");
