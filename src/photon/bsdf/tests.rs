@@ -536,3 +536,51 @@ fn texture_override_replaces_lambertian_and_sums_are_kept_at_most_one() {
             < 1e-5
     );
 }
+
+#[test]
+fn glsl_twin_defines_every_function_and_uses_the_shared_constants() {
+    let glsl = include_str!("../../../glsl/common/bsdf.glsl");
+    let functions = [
+        "void frame_from_normal(",
+        "vec2 concentric_disk(",
+        "vec3 cosine_hemisphere(",
+        "float cosine_hemisphere_pdf(",
+        "vec3 blinn_phong_half_vector(",
+        "float blinn_phong_half_vector_pdf(",
+        "vec3 uniform_sphere(",
+        "Bsdf bsdf_make(",
+        "float fresnel_dielectric(",
+        "float fresnel_ramp(",
+        "float path_density_factor(",
+        "vec4 bsdf_albedo_weights(",
+        "vec3 bsdf_eval(",
+        "float bsdf_pdf(",
+        "bool bsdf_sample_lobe(",
+        "bool bsdf_sample(",
+        "bool bsdf_sample_russian_roulette(",
+    ];
+    for f in functions {
+        assert!(glsl.contains(f), "bsdf.glsl lacks `{f}`");
+    }
+    for c in [
+        "#include \"shared_constants.glsl\"",
+        "PATH_DENSITY_LAMBERTIAN_DIVISOR",
+        "PATH_DENSITY_GLOSSY_DIVISOR",
+        "BSDF_MIN_LENGTH_SQUARED",
+        "BSDF_MIN_COS",
+        "GLOSSY_EXPONENT_MAX",
+    ] {
+        assert!(glsl.contains(c), "bsdf.glsl does not use {c}");
+    }
+    for (lobe, name) in [
+        (Lobe::Lambertian, "LOBE_LAMBERTIAN"),
+        (Lobe::Glossy, "LOBE_GLOSSY"),
+        (Lobe::Mirror, "LOBE_MIRROR"),
+        (Lobe::Refraction, "LOBE_REFRACTION"),
+    ] {
+        let decl = format!("const uint {name} = {}u;", lobe as u32);
+        assert!(glsl.contains(&decl), "bsdf.glsl lacks `{decl}`");
+    }
+    let packing = include_str!("../../../glsl/common/packing.glsl");
+    assert!(packing.contains("PATH_DENSITY_MAX") && packing.contains("vec3 unpack_direction("));
+}
