@@ -65,7 +65,8 @@ const MAX_SUBDIVISIONS: usize = 512;
 fn bin_grid(pdf: &impl Fn(Vec3) -> f32, i: usize, j: usize, n: usize) -> Vec<f64> {
     let d_theta = PI / THETA_BINS as f64;
     let d_phi = 2.0 * PI / PHI_BINS as f64;
-    let nudge = 1e-7;
+    // 1e-5 of a bin (4e-7 rad) clears the BSDF's own tangent cut-off (cos θ < 1e-7).
+    let nudge = 1e-5;
     let mut grid = Vec::with_capacity((n + 1) * (n + 1));
     for k in 0..=n {
         let t = (k as f64 / n as f64).clamp(nudge, 1.0 - nudge);
