@@ -13,3 +13,19 @@ pub const PI: f32 = core::f32::consts::PI;
 pub const TONEMAP_LINEAR: u32 = 0;
 pub const TONEMAP_ACES: u32 = 1;
 pub const TONEMAP_PBR_NEUTRAL: u32 = 2;
+
+// Path density (DESIGN.md §2.2, paper §5): ρp is multiplied at each bounce by the chosen lobe's
+// mean reflectance divided by these (Lambertian ρL/1000, glossy ρS/10; mirror and refraction
+// divide by 1).
+pub const PATH_DENSITY_LAMBERTIAN_DIVISOR: f32 = 1000.0;
+pub const PATH_DENSITY_GLOSSY_DIVISOR: f32 = 10.0;
+// Packed directions store ω·(ρp + 1); ρp is clamped to [0, this] so that ‖v‖² stays finite in f32.
+pub const PATH_DENSITY_MAX: f32 = 1.0e15;
+// Squared length below which a normal or direction counts as degenerate (the BSDF returns zero).
+pub const BSDF_MIN_LENGTH_SQUARED: f32 = 1.0e-12;
+// Cosine (to the shading normal) below which wo or a reflected wi counts as tangent: the BSDF
+// returns zero there, which bounds the glossy f (≤ ~1e19) and costs no measurable energy.
+pub const BSDF_MIN_COS: f32 = 1.0e-7;
+// Largest finite glossy exponent σ (a lobe about 0.1° wide); larger finite values are clamped to
+// it so that f stays finite in f32 even at grazing angles. σ = ∞ is the perfect mirror.
+pub const GLOSSY_EXPONENT_MAX: f32 = 1.0e6;
