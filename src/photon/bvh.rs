@@ -166,6 +166,8 @@ struct Placement {
     /// World box of a moving instance (padded), `None` for static ones.
     world_box: Option<(Vec3, Vec3)>,
     moving: bool,
+    /// Negative determinant: glTF makes the clockwise face the front one.
+    mirrored: bool,
 }
 
 impl Placement {
@@ -176,6 +178,7 @@ impl Placement {
             normal_matrix: Mat3::from_mat4(transform).inverse().transpose(),
             world_box: None,
             moving,
+            mirrored: transform.determinant() < 0.0,
         }
     }
 }
@@ -410,9 +413,9 @@ impl SceneBvh {
             position_error += gamma(12) * (abs3 * object_point.abs() + m.w_axis.truncate().abs())
                 + gamma(3) * position.abs();
         }
-        let geometric_normal = (p1 - p0)
-            .cross(p2 - p0)
-            .normalize_or(-ray.dir.normalize_or(Vec3::Z));
+        let front_winding = if inst.placement.mirrored { -1.0 } else { 1.0 };
+        let geometric_normal =
+            (front_winding * (p1 - p0).cross(p2 - p0)).normalize_or(-ray.dir.normalize_or(Vec3::Z));
         let shading_normal = inst.placement.normal_matrix
             * (b0 * mesh.normals[idx[0]] + b1 * mesh.normals[idx[1]] + b2 * mesh.normals[idx[2]]);
         let uv: Vec2 = b0 * mesh.uvs[idx[0]] + b1 * mesh.uvs[idx[1]] + b2 * mesh.uvs[idx[2]];

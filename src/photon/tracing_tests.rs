@@ -367,3 +367,17 @@ fn empty_scene_has_no_hits() {
     assert!(bvh.intersect(&ray).is_none() && !bvh.occluded(&ray));
     assert_eq!(bvh.triangle_count(), 0);
 }
+
+#[test]
+fn mirrored_instances_keep_their_outside_as_the_front_face() {
+    let mirror = Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0));
+    let scene = scene_of(vec![(icosphere(2), mirror)]);
+    for bvh in [
+        SceneBvh::new(&scene),
+        SceneBvh::with_moving_instances(&scene, &[0]),
+    ] {
+        let ray = Ray::new(Vec3::new(0.1, 0.2, 5.0), -Vec3::Z);
+        let hit = bvh.intersect(&ray).expect("hit");
+        assert!(hit.front_face && hit.geometric_normal.z > 0.9 && hit.shading_normal.z > 0.9);
+    }
+}
