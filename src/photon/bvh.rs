@@ -27,17 +27,21 @@
 //!
 //! # Robustness of traversal
 //!
-//! obvhs's node test clamps a box's entry distance to at least `1e-4` (absolute) and caps
-//! `1/dir` at `1/f32::EPSILON`; either would cull legitimate hits (near hits in millimetre
-//! scenes; rays with direction components below `1.2e-7`). We hand obvhs a ray whose direction
-//! is scaled by 2⁻²⁰ (exact, so its `t` is ours times 2²⁰: the clamp becomes `1e-10` of ours),
-//! with `1/dir` capped at 2⁴⁰ (times 2²⁰), and `t_max` padded by a few ULPs. What remains is the
-//! float rounding of the slab test itself for rays that pass exactly through a box corner
-//! (Ize 2013); the watertightness tests trace through the BVH and have not found a leak.
+//! obvhs's own node test is not conservative: it clamps a box's entry distance to at least
+//! `1e-4` (absolute, which culls near hits in millimetre scenes), caps `1/dir` at
+//! `1/f32::EPSILON` (which culls hits of rays with direction components below `1.2e-7`), and
+//! its slab test rounds, so a ray through a point where node boxes meet (a vertex on a box
+//! corner) can miss every box around it; the `grid_box` test found such leaks. We therefore
+//! run obvhs's traversal (`obvhs::traverse!`: its stack, child ordering and leaf decoding) with
+//! our own node test, [`intersect_node`]: the same quantized slab test, four children at a time
+//! in SIMD (glam's `Vec4`), with every slab widened by a bound on its rounding error (as in
+//! pbrt-v4's robust box test, Ize 2013), entry clamped at 0 and `1/dir` capped at 2⁴⁰ (a
+//! component below 2⁻⁴⁰ is treated as 2⁻⁴⁰: such a ray could only miss beyond `t ≈ 10¹²`).
 
 use std::time::{Duration, Instant};
 
-use glam::{Mat3, Mat4, UVec2, Vec2, Vec3, Vec3A};
+use glam::{Mat3, Mat4, UVec2, Vec2, Vec3, Vec3A, Vec4};
+use obvhs::cwbvh::node::{extract_byte64, CwBvhNode};
 use obvhs::BvhBuildParams;
 use obvhs::{cwbvh::builder::build_cwbvh_from_tris, cwbvh::CwBvh, triangle::Triangle};
 
@@ -45,9 +49,7 @@ use super::ray::{gamma, Hit, Ray};
 use super::triangle::{TriangleHit, WatertightRay};
 use crate::scene::{Mesh, Scene};
 
-/// obvhs sees `t` multiplied by this (an exact power of two).
-const BOX_T_SCALE: f32 = (1u32 << 20) as f32;
-/// Largest `|1 / dir|` per component handed to obvhs (before [`BOX_T_SCALE`]).
+/// Largest `|1 / dir|` per component in the node test.
 const MAX_INV_DIR: f32 = (1u64 << 40) as f32;
 
 /// A CWBVH over triangles, with the triangles stored in the BVH's leaf order.
@@ -100,17 +102,17 @@ impl Blas {
         any: bool,
     ) -> Option<(usize, TriangleHit)> {
         let watertight = WatertightRay::new(origin, dir);
-        let mut box_ray = box_ray(origin, dir, t_max);
+        let mut box_ray = BoxRay::new(origin, dir, t_max);
         let mut best: Option<(usize, TriangleHit)> = None;
         let mut closest = t_max;
-        let mut state = self.bvh.new_traversal(box_ray.direction);
+        let mut state = self.bvh.new_traversal(Vec3A::from(dir));
         let mut node;
         'traversal: {
             obvhs::traverse!(
                 self.bvh,
                 node,
                 state,
-                node.intersect_ray(&box_ray, state.oct_inv4),
+                intersect_node(node, &box_ray, state.oct_inv4),
                 {
                     let i = state.primitive_id as usize;
                     let [p0, p1, p2] = self.triangles[i];
@@ -120,7 +122,7 @@ impl Blas {
                             break 'traversal;
                         }
                         closest = hit.t;
-                        box_ray.tmax = padded_box_t(closest);
+                        box_ray.set_t_max(closest);
                     }
                 }
             );
@@ -129,32 +131,101 @@ impl Blas {
     }
 }
 
-/// `t` as obvhs sees it, padded by a few ULPs so rounding in the slab test cannot cull the
-/// box of the current closest hit.
-fn padded_box_t(t: f32) -> f32 {
-    t * BOX_T_SCALE * (1.0 + 2.0 * gamma(3))
+/// A ray prepared for the conservative node test.
+struct BoxRay {
+    origin: Vec3A,
+    origin_abs: Vec3A,
+    inv_dir: Vec3A,
+    inv_dir_abs: Vec3A,
+    negative: [bool; 3],
+    t_max: f32,
 }
 
-/// The obvhs ray for box tests (see the module docs on robustness).
-fn box_ray(origin: Vec3, dir: Vec3, t_max: f32) -> obvhs::ray::Ray {
-    let inv = |d: f32| {
-        let inv = 1.0 / d;
-        let capped = if inv.is_finite() && inv.abs() <= MAX_INV_DIR {
-            inv
-        } else if d < 0.0 {
-            -MAX_INV_DIR
-        } else {
-            MAX_INV_DIR
+impl BoxRay {
+    fn new(origin: Vec3, dir: Vec3, t_max: f32) -> Self {
+        // The sign convention (−0 counts as positive) matches obvhs's child ordering.
+        let inv = |d: f32| {
+            let inv = 1.0 / d;
+            if inv.is_finite() && inv.abs() <= MAX_INV_DIR {
+                inv
+            } else if d < 0.0 {
+                -MAX_INV_DIR
+            } else {
+                MAX_INV_DIR
+            }
         };
-        capped * BOX_T_SCALE
-    };
-    obvhs::ray::Ray {
-        origin: origin.into(),
-        direction: Vec3A::from(dir) / BOX_T_SCALE,
-        inv_direction: Vec3A::new(inv(dir.x), inv(dir.y), inv(dir.z)),
-        tmin: 0.0,
-        tmax: padded_box_t(t_max),
+        let inv_dir = Vec3A::new(inv(dir.x), inv(dir.y), inv(dir.z));
+        Self {
+            origin: origin.into(),
+            origin_abs: origin.abs().into(),
+            inv_dir,
+            inv_dir_abs: inv_dir.abs(),
+            negative: [dir.x < 0.0, dir.y < 0.0, dir.z < 0.0],
+            t_max: 0.0,
+        }
+        .with_t_max(t_max)
     }
+
+    fn with_t_max(mut self, t_max: f32) -> Self {
+        self.set_t_max(t_max);
+        self
+    }
+
+    fn set_t_max(&mut self, t_max: f32) {
+        self.t_max = t_max * (1.0 + 2.0 * gamma(3));
+    }
+}
+
+/// Which children of `node` the ray's segment `[0, t_max]` may pass through, as obvhs's
+/// traversal expects the mask (see the module docs): its quantized slab test, with each slab
+/// widened by a bound on the rounding of `(p + q·extent − o) / d` computed as
+/// `q·(extent/d) + (p − o)/d`, and of the box decompression itself.
+#[inline(always)]
+fn intersect_node(node: &CwBvhNode, ray: &BoxRay, oct_inv4: u32) -> u32 {
+    let extent = node.compute_extent();
+    let p = Vec3A::from(node.p);
+    let scale = extent * ray.inv_dir;
+    let offset = (p - ray.origin) * ray.inv_dir;
+    let err = gamma(8) * (p.abs() + ray.origin_abs + 255.0 * extent) * ray.inv_dir_abs;
+    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
+    let mut hit_mask = 0;
+    for half in 0..2 {
+        let quad = |q: &[u8; 8]| {
+            let i = half * 4;
+            Vec4::new(
+                q[i] as f32,
+                q[i + 1] as f32,
+                q[i + 2] as f32,
+                q[i + 3] as f32,
+            )
+        };
+        let near_far = |lo: &[u8; 8], hi: &[u8; 8], negative: bool| {
+            if negative {
+                (quad(hi), quad(lo))
+            } else {
+                (quad(lo), quad(hi))
+            }
+        };
+        let (near_x, far_x) = near_far(&node.child_min_x, &node.child_max_x, ray.negative[0]);
+        let (near_y, far_y) = near_far(&node.child_min_y, &node.child_max_y, ray.negative[1]);
+        let (near_z, far_z) = near_far(&node.child_min_z, &node.child_max_z, ray.negative[2]);
+        let t_near = (near_x * scale.x + (offset.x - err.x))
+            .max(near_y * scale.y + (offset.y - err.y))
+            .max(near_z * scale.z + (offset.z - err.z))
+            .max(Vec4::ZERO);
+        let t_far = (far_x * scale.x + (offset.x + err.x))
+            .min(far_y * scale.y + (offset.y + err.y))
+            .min(far_z * scale.z + (offset.z + err.z))
+            .min(Vec4::splat(ray.t_max));
+        let mask = t_near.cmple(t_far).bitmask();
+        for j in 0..4 {
+            if mask & (1 << j) != 0 {
+                let child = half * 4 + j;
+                hit_mask |= extract_byte64(child_bits8, child) << extract_byte64(bit_index8, child);
+            }
+        }
+    }
+    hit_mask
 }
 
 /// An instance's placement and what is derived from it.

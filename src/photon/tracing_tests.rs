@@ -381,3 +381,80 @@ fn mirrored_instances_keep_their_outside_as_the_front_face() {
         assert!(hit.front_face && hit.geometric_normal.z > 0.9 && hit.shading_normal.z > 0.9);
     }
 }
+
+/// A closed axis-aligned box `[-n, n]³` whose faces are `2n × 2n` grids, so BVH node boxes are
+/// flat and their corners coincide with vertices: the worst case for slab-test rounding.
+fn grid_box(n: i32) -> crate::scene::Mesh {
+    let mut mesh = crate::scene::Mesh {
+        name: String::from("grid box"),
+        ..Default::default()
+    };
+    for axis in 0..3 {
+        for side in [-n, n] {
+            for i in -n..n {
+                for j in -n..n {
+                    let corner = |a: i32, b: i32| {
+                        let mut p = [0.0f32; 3];
+                        p[axis] = side as f32;
+                        p[(axis + 1) % 3] = a as f32;
+                        p[(axis + 2) % 3] = b as f32;
+                        Vec3::from(p)
+                    };
+                    let base = mesh.positions.len() as u32;
+                    mesh.positions.extend([
+                        corner(i, j),
+                        corner(i + 1, j),
+                        corner(i + 1, j + 1),
+                        corner(i, j + 1),
+                    ]);
+                    mesh.triangles.push([base, base + 1, base + 2]);
+                    mesh.triangles.push([base, base + 2, base + 3]);
+                }
+            }
+        }
+    }
+    mesh.normals = mesh.positions.iter().map(|p| p.normalize()).collect();
+    mesh.uvs = vec![glam::Vec2::ZERO; mesh.positions.len()];
+    mesh
+}
+
+#[test]
+fn rays_from_inside_a_box_through_node_box_corners_always_hit() {
+    let mesh = grid_box(4);
+    let vertices = mesh.positions.clone();
+    for (transform, moving) in [
+        (Mat4::IDENTITY, false),
+        (
+            Mat4::from_scale_rotation_translation(
+                Vec3::new(3.0, 0.5, 1.7),
+                Quat::IDENTITY,
+                Vec3::new(0.3, -4.0, 2.0),
+            ),
+            false,
+        ),
+        (Mat4::from_scale(Vec3::new(0.001, 0.002, 0.001)), true),
+    ] {
+        let scene = scene_of(vec![(mesh.clone(), transform)]);
+        let moving_set: &[usize] = if moving { &[0] } else { &[] };
+        let bvh = SceneBvh::with_moving_instances(&scene, moving_set);
+        let mut rng = Pcg(7);
+        for &v in &vertices {
+            let target = transform.transform_point3(v);
+            for _ in 0..8 {
+                let local = 3.9 * Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) - 1.95;
+                let origin = transform.transform_point3(local);
+                let ray = Ray::new(origin, target - origin);
+                assert!(bvh.intersect(&ray).is_some(), "{ray:?} slipped through");
+                assert!(bvh.occluded(&ray), "{ray:?} slipped through (any-hit)");
+            }
+            for axis in AXES {
+                let origin = transform.transform_point3(v - 0.5 * axis);
+                let inside = (v - 0.5 * axis).abs().max_element() < 4.0;
+                let ray = Ray::new(origin, transform.transform_vector3(axis));
+                if inside {
+                    assert!(bvh.intersect(&ray).is_some(), "{ray:?} slipped through");
+                }
+            }
+        }
+    }
+}
