@@ -11,6 +11,7 @@ use glam::{Mat4, Quat, Vec3, Vec3A};
 use ispm::photon::bvh::SceneBvh;
 use ispm::photon::ray::Ray;
 use ispm::photon::shapes::{grid, icosphere, scene_of};
+use ispm::photon::triangle::WatertightRay;
 use ispm::scene::Scene;
 use obvhs::cwbvh::{builder::build_cwbvh_from_tris, CwBvh};
 use obvhs::ray::RayHit;
@@ -104,6 +105,29 @@ fn closest_hit_obvhs_moller_trumbore(bencher: Bencher) {
             let ray = obvhs::ray::Ray::new_inf(Vec3A::from(ray.origin), Vec3A::from(ray.dir));
             let mut hit = RayHit::none();
             hits += bvh.ray_traverse(ray, &mut hit, |r, id| tris[id].intersect(r)) as u32;
+        }
+        hits
+    });
+}
+
+/// obvhs's node test and traversal with our watertight triangle test: isolates the cost of
+/// the triangle test from that of the conservative node test.
+#[divan::bench]
+fn closest_hit_obvhs_nodes_watertight_triangles(bencher: Bencher) {
+    let (bvh, tris) = &*RAW;
+    let rays = &*RAY_BATCH;
+    bencher.counter(ItemsCount::new(RAYS)).bench(|| {
+        let mut hits = 0u32;
+        for ray in rays {
+            let watertight = WatertightRay::new(ray.origin, ray.dir);
+            let ray = obvhs::ray::Ray::new_inf(Vec3A::from(ray.origin), Vec3A::from(ray.dir));
+            let mut hit = RayHit::none();
+            hits += bvh.ray_traverse(ray, &mut hit, |r, id| {
+                let t = &tris[id];
+                watertight
+                    .intersect(t.v0.into(), t.v1.into(), t.v2.into(), r.tmax)
+                    .map_or(f32::INFINITY, |h| h.t)
+            }) as u32;
         }
         hits
     });

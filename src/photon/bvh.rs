@@ -18,8 +18,10 @@
 //!
 //! Refitting one world-space BVH was the alternative; it needs the moved triangles transformed
 //! every frame and loses quality as the motion grows, and obvhs refits only its BVH2, whose
-//! conversion to CWBVH is a rebuild of the wide tree anyway. Measured numbers are in
-//! `docs/performance.md`.
+//! conversion to CWBVH is a rebuild of the wide tree anyway. Measured on 101 920 triangles
+//! (`docs/performance.md`, shared 2-core machine): building the static CWBVH takes ≈ 85 ms;
+//! moving an 81 920-triangle instance and calling `update` takes ≈ 0.12 µs; tracing with that
+//! instance in its own level is ≈ 14 % slower than with everything static.
 //!
 //! Instances declared moving at construction ([`SceneBvh::with_moving_instances`]) are cheap to
 //! move. Moving an instance that was static is allowed: it joins the moving set and the static
