@@ -458,3 +458,9 @@ fn rays_from_inside_a_box_through_node_box_corners_always_hit() {
         }
     }
 }
+
+#[test]
+fn scene_bvh_can_be_shared_between_tracing_threads() {
+    fn assert_send_sync<T: Send + Sync>() {}
+    assert_send_sync::<SceneBvh>();
+}
