@@ -1,7 +1,7 @@
-//! [`SceneBvh`]: closest-hit and any-hit ray queries against a [`Scene`], with obvhs's
-//! compressed wide BVH8 (CWBVH, Ylitie et al. 2017) and its SIMD node test for traversal, and
-//! our watertight triangle test ([`super::triangle`]) for every leaf primitive (obvhs's own
-//! Möller–Trumbore test is not watertight).
+//! [`SceneBvh`]: closest-hit and any-hit ray queries against a [`Scene`]: obvhs's compressed
+//! wide BVH8 (CWBVH, Ylitie et al. 2017) and its traversal, with a conservative SIMD node test
+//! of our own and our watertight triangle test ([`super::triangle`]) for every leaf primitive
+//! (obvhs's own Möller–Trumbore test is not watertight).
 //!
 //! # Two levels: static geometry once, moving instances by transform
 //!
@@ -14,7 +14,7 @@
 //! - **Top level**: a list of the moving instances' world boxes, tested after the static part
 //!   with the ray shortened to the closest hit so far. A list is the right structure for the
 //!   handful of animated nodes a glTF scene has; past a few dozen it wants a CWBVH over the
-//!   boxes, which obvhs can build in microseconds.
+//!   boxes (obvhs's `build_cwbvh` over `Aabb`s), rebuilt in `update`.
 //!
 //! Refitting one world-space BVH was the alternative; it needs the moved triangles transformed
 //! every frame and loses quality as the motion grows, and obvhs refits only its BVH2, whose
@@ -37,8 +37,9 @@
 //! run obvhs's traversal (`obvhs::traverse!`: its stack, child ordering and leaf decoding) with
 //! our own node test, `node::intersect_node`: the same quantized slab test, four children at a time
 //! in SIMD (glam's `Vec4`), with every slab widened by a bound on its rounding error (as in
-//! pbrt-v4's robust box test, Ize 2013), entry clamped at 0 and `1/dir` capped at 2⁴⁰ (a
-//! component below 2⁻⁴⁰ is treated as 2⁻⁴⁰: such a ray could only miss beyond `t ≈ 10¹²`).
+//! pbrt-v4's robust box test, Ize 2013), entry clamped at 0 and `|1/dir|` capped at 2⁴⁰ (a
+//! direction component below 2⁻⁴⁰ is treated as ±2⁻⁴⁰, which can cull a hit only farther than
+//! 2⁴⁰ times the origin's distance to the box face).
 
 use std::time::{Duration, Instant};
 
