@@ -6,5 +6,9 @@ pub mod bvh;
 pub mod ray;
 pub mod rng;
 pub mod sampling;
+pub mod shapes;
 pub mod triangle;
 pub mod types;
+
+#[cfg(test)]
+mod tracing_tests;

@@ -1,0 +1,466 @@
+//! Tests of ray tracing as a whole: watertightness through the BVH, self-intersection after
+//! offsetting, agreement with brute force, and moving instances.
+
+use glam::{Mat4, Quat, Vec3};
+
+use super::bvh::SceneBvh;
+use super::ray::{Hit, Ray};
+use super::shapes::{grid, icosphere, scene_of};
+use super::triangle::intersect_triangle;
+use crate::scene::Scene;
+
+/// Small deterministic generator (PCG-XSH-RR) so the tests need no dependency.
+struct Pcg(u64);
+
+impl Pcg {
+    fn next_u32(&mut self) -> u32 {
+        let old = self.0;
+        self.0 = old
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
+        xorshifted.rotate_right((old >> 59) as u32)
+    }
+    fn uniform(&mut self) -> f32 {
+        (self.next_u32() >> 8) as f32 / (1u32 << 24) as f32
+    }
+    fn unit_vector(&mut self) -> Vec3 {
+        let z = 1.0 - 2.0 * self.uniform();
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let phi = std::f32::consts::TAU * self.uniform();
+        Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    }
+    /// A unit vector in the hemisphere around `n` (strictly away from the plane).
+    fn hemisphere(&mut self, n: Vec3) -> Vec3 {
+        loop {
+            let v = self.unit_vector();
+            let c = v.dot(n);
+            if c.abs() > 1e-3 {
+                return if c > 0.0 { v } else { -v };
+            }
+        }
+    }
+}
+
+const AXES: [Vec3; 6] = [
+    Vec3::X,
+    Vec3::NEG_X,
+    Vec3::Y,
+    Vec3::NEG_Y,
+    Vec3::Z,
+    Vec3::NEG_Z,
+];
+
+/// Exact vertex positions, edge midpoints and random points along edges of a mesh.
+fn edge_and_vertex_targets(scene: &Scene, rng: &mut Pcg) -> Vec<Vec3> {
+    let mesh = &scene.meshes[0];
+    let mut targets = mesh.positions.clone();
+    for t in &mesh.triangles {
+        for k in 0..3 {
+            let (a, b) = (
+                mesh.positions[t[k] as usize],
+                mesh.positions[t[(k + 1) % 3] as usize],
+            );
+            targets.push((a + b) * 0.5);
+            targets.push(a.lerp(b, rng.uniform()));
+        }
+    }
+    targets
+}
+
+#[test]
+fn rays_from_inside_a_closed_icosphere_through_edges_and_vertices_always_hit() {
+    let scene = scene_of(vec![(icosphere(3), Mat4::IDENTITY)]);
+    let bvh = SceneBvh::new(&scene);
+    let mut rng = Pcg(1);
+    let targets = edge_and_vertex_targets(&scene, &mut rng);
+    let mut rays = 0;
+    for &target in &targets {
+        let mut origins = vec![Vec3::ZERO, 0.5 * rng.unit_vector(), target * 0.3];
+        origins.extend(
+            AXES.iter()
+                .map(|&a| target - 0.5 * a)
+                .filter(|o| o.length() < 0.9),
+        );
+        for origin in origins {
+            let dir = target - origin;
+            for ray in [Ray::new(origin, dir), Ray::new(origin, dir.normalize())] {
+                rays += 1;
+                assert!(bvh.intersect(&ray).is_some(), "{ray:?} slipped through");
+                assert!(bvh.occluded(&ray), "{ray:?} slipped through (any-hit)");
+            }
+        }
+    }
+    assert!(rays > 10_000);
+}
+
+#[test]
+fn rays_from_outside_through_edges_and_vertices_hit_on_entry_and_exit() {
+    for moving in [false, true] {
+        let transform = Mat4::from_scale_rotation_translation(
+            Vec3::splat(2.0),
+            Quat::from_rotation_y(0.3),
+            Vec3::new(1.0, -2.0, 0.5),
+        );
+        let scene = scene_of(vec![(icosphere(3), transform)]);
+        let moving_set: &[usize] = if moving { &[0] } else { &[] };
+        let bvh = SceneBvh::with_moving_instances(&scene, moving_set);
+        let mut rng = Pcg(2);
+        let targets = edge_and_vertex_targets(&scene, &mut rng);
+        for &local in &targets {
+            let target = transform.transform_point3(local);
+            let outward = (target - Vec3::new(1.0, -2.0, 0.5)).normalize();
+            let mut dirs: Vec<Vec3> = AXES.to_vec();
+            dirs.extend((0..4).map(|_| rng.unit_vector()));
+            for dir in dirs.into_iter().filter(|d| d.dot(outward) < -0.1) {
+                let ray = Ray::new(target - 10.0 * dir, dir);
+                let entry = bvh
+                    .intersect(&ray)
+                    .unwrap_or_else(|| panic!("{ray:?} missed"));
+                assert!(
+                    entry.front_face && (entry.t - 10.0).abs() < 0.1,
+                    "{entry:?}"
+                );
+                let onwards = entry.spawn_ray(dir);
+                let exit = bvh
+                    .intersect(&onwards)
+                    .unwrap_or_else(|| panic!("{onwards:?} leaked out of the sphere"));
+                assert!(
+                    !exit.front_face && exit.triangle != entry.triangle,
+                    "{exit:?}"
+                );
+            }
+        }
+    }
+}
+
+/// Hit a sphere from outside; spawn reflected rays (they must not re-hit anything on a convex
+/// surface) and refracted rays (they must cross and hit another triangle).
+fn check_self_intersection(scale: f32, translation: Vec3, moving: bool) {
+    let transform = Mat4::from_scale_rotation_translation(
+        Vec3::splat(scale),
+        Quat::from_rotation_x(0.7),
+        translation,
+    );
+    let scene = scene_of(vec![(icosphere(2), transform)]);
+    let moving_set: &[usize] = if moving { &[0] } else { &[] };
+    let bvh = SceneBvh::with_moving_instances(&scene, moving_set);
+    let mut rng = Pcg(3);
+    let mut spawned = 0;
+    for _ in 0..200 {
+        let target = translation + 0.5 * scale * rng.unit_vector();
+        let origin = translation + 4.0 * scale * rng.unit_vector();
+        let Some(hit) = bvh.intersect(&Ray::new(origin, target - origin)) else {
+            panic!("ray at the sphere's interior missed");
+        };
+        let outward = hit.geometric_normal;
+        for _ in 0..20 {
+            let reflected = rng.hemisphere(outward);
+            let ray = hit.spawn_ray(reflected);
+            let again = bvh.intersect(&ray);
+            assert!(
+                again.is_none_or(|h: Hit| h.triangle != hit.triangle),
+                "reflected ray re-hit its triangle at scale {scale}, offset {translation}"
+            );
+            if translation == Vec3::ZERO {
+                assert!(
+                    again.is_none(),
+                    "reflected ray hit a convex surface again: {again:?}"
+                );
+            }
+            assert!(!bvh.occluded(&Ray::with_t_max(ray.origin, ray.dir, scale * 1e-2)));
+
+            let refracted = rng.hemisphere(-outward);
+            let ray = hit.spawn_ray(refracted);
+            let exit = bvh
+                .intersect(&ray)
+                .expect("refracted ray must cross and exit");
+            assert_ne!(
+                exit.triangle, hit.triangle,
+                "refracted ray re-hit its triangle"
+            );
+            assert!(!exit.front_face);
+            spawned += 2;
+        }
+    }
+    assert_eq!(spawned, 8000);
+}
+
+#[test]
+fn spawned_rays_never_rehit_their_triangle_at_millimetre_scale() {
+    check_self_intersection(1e-3, Vec3::ZERO, false);
+}
+
+#[test]
+fn spawned_rays_never_rehit_their_triangle_at_metre_scale() {
+    check_self_intersection(1.0, Vec3::ZERO, false);
+    check_self_intersection(1.0, Vec3::ZERO, true);
+}
+
+#[test]
+fn spawned_rays_never_rehit_their_triangle_at_ten_kilometre_scale() {
+    check_self_intersection(1e4, Vec3::ZERO, false);
+}
+
+#[test]
+fn spawned_rays_never_rehit_their_triangle_far_from_the_origin() {
+    let far = Vec3::new(1e5, -1e5, 1e5);
+    check_self_intersection(1.0, far, false);
+    check_self_intersection(1.0, far, true);
+    check_self_intersection(1e3, far, false);
+}
+
+/// A non-trivial scene: a bumpy ground, a displaced sphere and a second, rotated sphere.
+fn test_scene() -> Scene {
+    let mut blob = icosphere(4);
+    for p in &mut blob.positions {
+        *p *= 1.0 + 0.15 * (5.0 * p.x).sin() * (4.0 * p.y).cos();
+    }
+    let ground = grid(24, |x, z| 0.3 * (x * 0.7).sin() * (z * 0.5).cos());
+    scene_of(vec![
+        (
+            ground,
+            Mat4::from_translation(Vec3::new(-12.0, -2.0, -12.0)),
+        ),
+        (blob, Mat4::from_translation(Vec3::new(0.0, 0.5, 0.0))),
+        (
+            icosphere(2),
+            Mat4::from_scale_rotation_translation(
+                Vec3::new(1.0, 0.5, 2.0),
+                Quat::from_rotation_z(0.4),
+                Vec3::new(3.0, 0.0, -1.0),
+            ),
+        ),
+    ])
+}
+
+fn random_ray(rng: &mut Pcg) -> Ray {
+    let origin = Vec3::new(
+        -10.0 + 20.0 * rng.uniform(),
+        -3.0 + 8.0 * rng.uniform(),
+        -10.0 + 20.0 * rng.uniform(),
+    );
+    let t_max = if rng.uniform() < 0.5 {
+        f32::INFINITY
+    } else {
+        10.0 * rng.uniform()
+    };
+    let dir = if rng.uniform() < 0.5 {
+        rng.unit_vector()
+    } else {
+        // Aimed at the spheres, so that most rays hit something.
+        Vec3::new(1.0, 0.0, 0.0) + 3.0 * rng.unit_vector() - origin
+    };
+    Ray::with_t_max(origin, dir, t_max)
+}
+
+/// Closest hit by testing every triangle: `(t, triangle id)`.
+fn brute_force(triangles: &[[Vec3; 3]], ray: &Ray) -> Option<(f32, u32)> {
+    let mut best = None;
+    let mut t_max = ray.t_max;
+    for (i, &tri) in triangles.iter().enumerate() {
+        if let Some(hit) = intersect_triangle(ray.origin, ray.dir, t_max, tri) {
+            t_max = hit.t;
+            best = Some((hit.t, i as u32));
+        }
+    }
+    best
+}
+
+#[test]
+fn bvh_closest_hit_and_occlusion_agree_with_brute_force() {
+    let scene = test_scene();
+    let triangles: Vec<[Vec3; 3]> = scene
+        .world_triangles()
+        .into_iter()
+        .map(|(t, _)| t)
+        .collect();
+    let bvh = SceneBvh::new(&scene);
+    assert_eq!(bvh.triangle_count(), triangles.len());
+    let mut rng = Pcg(4);
+    let mut hits = 0;
+    for _ in 0..3000 {
+        let ray = random_ray(&mut rng);
+        let expected = brute_force(&triangles, &ray);
+        let got = bvh.intersect(&ray);
+        assert_eq!(got.map(|h| h.t), expected.map(|e| e.0), "{ray:?}");
+        if let (Some(got), Some((t, id))) = (got, expected) {
+            // Ties in t (a ray through a shared edge) may pick either triangle.
+            let other = intersect_triangle(
+                ray.origin,
+                ray.dir,
+                f32::INFINITY,
+                triangles[got.triangle as usize],
+            );
+            assert!(got.triangle == id || other.is_some_and(|h| h.t == t));
+            assert!((got.position - ray.at(t)).length() < 1e-3);
+            hits += 1;
+        }
+        assert_eq!(bvh.occluded(&ray), expected.is_some(), "{ray:?}");
+    }
+    assert!(hits > 1000, "too few hits ({hits}) to mean anything");
+}
+
+#[test]
+fn moving_an_instance_then_updating_matches_a_fresh_build() {
+    let scene = test_scene();
+    let mut bvh = SceneBvh::with_moving_instances(&scene, &[2]);
+    let moved = Mat4::from_scale_rotation_translation(
+        Vec3::new(1.5, 0.5, 1.0),
+        Quat::from_rotation_y(1.1),
+        Vec3::new(-3.0, 1.0, 2.0),
+    );
+    bvh.set_instance_transform(2, moved);
+    // The blob was static: moving it too rebuilds the static part once.
+    bvh.set_instance_transform(1, Mat4::from_translation(Vec3::new(0.0, 1.0, 3.0)));
+    bvh.update();
+
+    let mut moved_scene = scene.clone();
+    moved_scene.instances[2].transform = moved;
+    moved_scene.instances[1].transform = Mat4::from_translation(Vec3::new(0.0, 1.0, 3.0));
+    let fresh = SceneBvh::with_moving_instances(&moved_scene, &[1, 2]);
+    let fresh_static = SceneBvh::new(&moved_scene);
+
+    let mut rng = Pcg(5);
+    let mut agree_with_static = 0;
+    for _ in 0..3000 {
+        let ray = random_ray(&mut rng);
+        let (a, b) = (bvh.intersect(&ray), fresh.intersect(&ray));
+        assert_eq!(a, b, "{ray:?}");
+        assert_eq!(bvh.occluded(&ray), fresh.occluded(&ray));
+        let c = fresh_static.intersect(&ray);
+        let same = match (a, c) {
+            (Some(a), Some(c)) => a.triangle == c.triangle && (a.t - c.t).abs() <= 1e-4 * c.t,
+            (None, None) => true,
+            _ => false,
+        };
+        agree_with_static += same as u32;
+    }
+    // Instance-space and world-space intersection round differently only at edges.
+    assert!(agree_with_static >= 2990, "{agree_with_static}");
+}
+
+#[test]
+fn shading_attributes_are_interpolated_and_normals_are_unit() {
+    let scene = test_scene();
+    let bvh = SceneBvh::with_moving_instances(&scene, &[2]);
+    let mut rng = Pcg(6);
+    for _ in 0..500 {
+        let ray = random_ray(&mut rng);
+        if let Some(hit) = bvh.intersect(&ray) {
+            assert!((hit.geometric_normal.length() - 1.0).abs() < 1e-5);
+            assert!((hit.shading_normal.length() - 1.0).abs() < 1e-5);
+            assert_eq!(hit.front_face, hit.geometric_normal.dot(ray.dir) < 0.0);
+            assert!(hit.uv.is_finite() && hit.barycentrics.min_element() >= 0.0);
+            if hit.instance == 0 {
+                // The ground's vertex normals are all +Y.
+                assert!(hit.shading_normal.abs_diff_eq(Vec3::Y, 1e-6));
+            }
+        }
+    }
+}
+
+#[test]
+fn empty_scene_has_no_hits() {
+    let bvh = SceneBvh::new(&Scene::default());
+    let ray = Ray::new(Vec3::ZERO, Vec3::X);
+    assert!(bvh.intersect(&ray).is_none() && !bvh.occluded(&ray));
+    assert_eq!(bvh.triangle_count(), 0);
+}
+
+#[test]
+fn mirrored_instances_keep_their_outside_as_the_front_face() {
+    let mirror = Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0));
+    let scene = scene_of(vec![(icosphere(2), mirror)]);
+    for bvh in [
+        SceneBvh::new(&scene),
+        SceneBvh::with_moving_instances(&scene, &[0]),
+    ] {
+        let ray = Ray::new(Vec3::new(0.1, 0.2, 5.0), -Vec3::Z);
+        let hit = bvh.intersect(&ray).expect("hit");
+        assert!(hit.front_face && hit.geometric_normal.z > 0.9 && hit.shading_normal.z > 0.9);
+    }
+}
+
+/// A closed axis-aligned box `[-n, n]³` whose faces are `2n × 2n` grids, so BVH node boxes are
+/// flat and their corners coincide with vertices: the worst case for slab-test rounding.
+fn grid_box(n: i32) -> crate::scene::Mesh {
+    let mut mesh = crate::scene::Mesh {
+        name: String::from("grid box"),
+        ..Default::default()
+    };
+    for axis in 0..3 {
+        for side in [-n, n] {
+            for i in -n..n {
+                for j in -n..n {
+                    let corner = |a: i32, b: i32| {
+                        let mut p = [0.0f32; 3];
+                        p[axis] = side as f32;
+                        p[(axis + 1) % 3] = a as f32;
+                        p[(axis + 2) % 3] = b as f32;
+                        Vec3::from(p)
+                    };
+                    let base = mesh.positions.len() as u32;
+                    mesh.positions.extend([
+                        corner(i, j),
+                        corner(i + 1, j),
+                        corner(i + 1, j + 1),
+                        corner(i, j + 1),
+                    ]);
+                    mesh.triangles.push([base, base + 1, base + 2]);
+                    mesh.triangles.push([base, base + 2, base + 3]);
+                }
+            }
+        }
+    }
+    mesh.normals = mesh.positions.iter().map(|p| p.normalize()).collect();
+    mesh.uvs = vec![glam::Vec2::ZERO; mesh.positions.len()];
+    mesh
+}
+
+#[test]
+fn rays_from_inside_a_box_through_node_box_corners_always_hit() {
+    let mesh = grid_box(4);
+    let vertices = mesh.positions.clone();
+    for (transform, moving) in [
+        (Mat4::IDENTITY, false),
+        (
+            Mat4::from_scale_rotation_translation(
+                Vec3::new(3.0, 0.5, 1.7),
+                Quat::IDENTITY,
+                Vec3::new(0.3, -4.0, 2.0),
+            ),
+            false,
+        ),
+        (Mat4::from_scale(Vec3::new(0.001, 0.002, 0.001)), true),
+    ] {
+        let scene = scene_of(vec![(mesh.clone(), transform)]);
+        let moving_set: &[usize] = if moving { &[0] } else { &[] };
+        let bvh = SceneBvh::with_moving_instances(&scene, moving_set);
+        let mut rng = Pcg(7);
+        for &v in &vertices {
+            let target = transform.transform_point3(v);
+            for _ in 0..8 {
+                let local = 3.9 * Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) - 1.95;
+                let origin = transform.transform_point3(local);
+                let ray = Ray::new(origin, target - origin);
+                assert!(bvh.intersect(&ray).is_some(), "{ray:?} slipped through");
+                assert!(bvh.occluded(&ray), "{ray:?} slipped through (any-hit)");
+            }
+            for axis in AXES {
+                let origin = transform.transform_point3(v - 0.5 * axis);
+                let inside = (v - 0.5 * axis).abs().max_element() < 4.0;
+                let ray = Ray::new(origin, transform.transform_vector3(axis));
+                if inside {
+                    assert!(bvh.intersect(&ray).is_some(), "{ray:?} slipped through");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn scene_bvh_can_be_shared_between_tracing_threads() {
+    fn assert_send_sync<T: Send + Sync>() {}
+    assert_send_sync::<SceneBvh>();
+}
