@@ -9,10 +9,12 @@
 //! - [`passes`]: one explicit GPU pass per file.
 #![deny(unsafe_op_in_unsafe_fn)]
 
+pub mod frame;
 pub mod gpu;
 pub mod gpu_scene;
 pub mod layout;
 pub mod lighting;
+pub mod output;
 pub mod passes;
 pub mod photon;
 pub mod reference;

@@ -1,3 +1,208 @@
-fn main() {
-    println!("ispm");
+//! The `ispm` command line (DESIGN.md §7). Parsing and reporting only: the work is in the
+//! library.
+
+use anyhow::Context;
+use clap::{Parser, Subcommand, ValueEnum};
+use ispm::frame::{RenderSettings, Renderer};
+use ispm::gpu::{Gpu, GpuOptions};
+use ispm::output::{write_exr, write_png, OutputFormat};
+use ispm::passes::tonemap::Tonemap;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "ispm", version, about = "Real-time global illumination by Image Space Photon Mapping")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+    /// Vulkan physical device index (see `ispm info`); default: the best one.
+    #[arg(long, global = true)]
+    device: Option<usize>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render one frame headless to PNG (tonemapped) or EXR (linear HDR).
+    Render(RenderArgs),
+    /// Print the Vulkan devices, the driver, and the queues the renderer uses.
+    Info,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum Method {
+    /// Shadow-mapped deferred direct light only.
+    Direct,
+}
+
+#[derive(clap::Args)]
+struct RenderArgs {
+    /// A .gltf/.glb file or a bundled scene name (default: the bundled cornell-box).
+    scene: Option<String>,
+    /// Output image: .png (tonemapped sRGB) or .exr (linear HDR).
+    #[arg(short, long, default_value = "out.png")]
+    output: PathBuf,
+    /// Image size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "640x480", value_parser = parse_size)]
+    size: (u32, u32),
+    #[arg(long, value_enum, default_value = "direct")]
+    method: Method,
+    /// Display transform for PNG output.
+    #[arg(long, value_enum, default_value = "pbr-neutral")]
+    tonemap: Tonemap,
+    /// Exposure in stops (radiance × 2^EV before tonemapping).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    exposure: f32,
+    /// Shadow-map resolution per light view.
+    #[arg(long, default_value_t = 1024)]
+    shadow_resolution: u32,
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("size {s:?} is not WIDTHxHEIGHT"))?;
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .map_err(|_| format!("size {s:?} is not WIDTHxHEIGHT"))
+    };
+    let (w, h) = (parse(w)?, parse(h)?);
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        return Err(format!("size {s:?} must be between 1x1 and 16384x16384"));
+    }
+    Ok((w, h))
+}
+
+fn load_scene(arg: Option<&str>) -> anyhow::Result<ispm::scene::Scene> {
+    ispm::scene::bundled::resolve(arg)
+}
+
+fn gpu(cli_device: Option<usize>) -> anyhow::Result<std::sync::Arc<Gpu>> {
+    Gpu::new(&GpuOptions {
+        device_index: cli_device,
+        ..Default::default()
+    })
+    .context("cannot start Vulkan")
+}
+
+/// Fails when the validation layer reported anything (printing every message first).
+fn check_validation(gpu: &Gpu) -> anyhow::Result<()> {
+    let messages = gpu.validation_messages();
+    if messages.is_empty() {
+        return Ok(());
+    }
+    for m in &messages {
+        eprintln!("validation: {m}");
+    }
+    anyhow::bail!("the Vulkan validation layer reported {} message(s)", messages.len())
+}
+
+fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
+    let format = OutputFormat::from_path(&args.output)?;
+    let scene = load_scene(args.scene.as_deref())?;
+    let gpu = gpu(device)?;
+    let settings = RenderSettings {
+        width: args.size.0,
+        height: args.size.1,
+        shadow_resolution: args.shadow_resolution.clamp(16, 8192),
+        tonemap: args.tonemap,
+        exposure_ev: args.exposure,
+    };
+    let frame = {
+        let mut renderer = Renderer::new(&gpu, &scene, settings)?;
+        match args.method {
+            Method::Direct => renderer.render()?,
+        }
+    };
+    check_validation(&gpu)?;
+    match format {
+        OutputFormat::Png => write_png(&args.output, frame.width, frame.height, &frame.ldr)?,
+        OutputFormat::Exr => write_exr(&args.output, frame.width, frame.height, &frame.hdr)?,
+    }
+    for s in &frame.gpu_spans {
+        log::info!("{:>14}: {:.3} ms", s.name, s.ms());
+    }
+    eprintln!(
+        "wrote {} ({}x{}, {} triangles, {} lights)",
+        args.output.display(),
+        frame.width,
+        frame.height,
+        scene.triangle_count(),
+        scene.lights.len()
+    );
+    Ok(())
+}
+
+fn info(device: Option<usize>) -> anyhow::Result<()> {
+    let devices = ispm::gpu::list_devices().context("cannot start Vulkan")?;
+    println!("Vulkan devices:");
+    for (i, (p, ok)) in devices.iter().enumerate() {
+        let v = p.api_version;
+        println!(
+            "  [{i}] {} ({:?}), Vulkan {}.{}.{}, driver {} {}{}",
+            p.name,
+            p.device_type,
+            ispm::gpu::vk::api_version_major(v),
+            ispm::gpu::vk::api_version_minor(v),
+            ispm::gpu::vk::api_version_patch(v),
+            p.driver_name,
+            p.driver_info,
+            match ok {
+                Ok(()) => String::new(),
+                Err(why) => format!(" — unusable: {why}"),
+            }
+        );
+        for (f, q) in p.families.iter().enumerate() {
+            println!(
+                "      queue family {f}: {} queue(s), {:?}, timestamp bits {}",
+                q.queue_count, q.queue_flags, q.timestamp_valid_bits
+            );
+        }
+    }
+    let gpu = gpu(device)?;
+    let p = &gpu.properties;
+    println!("Using: {} ({})", p.name, p.driver_name);
+    for (role, name) in [
+        (ispm::gpu::QueueRole::Graphics, "graphics"),
+        (ispm::gpu::QueueRole::Compute, "compute"),
+        (ispm::gpu::QueueRole::Transfer, "transfer"),
+    ] {
+        let q = gpu.queue(role);
+        println!(
+            "  {name:>8}: queue family {} (queue {} of the renderer's {})",
+            q.family,
+            gpu.queue_index(role),
+            gpu.queue_list().len()
+        );
+    }
+    println!(
+        "  timestamps: {} ns/tick, calibrated timestamps: {}",
+        p.timestamp_period,
+        if p.calibrated_timestamps { "yes" } else { "no" }
+    );
+    println!(
+        "  validation: {}",
+        if gpu.validation { "on" } else { "off (ISPM_VALIDATION=1 turns it on)" }
+    );
+    check_validation(&gpu)
+}
+
+fn main() -> ExitCode {
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    // A bug must still end in one clear line, not a backtrace dump.
+    std::panic::set_hook(Box::new(|info| {
+        eprintln!("ispm: internal error: {info}");
+    }));
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Render(args) => render(args, cli.device),
+        Command::Info => info(cli.device),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("ispm: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
 }

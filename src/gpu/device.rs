@@ -89,13 +89,13 @@ pub(super) enum Retired {
 
 /// Everything the renderer knows about the Vulkan device.
 pub struct Gpu {
-    pub(super) entry: ash::Entry,
+    /// Keeps the Vulkan loader library loaded while the instance lives.
+    _entry: ash::Entry,
     pub(super) instance: ash::Instance,
     debug_utils_instance: ash::ext::debug_utils::Instance,
     messenger: vk::DebugUtilsMessengerEXT,
     validation_log: Box<ValidationLog>,
     pub(super) debug_utils: ash::ext::debug_utils::Device,
-    pub(super) physical: vk::PhysicalDevice,
     pub(super) device: ash::Device,
     pub properties: DeviceProperties,
     /// Distinct queues; roles index into this.
@@ -253,13 +253,12 @@ impl Gpu {
         })?;
 
         let gpu = Arc::new(Gpu {
-            entry: parts.entry,
+            _entry: parts.entry,
             instance,
             debug_utils_instance: parts.debug_utils,
             messenger: parts.messenger,
             validation_log: parts.log,
             debug_utils,
-            physical,
             device,
             properties,
             queues,

@@ -1,0 +1,294 @@
+//! The frame, as an ordered script of passes.
+//!
+//! ```text
+//!   shadow_maps ──► eye_gbuffer ──► direct ──► tonemap ──► (readback)
+//!   light views     camera          HDR radiance  8-bit
+//! ```
+//!
+//! Everything is recorded into one command buffer on the graphics queue and timed per pass.
+//! (The photon passes and the overlapped multi-queue schedule of the paper's Figure 3 join this
+//! script in later work.)
+
+use crate::gpu::{
+    vk, Buffer, Gpu, Image, ImageDesc, MemoryLocation, QueueRole, Span, Timestamps,
+    ViewKind,
+};
+use crate::gpu_scene::GpuScene;
+use crate::layout::FrameUniforms;
+use crate::lighting::LightSetup;
+use crate::passes::direct::{DirectInputs, DirectPass};
+use crate::passes::eye_gbuffer::{EyeGBufferPass, GBuffer};
+use crate::passes::shadow_map::{self, ShadowMapPass};
+use crate::passes::tonemap::{self, Tonemap, TonemapPass};
+use crate::scene::{Camera, Light, Scene};
+use glam::{DMat4, UVec4, Vec4};
+use std::sync::Arc;
+
+/// What to render and how.
+#[derive(Clone, Debug)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    /// Shadow-map resolution per light view (texels per side).
+    pub shadow_resolution: u32,
+    pub tonemap: Tonemap,
+    /// Exposure in stops: the radiance is multiplied by 2^EV before tonemapping.
+    pub exposure_ev: f32,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        Self {
+            width: 640,
+            height: 480,
+            shadow_resolution: 1024,
+            tonemap: Tonemap::default(),
+            exposure_ev: 0.0,
+        }
+    }
+}
+
+/// A rendered frame read back to the host.
+#[derive(Clone, Debug)]
+pub struct FrameImage {
+    pub width: u32,
+    pub height: u32,
+    /// Linear HDR radiance, RGBA f32, top row first.
+    pub hdr: Vec<f32>,
+    /// Tonemapped sRGB, RGBA8, top row first.
+    pub ldr: Vec<u8>,
+    /// GPU time of each pass.
+    pub gpu_spans: Vec<Span>,
+}
+
+/// Renders frames of one scene at one size.
+pub struct Renderer {
+    gpu: Arc<Gpu>,
+    settings: RenderSettings,
+    camera: Camera,
+    lights: Vec<Light>,
+    scene: GpuScene,
+    frame_uniforms: Buffer,
+    light_buffer: Buffer,
+    view_buffer: Buffer,
+    gbuffer: GBuffer,
+    shadow_atlas: Image,
+    radiance: Image,
+    display: Image,
+    shadow_maps: ShadowMapPass,
+    eye_gbuffer: EyeGBufferPass,
+    direct: DirectPass,
+    tonemap: TonemapPass,
+    timestamps: Arc<Timestamps>,
+}
+
+fn host_buffer(gpu: &Arc<Gpu>, name: &str, size: usize, usage: vk::BufferUsageFlags) -> anyhow::Result<Buffer> {
+    Ok(Buffer::new(gpu, name, size as u64, usage, MemoryLocation::CpuToGpu)?)
+}
+
+impl Renderer {
+    pub fn new(gpu: &Arc<Gpu>, scene: &Scene, settings: RenderSettings) -> anyhow::Result<Self> {
+        anyhow::ensure!(
+            settings.width > 0 && settings.height > 0,
+            "image size {}x{} is empty",
+            settings.width,
+            settings.height
+        );
+        let gpu_scene = GpuScene::new(gpu, scene)?;
+        let setup = LightSetup::new(
+            &scene.lights,
+            scene.camera.position().as_dvec3(),
+            &gpu_scene.bounds,
+            settings.shadow_resolution,
+        );
+        let frame_uniforms = host_buffer(
+            gpu,
+            "frame.uniforms",
+            size_of::<FrameUniforms>(),
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+        )?;
+        let light_buffer = host_buffer(
+            gpu,
+            "frame.lights",
+            size_of::<crate::layout::GpuLight>() * setup.lights.len().max(1),
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+        )?;
+        let view_buffer = host_buffer(
+            gpu,
+            "frame.shadow_views",
+            size_of::<crate::layout::ShadowView>() * setup.views.len().max(1),
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+        )?;
+        let gbuffer = GBuffer::new(gpu, settings.width, settings.height)?;
+        let shadow_atlas = shadow_map::atlas(
+            gpu,
+            settings.shadow_resolution,
+            setup.views.len() as u32,
+        )?;
+        let radiance = Image::new(
+            gpu,
+            &ImageDesc {
+                name: "radiance",
+                format: vk::Format::R32G32B32A32_SFLOAT,
+                width: settings.width,
+                height: settings.height,
+                layers: 1,
+                usage: vk::ImageUsageFlags::STORAGE
+                    | vk::ImageUsageFlags::SAMPLED
+                    | vk::ImageUsageFlags::TRANSFER_SRC,
+                view: ViewKind::D2,
+            },
+        )?;
+        let display = tonemap::output(gpu, settings.width, settings.height)?;
+        let shadow_maps = ShadowMapPass::new(gpu)?;
+        let eye_gbuffer = EyeGBufferPass::new(gpu, &gpu_scene, &frame_uniforms)?;
+        let direct = DirectPass::new(
+            gpu,
+            &DirectInputs {
+                frame: &frame_uniforms,
+                materials: &gpu_scene.materials,
+                lights: &light_buffer,
+                shadow_views: &view_buffer,
+                gbuffer: &gbuffer,
+                shadow_atlas: &shadow_atlas,
+            },
+            &radiance,
+        )?;
+        let tonemap = TonemapPass::new(gpu, &radiance, &display)?;
+        let timestamps = Timestamps::new(gpu, "frame.timestamps", 32)?;
+        Ok(Self {
+            gpu: gpu.clone(),
+            settings,
+            camera: scene.camera,
+            lights: scene.lights.clone(),
+            scene: gpu_scene,
+            frame_uniforms,
+            light_buffer,
+            view_buffer,
+            gbuffer,
+            shadow_atlas,
+            radiance,
+            display,
+            shadow_maps,
+            eye_gbuffer,
+            direct,
+            tonemap,
+            timestamps,
+        })
+    }
+
+    /// Camera-relative world → clip for the eye (reversed-Z, infinite far plane).
+    fn eye_view_proj(&self) -> DMat4 {
+        let c = self.camera.transform.as_dmat4();
+        let rotation_only = DMat4::from_cols(c.x_axis, c.y_axis, c.z_axis, glam::DVec4::W);
+        let aspect = f64::from(self.settings.width) / f64::from(self.settings.height);
+        let proj = glam::dcamera::rh::proj::vulkan::perspective_infinite_reverse(
+            f64::from(self.camera.yfov),
+            aspect,
+            f64::from(self.camera.znear),
+        );
+        proj * rotation_only.inverse()
+    }
+
+    /// Renders one frame, waits for it, and reads the images back.
+    pub fn render(&mut self) -> anyhow::Result<FrameImage> {
+        let gpu = self.gpu.clone();
+        let camera_pos = self.camera.position().as_dvec3();
+        let setup = LightSetup::new(
+            &self.lights,
+            camera_pos,
+            &self.scene.bounds,
+            self.settings.shadow_resolution,
+        );
+        let view_proj = self.eye_view_proj();
+        let uniforms = FrameUniforms {
+            view_proj: view_proj.as_mat4(),
+            inv_view_proj: view_proj.inverse().as_mat4(),
+            camera_pos: camera_pos.as_vec3().extend(1.0),
+            counts: UVec4::new(
+                setup.lights.len() as u32,
+                setup.views.len() as u32,
+                self.settings.width,
+                self.settings.height,
+            ),
+            params: Vec4::new(
+                1.0 / self.settings.shadow_resolution.max(1) as f32,
+                self.scene.bounds.extent().length(),
+                0.0,
+                0.0,
+            ),
+        };
+        self.frame_uniforms.write(0, bytemuck::bytes_of(&uniforms))?;
+        self.light_buffer.write(0, bytemuck::cast_slice(&setup.lights))?;
+        self.view_buffer.write(0, bytemuck::cast_slice(&setup.views))?;
+
+        let shadow_draws: Vec<_> = setup
+            .view_matrices
+            .iter()
+            .map(|&m| self.scene.draws(camera_pos, Some(m)))
+            .collect();
+        let eye_draws = self.scene.draws(camera_pos, None);
+
+        self.timestamps.reset();
+        let rec = gpu.record(QueueRole::Graphics, "frame", Some(self.timestamps.clone()))?;
+        {
+            let cmd = rec.cmd();
+            let _frame = cmd.scope("frame");
+            self.shadow_maps
+                .record(&cmd, &self.scene, &shadow_draws, &mut self.shadow_atlas);
+            self.eye_gbuffer
+                .record(&cmd, &self.scene, &eye_draws, &mut self.gbuffer);
+            let inputs = DirectInputs {
+                frame: &self.frame_uniforms,
+                materials: &self.scene.materials,
+                lights: &self.light_buffer,
+                shadow_views: &self.view_buffer,
+                gbuffer: &self.gbuffer,
+                shadow_atlas: &self.shadow_atlas,
+            };
+            self.direct.record(&cmd, &inputs, &mut self.radiance);
+            self.tonemap.record(
+                &cmd,
+                &self.radiance,
+                self.settings.tonemap,
+                self.settings.exposure_ev,
+                &mut self.display,
+            );
+        }
+        let done = gpu.submit(rec, &[])?;
+        gpu.wait(done)?;
+        let gpu_spans = self.timestamps.read()?;
+        let hdr_bytes = gpu.read_image(&self.radiance)?;
+        let ldr = gpu.read_image(&self.display)?;
+        let hdr: Vec<f32> = bytemuck::pod_collect_to_vec(&hdr_bytes);
+        gpu.collect_garbage();
+        Ok(FrameImage {
+            width: self.settings.width,
+            height: self.settings.height,
+            hdr,
+            ldr,
+            gpu_spans,
+        })
+    }
+
+    pub fn gpu(&self) -> &Arc<Gpu> {
+        &self.gpu
+    }
+
+    /// The scene's triangle count (for statistics).
+    pub fn triangles(&self) -> usize {
+        self.scene.triangles
+    }
+
+    /// Reads back one of the eye G-buffer's colour images, by name, as raw texels.
+    pub fn read_gbuffer(&self, which: &str) -> anyhow::Result<Vec<u8>> {
+        let image = match which {
+            "position" => &self.gbuffer.position,
+            "normal" => &self.gbuffer.normal,
+            "albedo" => &self.gbuffer.albedo,
+            "material" => &self.gbuffer.material,
+            other => anyhow::bail!("no G-buffer image named {other}"),
+        };
+        self.gpu.read_image(image)
+    }
+}

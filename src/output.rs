@@ -1,0 +1,103 @@
+//! Writing images: PNG (tonemapped sRGB) and OpenEXR (linear HDR radiance).
+//!
+//! Outputs are written atomically: into a temporary file beside the target, then renamed over
+//! it, so an interrupted or failed render never leaves a half-written file behind.
+
+use anyhow::Context;
+use std::path::{Path, PathBuf};
+
+/// The image formats `-o` understands, chosen by extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutputFormat {
+    Png,
+    Exr,
+}
+
+impl OutputFormat {
+    pub fn from_path(path: &Path) -> anyhow::Result<OutputFormat> {
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .as_deref()
+        {
+            Some("png") => Ok(OutputFormat::Png),
+            Some("exr") => Ok(OutputFormat::Exr),
+            _ => anyhow::bail!(
+                "{}: unknown output format (use a .png or .exr file name)",
+                path.display()
+            ),
+        }
+    }
+}
+
+/// Writes `bytes` produced by `write` to `path` atomically.
+pub fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&mut std::fs::File) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    anyhow::ensure!(
+        dir.is_dir(),
+        "{}: the folder {} does not exist",
+        path.display(),
+        dir.display()
+    );
+    let name = path
+        .file_name()
+        .with_context(|| format!("{}: not a file name", path.display()))?;
+    let tmp = dir.join(format!(
+        ".{}.{}.tmp",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
+    let result = (|| {
+        let mut file = std::fs::File::create(&tmp)
+            .with_context(|| format!("{}: cannot create", tmp.display()))?;
+        write(&mut file)?;
+        file.sync_all()
+            .with_context(|| format!("{}: cannot write", tmp.display()))?;
+        std::fs::rename(&tmp, path)
+            .with_context(|| format!("{}: cannot write", path.display()))
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// Writes an RGBA8 image as PNG.
+pub fn write_png(path: &Path, width: u32, height: u32, rgba8: &[u8]) -> anyhow::Result<()> {
+    let img = image::RgbaImage::from_raw(width, height, rgba8.to_vec())
+        .with_context(|| format!("{}: image data does not match {width}x{height}", path.display()))?;
+    write_atomically(path, |f| {
+        img.write_to(f, image::ImageFormat::Png)
+            .with_context(|| format!("{}: PNG encoding failed", path.display()))
+    })
+}
+
+/// Writes linear RGBA f32 radiance as OpenEXR (alpha set to 1).
+pub fn write_exr(path: &Path, width: u32, height: u32, rgba: &[f32]) -> anyhow::Result<()> {
+    let mut pixels = rgba.to_vec();
+    for px in pixels.chunks_exact_mut(4) {
+        px[3] = 1.0;
+    }
+    let img = image::Rgba32FImage::from_raw(width, height, pixels)
+        .with_context(|| format!("{}: image data does not match {width}x{height}", path.display()))?;
+    write_atomically(path, |f| {
+        image::DynamicImage::ImageRgba32F(img)
+            .write_to(f, image::ImageFormat::OpenExr)
+            .with_context(|| format!("{}: EXR encoding failed", path.display()))
+    })
+}
+
+/// Reads an EXR back as RGBA f32 (tests and `ispm sweep` use it).
+pub fn read_exr(path: &Path) -> anyhow::Result<(u32, u32, Vec<f32>)> {
+    let img = image::open(path)
+        .with_context(|| format!("{}: cannot read EXR", path.display()))?
+        .into_rgba32f();
+    Ok((img.width(), img.height(), img.into_raw()))
+}

@@ -1,0 +1,85 @@
+//! Shadow maps: the scene's depth seen from every light view, one layer of the shadow atlas
+//! each (see `lighting.rs` for which views a light gets).
+
+use crate::gpu::{
+    vk, Attachment, Cmd, Depth, GpuResult, Gpu, GraphicsDesc, Image, ImageDesc, Load, Pipeline,
+    ViewKind,
+};
+use crate::gpu_scene::{Draw, GpuScene};
+use crate::layout::{DrawPush, Vertex};
+use std::sync::Arc;
+
+pub const FORMAT: vk::Format = vk::Format::D32_SFLOAT;
+
+pub struct ShadowMapPass {
+    pipeline: Pipeline,
+}
+
+/// The depth array every light view renders into.
+pub fn atlas(gpu: &Arc<Gpu>, resolution: u32, layers: u32) -> GpuResult<Image> {
+    Image::new(
+        gpu,
+        &ImageDesc {
+            name: "shadow_atlas",
+            format: FORMAT,
+            width: resolution,
+            height: resolution,
+            layers: layers.max(1),
+            usage: vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
+            view: ViewKind::D2Array,
+        },
+    )
+}
+
+impl ShadowMapPass {
+    pub fn new(gpu: &Arc<Gpu>) -> GpuResult<Self> {
+        let attributes = super::vertex_attributes();
+        let pipeline = Pipeline::graphics(
+            gpu,
+            &GraphicsDesc {
+                name: "shadow_map",
+                vertex: &crate::gpu::shader_table::SHADOW_MAP_VERT,
+                fragment: None,
+                vertex_stride: size_of::<Vertex>() as u32,
+                vertex_attributes: &attributes[..1],
+                color_formats: &[],
+                blend: crate::gpu::Blend::Off,
+                depth: Some(Depth {
+                    format: FORMAT,
+                    test: true,
+                    write: true,
+                    compare: vk::CompareOp::LESS_OR_EQUAL,
+                    bias: Some((1.0, 1.5)),
+                }),
+                // Both faces: thin and open geometry must cast shadows too.
+                cull: vk::CullModeFlags::NONE,
+                set_layouts: &[],
+                push_constant_size: size_of::<DrawPush>() as u32,
+            },
+        )?;
+        Ok(Self { pipeline })
+    }
+
+    /// Renders `views[i]` (each instance's draw for view i) into layer i of `atlas`.
+    pub fn record(&self, cmd: &Cmd, scene: &GpuScene, views: &[Vec<Draw>], atlas: &mut Image) {
+        let _scope = cmd.scope("shadow_maps");
+        for (layer, draws) in views.iter().enumerate() {
+            cmd.begin_rendering(
+                &[],
+                Some(&Attachment {
+                    image: atlas,
+                    layer: layer as u32,
+                    load: Load::Clear([1.0; 4]),
+                }),
+            );
+            cmd.bind_pipeline(&self.pipeline);
+            cmd.bind_vertex_buffer(&scene.vertices);
+            cmd.bind_index_buffer(&scene.indices);
+            for d in draws {
+                cmd.push_constants(&self.pipeline, &d.push);
+                cmd.draw_indexed(d.range.index_count, d.range.first_index, d.range.vertex_offset);
+            }
+            cmd.end_rendering();
+        }
+    }
+}

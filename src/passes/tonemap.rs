@@ -1,0 +1,129 @@
+//! Tonemapping (compute): HDR radiance × 2^EV → operator → sRGB, into an 8-bit image.
+
+use crate::gpu::{
+    vk, Access, Binding, BindingKind, Cmd, ComputeDesc, DescriptorLayout, DescriptorSet, Filter,
+    Gpu, Image, ImageDesc, Pipeline, Sampler, ViewKind, Write,
+};
+use crate::shared_constants::{TONEMAP_ACES, TONEMAP_LINEAR, TONEMAP_PBR_NEUTRAL};
+use std::sync::Arc;
+
+pub const FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
+
+/// A display transform (`--tonemap`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Tonemap {
+    /// Clamp to [0, 1].
+    Linear,
+    /// Stephen Hill's fit of ACES (RRT + sRGB ODT).
+    Aces,
+    /// Khronos PBR Neutral: keeps base colours faithful up to the highlights.
+    #[default]
+    PbrNeutral,
+}
+
+impl Tonemap {
+    pub fn id(self) -> u32 {
+        match self {
+            Tonemap::Linear => TONEMAP_LINEAR,
+            Tonemap::Aces => TONEMAP_ACES,
+            Tonemap::PbrNeutral => TONEMAP_PBR_NEUTRAL,
+        }
+    }
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Push {
+    exposure: f32,
+    op: u32,
+    width: u32,
+    height: u32,
+}
+
+pub struct TonemapPass {
+    pipeline: Pipeline,
+    _layout: DescriptorLayout,
+    set: DescriptorSet,
+    _sampler: Sampler,
+}
+
+/// The 8-bit output image.
+pub fn output(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<Image> {
+    Ok(Image::new(
+        gpu,
+        &ImageDesc {
+            name: "tonemap.output",
+            format: FORMAT,
+            width,
+            height,
+            layers: 1,
+            usage: vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC,
+            view: ViewKind::D2,
+        },
+    )?)
+}
+
+impl TonemapPass {
+    pub fn new(gpu: &Arc<Gpu>, hdr: &Image, ldr: &Image) -> anyhow::Result<Self> {
+        let c = vk::ShaderStageFlags::COMPUTE;
+        let layout = DescriptorLayout::new(
+            gpu,
+            "tonemap",
+            &[
+                Binding {
+                    binding: 0,
+                    kind: BindingKind::SampledImage,
+                    stages: c,
+                },
+                Binding {
+                    binding: 1,
+                    kind: BindingKind::StorageImage,
+                    stages: c,
+                },
+            ],
+            1,
+        )?;
+        let sampler = Sampler::new(gpu, "tonemap.nearest", Filter::Nearest, false)?;
+        let set = layout.allocate(&[
+            Write::Image {
+                image: hdr,
+                sampler: &sampler,
+            },
+            Write::StorageImage(ldr),
+        ])?;
+        let pipeline = Pipeline::compute(
+            gpu,
+            &ComputeDesc {
+                name: "tonemap",
+                shader: &crate::gpu::shader_table::TONEMAP_COMP,
+                set_layouts: &[&layout],
+                push_constant_size: size_of::<Push>() as u32,
+            },
+        )?;
+        Ok(Self {
+            pipeline,
+            _layout: layout,
+            set,
+            _sampler: sampler,
+        })
+    }
+
+    pub fn record(&self, cmd: &Cmd, hdr: &Image, tonemap: Tonemap, exposure_ev: f32, ldr: &mut Image) {
+        let _scope = cmd.scope("tonemap");
+        cmd.transition(hdr, Access::ComputeSampledRead);
+        cmd.transition(ldr, Access::ComputeStorageWrite);
+        cmd.bind_pipeline(&self.pipeline);
+        cmd.bind_sets(&self.pipeline, 0, &[self.set]);
+        cmd.push_constants(
+            &self.pipeline,
+            &Push {
+                exposure: exposure_ev.exp2(),
+                op: tonemap.id(),
+                width: ldr.width,
+                height: ldr.height,
+            },
+        );
+        cmd.dispatch(super::groups(ldr.width), super::groups(ldr.height), 1);
+    }
+}
