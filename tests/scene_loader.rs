@@ -783,3 +783,34 @@ fn base_color_png_becomes_an_rgba8_texture() {
     assert_eq!((t.width, t.height), (2, 3));
     assert_eq!(&t.rgba8[..8], &[0, 0, 7, 255, 100, 0, 7, 255]);
 }
+
+#[test]
+fn inconsistent_light_and_camera_objects_are_errors_not_panics() {
+    let cases = [
+        json!({"extensions": {"KHR_lights_punctual": {"lights": [{"type": "spot", "intensity": 1}]}}}),
+        json!({"extensions": {"KHR_lights_punctual": {"lights": [{"type": "sun"}]}}}),
+        json!({"extensions": {"KHR_lights_punctual": {"lights": []}}}),
+        json!({}),
+        json!({"cameras": [{"type": "perspective"}]}),
+        json!({"cameras": [{"type": "orthographic"}]}),
+        json!({"cameras": [{"type": "fisheye", "perspective": {"yfov": 1, "znear": 0.1}}]}),
+    ];
+    for (i, extra) in cases.iter().enumerate() {
+        let mut f = Fixture::triangle();
+        for (k, v) in extra.as_object().unwrap() {
+            f.doc[k] = v.clone();
+        }
+        let node = if extra.get("cameras").is_some() {
+            json!({"camera": 0})
+        } else {
+            json!({"extensions": {"KHR_lights_punctual": {"light": 0}}})
+        };
+        push(&mut f.doc["nodes"], node);
+        f.doc["scenes"][0]["nodes"] = json!([0, 1]);
+        let r = std::panic::catch_unwind(|| f.load());
+        match r {
+            Ok(r) => assert_error(r, "fixture.gltf", "invalid"),
+            Err(_) => panic!("case {i} panicked"),
+        }
+    }
+}
