@@ -153,6 +153,9 @@ fn convert_inner(
         if info.tex_coord() != 0 {
             log::warn!("{file}: material {name}: base colour texture uses TEXCOORD_{}; only TEXCOORD_0 is loaded", info.tex_coord());
         }
+        if info.texture_transform().is_some() {
+            log::warn!("{file}: material {name}: KHR_texture_transform is not applied yet");
+        }
         out.lambertian_texture = Some(textures.get(&info.texture().source())?);
     }
     if let Some(raw) = mat.extras() {

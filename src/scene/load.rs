@@ -195,8 +195,9 @@ impl Builder<'_, '_, '_> {
             self.instance(node, &mesh, world)?;
         }
         if let Some(light) = node.light() {
-            let l = convert_light(self.file, &light, world).with_context(what)?;
-            self.scene.lights.push(l);
+            if let Some(l) = convert_light(self.file, &light, world).with_context(what)? {
+                self.scene.lights.push(l);
+            }
         }
         if let Some(camera) = node.camera() {
             if let Some(c) = convert_camera(self.file, &camera, world).with_context(what)? {
@@ -323,7 +324,7 @@ fn convert_light(
     file: &str,
     light: &gltf::khr_lights_punctual::Light,
     world: Mat4,
-) -> Result<Light> {
+) -> Result<Option<Light>> {
     let name = light
         .name()
         .map(str::to_owned)
@@ -338,10 +339,10 @@ fn convert_light(
         color.cmpge(Vec3::ZERO).all() && intensity >= 0.0,
         "light {name}: negative colour or intensity"
     );
-    let direction = world
-        .transform_vector3(Vec3::NEG_Z)
-        .try_normalize()
-        .ok_or_else(|| anyhow!("light {name}: transform collapses its direction"))?;
+    let Some(direction) = world.transform_vector3(Vec3::NEG_Z).try_normalize() else {
+        log::warn!("{file}: light {name}: node transform collapses its direction; light skipped");
+        return Ok(None);
+    };
     let position = world.transform_point3(Vec3::ZERO);
     use gltf::khr_lights_punctual::Kind;
     let (kind, scale) = match light.kind() {
@@ -361,13 +362,13 @@ fn convert_light(
             )
         }
     };
-    Ok(Light {
+    Ok(Some(Light {
         name,
         kind,
         position,
         direction,
         intensity: color * scale,
-    })
+    }))
 }
 
 /// Validates spot cone angles: repairs small slips (with a warning), rejects nonsense.
