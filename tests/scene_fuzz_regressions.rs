@@ -105,5 +105,5 @@ fn mutated_bundled_scenes_never_panic_the_loader_long() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(200_000);
-    mutation_run(n, 0x15_9a_2009);
+    mutation_run(n, 0x159a_2009);
 }
