@@ -30,6 +30,8 @@ use std::path::Path;
 const MIRROR_EXPONENT: f64 = 1e6;
 /// Largest texture side we decode.
 const MAX_TEXTURE_SIDE: u32 = 16384;
+/// Most decoded texture bytes (all images together) a scene may hold.
+const MAX_TEXTURE_BYTES: usize = 1 << 30;
 
 /// The `{"ispm": {...}}` material extras: exact über-BSDF parameters.
 #[derive(Deserialize, Default)]
@@ -245,6 +247,7 @@ pub struct TextureCache<'a, 'b> {
     pub base_dir: Option<&'b Path>,
     pub textures: Vec<Texture>,
     by_image: HashMap<usize, TextureId>,
+    bytes: usize,
 }
 
 impl<'a, 'b> TextureCache<'a, 'b> {
@@ -254,6 +257,7 @@ impl<'a, 'b> TextureCache<'a, 'b> {
             base_dir,
             textures: Vec::new(),
             by_image: HashMap::new(),
+            bytes: 0,
         }
     }
 
@@ -267,6 +271,11 @@ impl<'a, 'b> TextureCache<'a, 'b> {
             gltf::image::Source::Uri { uri, .. } => read_uri(uri, self.base_dir, &what)?,
         };
         let texture = decode_image(&bytes).with_context(|| what.clone())?;
+        self.bytes += texture.rgba8.len();
+        ensure!(
+            self.bytes <= MAX_TEXTURE_BYTES,
+            "absurd size: decoded textures exceed {MAX_TEXTURE_BYTES} bytes at {what}"
+        );
         let texture = Texture {
             name: image.name().map(str::to_owned).unwrap_or(what),
             ..texture
@@ -285,7 +294,7 @@ fn decode_image(bytes: &[u8]) -> Result<Texture> {
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(MAX_TEXTURE_SIDE);
     limits.max_image_height = Some(MAX_TEXTURE_SIDE);
-    limits.max_alloc = Some(1 << 30);
+    limits.max_alloc = Some(MAX_TEXTURE_BYTES as u64);
     reader.limits(limits);
     let img = reader
         .decode()

@@ -101,7 +101,14 @@ pub fn convert_primitive(
             mesh.normals = normals;
             repair_normals(file, &mut mesh);
         }
-        None => flat_normals(&mut mesh),
+        None => {
+            ensure!(
+                mesh.triangles.len() * 3 <= MAX_VERTICES,
+                "absurd size: flat normals for {} triangles need more than {MAX_VERTICES} vertices",
+                mesh.triangles.len()
+            );
+            flat_normals(&mut mesh)
+        }
     }
     Ok(Some(mesh))
 }
