@@ -1,8 +1,452 @@
-//! glTF 2.0 (.gltf / .glb) → [`Scene`](super::Scene). Owned by the scene-loader work.
-use super::Scene;
+//! glTF 2.0 (`.gltf` / `.glb`) → [`Scene`].
+//!
+//! The loader reads the default scene (the `scene` property, else scene 0, else every root
+//! node), flattens its node hierarchy into [`Instance`]s, converts each triangle primitive
+//! into one [`Mesh`] ([`gltf_mesh`](super::gltf_mesh)), each material into über-BSDF
+//! parameters ([`gltf_material`](super::gltf_material)), KHR_lights_punctual lights into
+//! radiometric [`Light`]s ([`units`](super::units)) and perspective cameras into [`Camera`]s.
+//!
+//! Every error is one line that starts with the file's name. Input that can still be
+//! rendered is repaired with a `log::warn!`; everything else is rejected. `docs/scenes.md`
+//! lists which is which.
+
+use super::gltf_data::{split_glb, Buffers, MAX_VERTICES};
+use super::gltf_material::{convert_material, TextureCache};
+use super::gltf_mesh::convert_primitive;
+use super::units::{candela_to_watts_per_sr, lux_to_watts_per_m2};
+use super::{Camera, Instance, Light, LightKind, Material, MaterialId, MeshId, Scene};
+use anyhow::{anyhow, bail, ensure, Context, Result};
+use glam::{Mat4, Quat, Vec3};
+use std::collections::HashMap;
+use std::f32::consts::FRAC_PI_2;
 use std::path::Path;
 
-/// Load a scene from a `.gltf` or `.glb` file.
-pub fn load(path: &Path) -> anyhow::Result<Scene> {
-    anyhow::bail!("{}: glTF loading is not implemented yet", path.display())
+/// Extensions the loader understands; a file that *requires* any other is rejected.
+pub const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_transmission",
+    "KHR_materials_ior",
+    "KHR_materials_specular",
+    "KHR_materials_emissive_strength",
+    "KHR_texture_transform",
+];
+
+/// Deepest node hierarchy accepted (deeper is almost surely a cycle).
+const MAX_NODE_DEPTH: usize = 256;
+/// Most instances (node × mesh placements) accepted.
+const MAX_INSTANCES: usize = 1 << 20;
+
+/// Load a scene from a `.gltf` or `.glb` file. External buffers and images are resolved
+/// relative to the file's directory.
+pub fn load(path: &Path) -> Result<Scene> {
+    let name = path.display().to_string();
+    let meta = std::fs::metadata(path).map_err(|e| match e.kind() {
+        std::io::ErrorKind::NotFound => anyhow!("{name}: file not found"),
+        _ => anyhow!("{name}: cannot read file: {e}"),
+    })?;
+    ensure!(!meta.is_dir(), "{name}: is a directory, not a glTF file");
+    ensure!(
+        meta.len() <= super::gltf_data::MAX_FILE_BYTES,
+        "{name}: file is absurdly large ({} bytes)",
+        meta.len()
+    );
+    let bytes = std::fs::read(path).map_err(|e| anyhow!("{name}: cannot read file: {e}"))?;
+    let is_glb = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("glb"));
+    if is_glb && !bytes.is_empty() && !bytes.starts_with(b"glTF") {
+        bail!("{name}: not a GLB file (bad magic)");
+    }
+    load_from_slice(&bytes, &name, path.parent())
+}
+
+/// Load a scene from the bytes of a `.gltf` (JSON) or `.glb` (binary) file. `name` appears in
+/// every error and warning; `base_dir` resolves external buffers and images (`None`: the scene
+/// must be self-contained).
+pub fn load_from_slice(bytes: &[u8], name: &str, base_dir: Option<&Path>) -> Result<Scene> {
+    load_inner(bytes, name, base_dir).map_err(|e| anyhow!("{name}: {e:#}"))
+}
+
+fn load_inner(bytes: &[u8], file: &str, base_dir: Option<&Path>) -> Result<Scene> {
+    ensure!(!bytes.is_empty(), "file is empty");
+    let (json, bin) = if bytes.starts_with(b"glTF") {
+        let glb = split_glb(bytes)?;
+        (glb.json, glb.bin)
+    } else {
+        (bytes, None)
+    };
+    let doc = parse_document(json)?;
+    let buffers = Buffers::resolve(&doc, bin, base_dir)?;
+    let mut builder = Builder {
+        file,
+        textures: TextureCache::new(&buffers, base_dir),
+        buffers: &buffers,
+        scene: Scene::default(),
+        meshes_of: HashMap::new(),
+        default_material: None,
+        vertices: 0,
+    };
+    builder.materials(&doc)?;
+    builder.nodes(&doc)?;
+    builder.finish()
+}
+
+/// Parses and validates the JSON; checks `extensionsRequired` against what we support.
+fn parse_document(json: &[u8]) -> Result<gltf::Document> {
+    let mut root: gltf::json::Root =
+        gltf::json::deserialize::from_slice(json).map_err(|e| anyhow!("malformed JSON: {e}"))?;
+    let unsupported: Vec<&str> = root
+        .extensions_required
+        .iter()
+        .map(String::as_str)
+        .filter(|e| !SUPPORTED_EXTENSIONS.contains(e))
+        .collect();
+    ensure!(
+        unsupported.is_empty(),
+        "requires unsupported extension(s): {}",
+        unsupported.join(", ")
+    );
+    // Our own list is authoritative; the gltf crate's validator would reject some we handle.
+    root.extensions_required.clear();
+    // The validator indexes `accessors` with POSITION's index before checking it.
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            for index in prim.attributes.values() {
+                ensure!(
+                    index.value() < root.accessors.len(),
+                    "invalid glTF: meshes[{m}].primitives[{p}] names accessor {} of {}",
+                    index.value(),
+                    root.accessors.len()
+                );
+            }
+        }
+    }
+    use gltf::json::validation::{Error as Invalid, Validate};
+    let mut errors = Vec::new();
+    root.validate(&root, gltf::json::Path::new, &mut |path, err| {
+        let p = path();
+        // Lenient where the spec's strictness buys us nothing: POSITION min/max are unused.
+        let unused = matches!(err, Invalid::Missing)
+            && (p.as_str().ends_with(".min") || p.as_str().ends_with(".max"));
+        if !unused {
+            errors.push(format!("{p}: {err}"));
+        }
+    });
+    if !errors.is_empty() {
+        let more = match errors.len() {
+            n if n > 3 => format!(" (+{} more)", n - 3),
+            _ => String::new(),
+        };
+        errors.truncate(3);
+        bail!("invalid glTF: {}{more}", errors.join("; "));
+    }
+    Ok(gltf::Document::from_json_without_validation(root))
+}
+
+struct Builder<'f, 'a, 'b> {
+    file: &'f str,
+    buffers: &'b Buffers<'a>,
+    textures: TextureCache<'a, 'b>,
+    scene: Scene,
+    /// glTF mesh index → the [`MeshId`]s of its (kept) primitives.
+    meshes_of: HashMap<usize, Vec<MeshId>>,
+    default_material: Option<MaterialId>,
+    vertices: usize,
+}
+
+impl Builder<'_, '_, '_> {
+    fn materials(&mut self, doc: &gltf::Document) -> Result<()> {
+        for mat in doc.materials() {
+            let m = convert_material(self.file, &mat, &mut self.textures)?;
+            self.scene.materials.push(m);
+        }
+        Ok(())
+    }
+
+    fn nodes(&mut self, doc: &gltf::Document) -> Result<()> {
+        let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
+            Some(scene) => scene.nodes().collect(),
+            None => {
+                let mut is_child = vec![false; doc.nodes().len()];
+                for n in doc.nodes() {
+                    for c in n.children() {
+                        is_child[c.index()] = true;
+                    }
+                }
+                doc.nodes().filter(|n| !is_child[n.index()]).collect()
+            }
+        };
+        for node in roots {
+            self.visit(&node, Mat4::IDENTITY, 0)?;
+        }
+        Ok(())
+    }
+
+    fn visit(&mut self, node: &gltf::Node, parent: Mat4, depth: usize) -> Result<()> {
+        ensure!(
+            depth < MAX_NODE_DEPTH,
+            "node hierarchy deeper than {MAX_NODE_DEPTH} (cyclic?) at node {}",
+            node.index()
+        );
+        let what = || format!("node {}", node_name(node));
+        let world = parent * local_transform(node).with_context(what)?;
+        ensure!(world.is_finite(), "{}: world transform overflows", what());
+        if let Some(mesh) = node.mesh() {
+            self.instance(node, &mesh, world)?;
+        }
+        if let Some(light) = node.light() {
+            if let Some(l) = convert_light(self.file, &light, world).with_context(what)? {
+                self.scene.lights.push(l);
+            }
+        }
+        if let Some(camera) = node.camera() {
+            if let Some(c) = convert_camera(self.file, &camera, world).with_context(what)? {
+                self.scene.cameras.push(c);
+            }
+        }
+        for child in node.children() {
+            self.visit(&child, world, depth + 1)?;
+        }
+        Ok(())
+    }
+
+    fn instance(&mut self, node: &gltf::Node, mesh: &gltf::Mesh, world: Mat4) -> Result<()> {
+        let det = world.determinant();
+        if !(det.is_finite() && det.abs() > 1e-30) {
+            log::warn!(
+                "{}: node {}: transform is not invertible (zero scale?); instance skipped",
+                self.file,
+                node_name(node)
+            );
+            return Ok(());
+        }
+        let ids = self.mesh_ids(mesh)?;
+        for id in ids {
+            ensure!(
+                self.scene.instances.len() < MAX_INSTANCES,
+                "absurd size: more than {MAX_INSTANCES} instances"
+            );
+            self.scene.instances.push(Instance {
+                name: node_name(node),
+                mesh: id,
+                transform: world,
+            });
+        }
+        Ok(())
+    }
+
+    fn mesh_ids(&mut self, mesh: &gltf::Mesh) -> Result<Vec<MeshId>> {
+        if let Some(ids) = self.meshes_of.get(&mesh.index()) {
+            return Ok(ids.clone());
+        }
+        let mesh_name = mesh
+            .name()
+            .map(str::to_owned)
+            .unwrap_or_else(|| format!("mesh{}", mesh.index()));
+        let mut ids = Vec::new();
+        for prim in mesh.primitives() {
+            let name = format!("{mesh_name}/{}", prim.index());
+            let material = match prim.material().index() {
+                Some(i) => i,
+                None => self.default_material(),
+            };
+            let converted = convert_primitive(self.file, &name, &prim, self.buffers, material)
+                .with_context(|| format!("mesh {name}"))?;
+            if let Some(m) = converted {
+                self.vertices += m.positions.len();
+                ensure!(
+                    self.vertices <= MAX_VERTICES,
+                    "absurd size: more than {MAX_VERTICES} vertices in the scene"
+                );
+                ids.push(self.scene.meshes.len());
+                self.scene.meshes.push(m);
+            }
+        }
+        self.meshes_of.insert(mesh.index(), ids.clone());
+        Ok(ids)
+    }
+
+    fn default_material(&mut self) -> MaterialId {
+        *self.default_material.get_or_insert_with(|| {
+            self.scene.materials.push(Material::default());
+            self.scene.materials.len() - 1
+        })
+    }
+
+    fn finish(mut self) -> Result<Scene> {
+        ensure!(
+            !self.scene.instances.is_empty(),
+            "no triangle geometry in the scene"
+        );
+        self.scene.textures = std::mem::take(&mut self.textures.textures);
+        self.scene.camera = match self.scene.cameras.first() {
+            Some(&c) => c,
+            None => Camera::framing(self.scene.bounds()),
+        };
+        Ok(self.scene)
+    }
+}
+
+fn node_name(node: &gltf::Node) -> String {
+    node.name()
+        .map(str::to_owned)
+        .unwrap_or_else(|| format!("#{}", node.index()))
+}
+
+/// The node's local transform, checked finite (matrix, or translation·rotation·scale).
+fn local_transform(node: &gltf::Node) -> Result<Mat4> {
+    match node.transform() {
+        gltf::scene::Transform::Matrix { matrix } => {
+            let m = Mat4::from_cols_array_2d(&matrix);
+            ensure!(m.is_finite(), "non-finite number in matrix");
+            Ok(m)
+        }
+        gltf::scene::Transform::Decomposed {
+            translation,
+            rotation,
+            scale,
+        } => {
+            let t = Vec3::from_array(translation);
+            let r = Quat::from_array(rotation);
+            let s = Vec3::from_array(scale);
+            ensure!(
+                t.is_finite() && r.is_finite() && s.is_finite(),
+                "non-finite number in translation/rotation/scale"
+            );
+            let len = r.length();
+            ensure!(len > 1e-6, "rotation quaternion has zero length");
+            Ok(Mat4::from_scale_rotation_translation(s, r / len, t))
+        }
+    }
+}
+
+fn convert_light(
+    file: &str,
+    light: &gltf::khr_lights_punctual::Light,
+    world: Mat4,
+) -> Result<Option<Light>> {
+    let name = light
+        .name()
+        .map(str::to_owned)
+        .unwrap_or_else(|| format!("light{}", light.index()));
+    let color = Vec3::from_array(light.color());
+    let intensity = light.intensity();
+    ensure!(
+        color.is_finite() && intensity.is_finite(),
+        "light {name}: non-finite colour or intensity"
+    );
+    ensure!(
+        color.cmpge(Vec3::ZERO).all() && intensity >= 0.0,
+        "light {name}: negative colour or intensity"
+    );
+    let Some(direction) = world.transform_vector3(Vec3::NEG_Z).try_normalize() else {
+        log::warn!("{file}: light {name}: node transform collapses its direction; light skipped");
+        return Ok(None);
+    };
+    let position = world.transform_point3(Vec3::ZERO);
+    use gltf::khr_lights_punctual::Kind;
+    let (kind, scale) = match light.kind() {
+        Kind::Point => (LightKind::Point, candela_to_watts_per_sr(intensity)),
+        Kind::Directional => (LightKind::Directional, lux_to_watts_per_m2(intensity)),
+        Kind::Spot {
+            inner_cone_angle,
+            outer_cone_angle,
+        } => {
+            let (inner, outer) = spot_cone(file, &name, inner_cone_angle, outer_cone_angle)?;
+            (
+                LightKind::Spot {
+                    inner_cone_angle: inner,
+                    outer_cone_angle: outer,
+                },
+                candela_to_watts_per_sr(intensity),
+            )
+        }
+    };
+    Ok(Some(Light {
+        name,
+        kind,
+        position,
+        direction,
+        intensity: color * scale,
+    }))
+}
+
+/// Validates spot cone angles: repairs small slips (with a warning), rejects nonsense.
+fn spot_cone(file: &str, name: &str, inner: f32, outer: f32) -> Result<(f32, f32)> {
+    const SLACK: f32 = 0.1;
+    ensure!(
+        inner.is_finite()
+            && outer.is_finite()
+            && outer > 0.0
+            && outer <= FRAC_PI_2 + SLACK
+            && inner >= -SLACK
+            && inner <= outer + SLACK,
+        "light {name}: absurd spot cone angles inner {inner}, outer {outer} (need 0 ≤ inner < outer ≤ π/2)"
+    );
+    let o = outer.min(FRAC_PI_2);
+    let i = inner.max(0.0).min(o * 0.999);
+    if (i, o) != (inner, outer) {
+        log::warn!(
+            "{file}: light {name}: spot cone angles ({inner}, {outer}) repaired to ({i}, {o})"
+        );
+    }
+    Ok((i, o))
+}
+
+fn convert_camera(file: &str, camera: &gltf::Camera, world: Mat4) -> Result<Option<Camera>> {
+    let name = camera
+        .name()
+        .map(str::to_owned)
+        .unwrap_or_else(|| format!("camera{}", camera.index()));
+    let p = match camera.projection() {
+        gltf::camera::Projection::Perspective(p) => p,
+        gltf::camera::Projection::Orthographic(_) => {
+            log::warn!("{file}: camera {name}: orthographic cameras are not supported; skipped");
+            return Ok(None);
+        }
+    };
+    let (yfov, znear, zfar) = (p.yfov(), p.znear(), p.zfar());
+    ensure!(
+        yfov.is_finite() && yfov > 0.0 && yfov < std::f32::consts::PI,
+        "camera {name}: yfov {yfov} outside (0, π)"
+    );
+    ensure!(
+        znear.is_finite() && znear > 0.0,
+        "camera {name}: znear {znear} must be > 0"
+    );
+    if let Some(f) = zfar {
+        ensure!(
+            f.is_finite() && f > znear,
+            "camera {name}: zfar {f} must exceed znear {znear}"
+        );
+    }
+    // Cameras are rigid: scale in the node hierarchy is dropped.
+    let (_, rotation, translation) = world.to_scale_rotation_translation();
+    let rotation = if rotation.is_finite() && rotation.length() > 1e-6 {
+        rotation.normalize()
+    } else {
+        Quat::IDENTITY
+    };
+    Ok(Some(Camera {
+        transform: Mat4::from_rotation_translation(rotation, translation),
+        yfov,
+        znear,
+        zfar,
+    }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spot_cone_slightly_off_is_repaired_and_absurd_is_rejected() {
+        assert_eq!(spot_cone("f", "l", 0.2, 0.5).unwrap(), (0.2, 0.5));
+        let (i, o) = spot_cone("f", "l", 0.5, FRAC_PI_2 + 0.05).unwrap();
+        assert!(i < o && o <= FRAC_PI_2);
+        let (i, o) = spot_cone("f", "l", 0.6, 0.6).unwrap();
+        assert!(i < o);
+        assert!(spot_cone("f", "l", 0.1, 3.0).is_err());
+        assert!(spot_cone("f", "l", f32::NAN, 0.5).is_err());
+    }
 }

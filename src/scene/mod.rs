@@ -7,6 +7,11 @@
 //! `Scene` is already converted from glTF's photometric units (see [`units`]), so nothing
 //! downstream needs to know about lumens or candela.
 
+pub mod authoring;
+pub mod bundled;
+mod gltf_data;
+mod gltf_material;
+mod gltf_mesh;
 pub mod load;
 pub mod units;
 

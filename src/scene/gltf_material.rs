@@ -1,0 +1,337 @@
+//! glTF materials → über-BSDF [`Material`]s, and base-colour images → [`Texture`]s.
+//!
+//! The mapping (documented with its reasons in `docs/scenes.md`), with base colour `c`,
+//! metallic `m`, roughness `r`, transmission `t`, index of refraction `η`, specular factor `s`
+//! and specular colour `sc`:
+//!
+//! ```text
+//!   α = r²;  exponent σ = 2/α² − 2  (Blinn–Phong equivalent of GGX α; r = 0 or σ ≥ 1e6 ⇒ ∞, a mirror)
+//!   F0 = ((η − 1)/(η + 1))² · s · sc
+//!   glossy       = m·c + (1 − m)·F0
+//!   lambertian   = (1 − m)·(1 − t)·c
+//!   transmission = (1 − m)·t·c
+//!   fresnel      = m < 0.5          (dielectrics follow Fresnel, metals use `glossy` as is)
+//!   emission     = emissiveFactor · emissiveStrength / 683   (nits → W/(m²·sr))
+//! ```
+//!
+//! then, per channel, if lambertian + glossy + transmission > 1, lambertian and transmission are
+//! scaled down so the sum is 1. Material `extras` `{"ispm": {...}}` override any field exactly.
+
+use super::gltf_data::{read_uri, Buffers};
+use super::units::candela_to_watts_per_sr;
+use super::{Material, Texture, TextureId};
+use anyhow::{anyhow, bail, ensure, Context, Result};
+use glam::Vec3;
+use serde::Deserialize;
+use std::collections::HashMap;
+use std::path::Path;
+
+/// Exponents at or above this are treated as a perfect mirror.
+const MIRROR_EXPONENT: f64 = 1e6;
+/// Largest texture side we decode.
+const MAX_TEXTURE_SIDE: u32 = 16384;
+/// Most decoded texture bytes (all images together) a scene may hold.
+const MAX_TEXTURE_BYTES: usize = 1 << 30;
+
+/// The `{"ispm": {...}}` material extras: exact über-BSDF parameters.
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct IspmExtras {
+    lambertian: Option<[f32; 3]>,
+    glossy: Option<[f32; 3]>,
+    exponent: Option<Exponent>,
+    transmission: Option<[f32; 3]>,
+    ior: Option<f32>,
+    fresnel: Option<bool>,
+    emission: Option<[f32; 3]>,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum Exponent {
+    Number(f32),
+    Word(String),
+}
+
+#[derive(Deserialize)]
+struct Extras {
+    ispm: Option<IspmExtras>,
+}
+
+fn finite3(v: [f32; 3], what: &str) -> Result<Vec3> {
+    let v = Vec3::from_array(v);
+    ensure!(v.is_finite(), "non-finite {what} {v}");
+    Ok(v)
+}
+
+fn reflectance(v: [f32; 3], what: &str, file: &str, name: &str) -> Result<Vec3> {
+    let v = finite3(v, what)?;
+    let c = v.clamp(Vec3::ZERO, Vec3::ONE);
+    if c != v {
+        log::warn!("{file}: material {name}: {what} {v} clamped to [0, 1]");
+    }
+    Ok(c)
+}
+
+/// Blinn–Phong exponent for a glTF perceptual roughness.
+pub fn exponent_from_roughness(r: f32) -> f32 {
+    let alpha = (r as f64).clamp(0.0, 1.0).powi(2);
+    if alpha == 0.0 {
+        return f32::INFINITY;
+    }
+    let sigma = 2.0 / (alpha * alpha) - 2.0;
+    if sigma >= MIRROR_EXPONENT {
+        f32::INFINITY
+    } else {
+        sigma.max(0.0) as f32
+    }
+}
+
+/// Converts material `index` of the document (texture ids come from `textures`).
+pub fn convert_material(
+    file: &str,
+    mat: &gltf::Material,
+    textures: &mut TextureCache,
+) -> Result<Material> {
+    let name = mat
+        .name()
+        .map(str::to_owned)
+        .unwrap_or_else(|| format!("material{}", mat.index().unwrap_or(0)));
+    let what = format!("material {name}");
+    convert_inner(file, &name, mat, textures).with_context(|| what)
+}
+
+fn convert_inner(
+    file: &str,
+    name: &str,
+    mat: &gltf::Material,
+    textures: &mut TextureCache,
+) -> Result<Material> {
+    let pbr = mat.pbr_metallic_roughness();
+    let [r, g, b, _a] = pbr.base_color_factor();
+    let c = reflectance([r, g, b], "baseColorFactor", file, name)?;
+    let m = pbr.metallic_factor();
+    let rough = pbr.roughness_factor();
+    ensure!(
+        m.is_finite() && rough.is_finite(),
+        "non-finite metallic/roughness factor"
+    );
+    let m = m.clamp(0.0, 1.0);
+    let t = mat.transmission().map_or(0.0, |t| t.transmission_factor());
+    let ior = mat.ior().unwrap_or(1.5);
+    let (s, sc) = mat.specular().map_or((1.0, [1.0; 3]), |s| {
+        (s.specular_factor(), s.specular_color_factor())
+    });
+    ensure!(
+        t.is_finite() && ior.is_finite() && s.is_finite(),
+        "non-finite transmission, ior or specular factor"
+    );
+    let sc = finite3(sc, "specularColorFactor")?;
+    let t = t.clamp(0.0, 1.0);
+    ensure!(ior >= 1.0 || ior == 0.0, "ior {ior} is below 1");
+    // KHR_materials_ior: ior 0 means "no dielectric specular" in some exporters; treat as 1.5.
+    let ior = if ior == 0.0 { 1.5 } else { ior };
+    let f0 = (((ior - 1.0) / (ior + 1.0)).powi(2) * s.clamp(0.0, 1.0) * sc).min(Vec3::ONE);
+    let strength = mat.emissive_strength().unwrap_or(1.0);
+    ensure!(
+        strength.is_finite() && strength >= 0.0,
+        "bad emissiveStrength {strength}"
+    );
+    let emissive = finite3(mat.emissive_factor(), "emissiveFactor")?.max(Vec3::ZERO);
+
+    let mut out = Material {
+        name: name.to_owned(),
+        lambertian: (1.0 - m) * (1.0 - t) * c,
+        lambertian_texture: None,
+        glossy: m * c + (1.0 - m) * f0,
+        exponent: exponent_from_roughness(rough),
+        transmission: (1.0 - m) * t * c,
+        ior,
+        fresnel: m < 0.5,
+        emission: emissive * candela_to_watts_per_sr(strength),
+        double_sided: mat.double_sided(),
+    };
+    if let Some(info) = pbr.base_color_texture() {
+        if info.tex_coord() != 0 {
+            log::warn!("{file}: material {name}: base colour texture uses TEXCOORD_{}; only TEXCOORD_0 is loaded", info.tex_coord());
+        }
+        if info.texture_transform().is_some() {
+            log::warn!("{file}: material {name}: KHR_texture_transform is not applied yet");
+        }
+        out.lambertian_texture = Some(textures.get(&info.texture().source())?);
+    }
+    if let Some(raw) = mat.extras() {
+        let extras: Extras =
+            serde_json::from_str(raw.get()).map_err(|e| anyhow!("bad \"ispm\" extras: {e}"))?;
+        if let Some(x) = extras.ispm {
+            apply_extras(&mut out, x)?;
+        }
+    }
+    enforce_energy(file, &mut out);
+    Ok(out)
+}
+
+fn apply_extras(out: &mut Material, x: IspmExtras) -> Result<()> {
+    let unit = |v: [f32; 3], what: &str| -> Result<Vec3> {
+        let v = finite3(v, what)?;
+        ensure!(
+            v.cmpge(Vec3::ZERO).all() && v.cmple(Vec3::ONE).all(),
+            "ispm {what} {v} outside [0, 1]"
+        );
+        Ok(v)
+    };
+    if let Some(v) = x.lambertian {
+        out.lambertian = unit(v, "lambertian")?;
+    }
+    if let Some(v) = x.glossy {
+        out.glossy = unit(v, "glossy")?;
+    }
+    if let Some(v) = x.transmission {
+        out.transmission = unit(v, "transmission")?;
+    }
+    if let Some(e) = x.exponent {
+        out.exponent = match e {
+            Exponent::Word(w) if w == "inf" => f32::INFINITY,
+            Exponent::Word(w) => bail!("ispm exponent {w:?} is neither a number nor \"inf\""),
+            Exponent::Number(n) => {
+                ensure!(
+                    n.is_finite() && n >= 0.0,
+                    "ispm exponent {n} must be finite and ≥ 0"
+                );
+                n
+            }
+        };
+    }
+    if let Some(ior) = x.ior {
+        ensure!(
+            ior.is_finite() && ior >= 1.0,
+            "ispm ior {ior} must be finite and ≥ 1"
+        );
+        out.ior = ior;
+    }
+    if let Some(f) = x.fresnel {
+        out.fresnel = f;
+    }
+    if let Some(e) = x.emission {
+        let e = finite3(e, "emission")?;
+        ensure!(e.cmpge(Vec3::ZERO).all(), "ispm emission {e} is negative");
+        out.emission = e;
+    }
+    Ok(())
+}
+
+/// Keeps lambertian + glossy + transmission ≤ 1 per channel by scaling the first and last.
+fn enforce_energy(file: &str, m: &mut Material) {
+    let sum = m.lambertian + m.glossy + m.transmission;
+    if sum.cmple(Vec3::splat(1.0 + 1e-6)).all() {
+        return;
+    }
+    let room = (Vec3::ONE - m.glossy).max(Vec3::ZERO);
+    let rest = m.lambertian + m.transmission;
+    let scale = Vec3::select(rest.cmpgt(room), room / rest, Vec3::ONE);
+    let explicit = m.glossy.cmpgt(Vec3::ONE).any();
+    m.glossy = m.glossy.min(Vec3::ONE);
+    m.lambertian *= scale;
+    m.transmission *= scale;
+    if explicit || scale.min_element() < 0.999 {
+        log::warn!(
+            "{file}: material {}: reflectances summed to {sum} > 1; lambertian and transmission scaled down",
+            m.name
+        );
+    }
+}
+
+/// Decoded base-colour images, one [`Texture`] per glTF image.
+pub struct TextureCache<'a, 'b> {
+    pub buffers: &'b Buffers<'a>,
+    pub base_dir: Option<&'b Path>,
+    pub textures: Vec<Texture>,
+    by_image: HashMap<usize, TextureId>,
+    bytes: usize,
+}
+
+impl<'a, 'b> TextureCache<'a, 'b> {
+    pub fn new(buffers: &'b Buffers<'a>, base_dir: Option<&'b Path>) -> Self {
+        Self {
+            buffers,
+            base_dir,
+            textures: Vec::new(),
+            by_image: HashMap::new(),
+            bytes: 0,
+        }
+    }
+
+    fn get(&mut self, image: &gltf::Image) -> Result<TextureId> {
+        if let Some(&id) = self.by_image.get(&image.index()) {
+            return Ok(id);
+        }
+        let what = format!("image {}", image.index());
+        let bytes = match image.source() {
+            gltf::image::Source::View { view, .. } => self.buffers.view(&view)?.to_vec(),
+            gltf::image::Source::Uri { uri, .. } => read_uri(uri, self.base_dir, &what)?,
+        };
+        let texture = decode_image(&bytes).with_context(|| what.clone())?;
+        self.bytes += texture.rgba8.len();
+        ensure!(
+            self.bytes <= MAX_TEXTURE_BYTES,
+            "absurd size: decoded textures exceed {MAX_TEXTURE_BYTES} bytes at {what}"
+        );
+        let texture = Texture {
+            name: image.name().map(str::to_owned).unwrap_or(what),
+            ..texture
+        };
+        let id = self.textures.len();
+        self.textures.push(texture);
+        self.by_image.insert(image.index(), id);
+        Ok(id)
+    }
+}
+
+fn decode_image(bytes: &[u8]) -> Result<Texture> {
+    let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
+        .with_guessed_format()
+        .context("cannot read image")?;
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(MAX_TEXTURE_SIDE);
+    limits.max_image_height = Some(MAX_TEXTURE_SIDE);
+    limits.max_alloc = Some(MAX_TEXTURE_BYTES as u64);
+    reader.limits(limits);
+    let img = reader
+        .decode()
+        .map_err(|e| anyhow!("cannot decode image: {e}"))?;
+    let rgba = img.to_rgba8();
+    Ok(Texture {
+        name: String::new(),
+        width: rgba.width(),
+        height: rgba.height(),
+        rgba8: rgba.into_raw(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn roughness_maps_to_blinn_phong_exponent() {
+        assert_eq!(exponent_from_roughness(0.0), f32::INFINITY);
+        assert_eq!(exponent_from_roughness(1.0), 0.0);
+        let a = 0.5f32 * 0.5;
+        assert!((exponent_from_roughness(0.5) - (2.0 / (a * a) - 2.0)).abs() < 1e-3);
+        assert_eq!(exponent_from_roughness(1e-4), f32::INFINITY);
+    }
+
+    #[test]
+    fn energy_is_kept_at_most_one_per_channel() {
+        let mut m = Material {
+            lambertian: Vec3::splat(0.9),
+            glossy: Vec3::splat(0.5),
+            transmission: Vec3::splat(0.3),
+            ..Default::default()
+        };
+        enforce_energy("f", &mut m);
+        let sum = m.lambertian + m.glossy + m.transmission;
+        assert!(sum.max_element() <= 1.0 + 1e-5, "{sum}");
+        assert_eq!(m.glossy, Vec3::splat(0.5));
+    }
+}
