@@ -10,8 +10,7 @@
 //! script in later work.)
 
 use crate::gpu::{
-    vk, Buffer, Gpu, Image, ImageDesc, MemoryLocation, QueueRole, Span, Timestamps,
-    ViewKind,
+    vk, Buffer, Gpu, Image, ImageDesc, MemoryLocation, QueueRole, Span, Timestamps, ViewKind,
 };
 use crate::gpu_scene::GpuScene;
 use crate::layout::FrameUniforms;
@@ -82,8 +81,19 @@ pub struct Renderer {
     timestamps: Arc<Timestamps>,
 }
 
-fn host_buffer(gpu: &Arc<Gpu>, name: &str, size: usize, usage: vk::BufferUsageFlags) -> anyhow::Result<Buffer> {
-    Ok(Buffer::new(gpu, name, size as u64, usage, MemoryLocation::CpuToGpu)?)
+fn host_buffer(
+    gpu: &Arc<Gpu>,
+    name: &str,
+    size: usize,
+    usage: vk::BufferUsageFlags,
+) -> anyhow::Result<Buffer> {
+    Ok(Buffer::new(
+        gpu,
+        name,
+        size as u64,
+        usage,
+        MemoryLocation::CpuToGpu,
+    )?)
 }
 
 impl Renderer {
@@ -120,11 +130,8 @@ impl Renderer {
             vk::BufferUsageFlags::STORAGE_BUFFER,
         )?;
         let gbuffer = GBuffer::new(gpu, settings.width, settings.height)?;
-        let shadow_atlas = shadow_map::atlas(
-            gpu,
-            settings.shadow_resolution,
-            setup.views.len() as u32,
-        )?;
+        let shadow_atlas =
+            shadow_map::atlas(gpu, settings.shadow_resolution, setup.views.len() as u32)?;
         let radiance = Image::new(
             gpu,
             &ImageDesc {
@@ -218,9 +225,12 @@ impl Renderer {
                 0.0,
             ),
         };
-        self.frame_uniforms.write(0, bytemuck::bytes_of(&uniforms))?;
-        self.light_buffer.write(0, bytemuck::cast_slice(&setup.lights))?;
-        self.view_buffer.write(0, bytemuck::cast_slice(&setup.views))?;
+        self.frame_uniforms
+            .write(0, bytemuck::bytes_of(&uniforms))?;
+        self.light_buffer
+            .write(0, bytemuck::cast_slice(&setup.lights))?;
+        self.view_buffer
+            .write(0, bytemuck::cast_slice(&setup.views))?;
 
         let shadow_draws: Vec<_> = setup
             .view_matrices

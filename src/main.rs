@@ -11,7 +11,11 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "ispm", version, about = "Real-time global illumination by Image Space Photon Mapping")]
+#[command(
+    name = "ispm",
+    version,
+    about = "Real-time global illumination by Image Space Photon Mapping"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -94,7 +98,10 @@ fn check_validation(gpu: &Gpu) -> anyhow::Result<()> {
     for m in &messages {
         eprintln!("validation: {m}");
     }
-    anyhow::bail!("the Vulkan validation layer reported {} message(s)", messages.len())
+    anyhow::bail!(
+        "the Vulkan validation layer reported {} message(s)",
+        messages.len()
+    )
 }
 
 fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
@@ -182,7 +189,11 @@ fn info(device: Option<usize>) -> anyhow::Result<()> {
     );
     println!(
         "  validation: {}",
-        if gpu.validation { "on" } else { "off (ISPM_VALIDATION=1 turns it on)" }
+        if gpu.validation {
+            "on"
+        } else {
+            "off (ISPM_VALIDATION=1 turns it on)"
+        }
     );
     check_validation(&gpu)
 }

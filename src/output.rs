@@ -60,8 +60,7 @@ pub fn write_atomically(
         write(&mut file)?;
         file.sync_all()
             .with_context(|| format!("{}: cannot write", tmp.display()))?;
-        std::fs::rename(&tmp, path)
-            .with_context(|| format!("{}: cannot write", path.display()))
+        std::fs::rename(&tmp, path).with_context(|| format!("{}: cannot write", path.display()))
     })();
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
@@ -71,8 +70,12 @@ pub fn write_atomically(
 
 /// Writes an RGBA8 image as PNG.
 pub fn write_png(path: &Path, width: u32, height: u32, rgba8: &[u8]) -> anyhow::Result<()> {
-    let img = image::RgbaImage::from_raw(width, height, rgba8.to_vec())
-        .with_context(|| format!("{}: image data does not match {width}x{height}", path.display()))?;
+    let img = image::RgbaImage::from_raw(width, height, rgba8.to_vec()).with_context(|| {
+        format!(
+            "{}: image data does not match {width}x{height}",
+            path.display()
+        )
+    })?;
     write_atomically(path, |f| {
         img.write_to(f, image::ImageFormat::Png)
             .with_context(|| format!("{}: PNG encoding failed", path.display()))
@@ -85,8 +88,12 @@ pub fn write_exr(path: &Path, width: u32, height: u32, rgba: &[f32]) -> anyhow::
     for px in pixels.chunks_exact_mut(4) {
         px[3] = 1.0;
     }
-    let img = image::Rgba32FImage::from_raw(width, height, pixels)
-        .with_context(|| format!("{}: image data does not match {width}x{height}", path.display()))?;
+    let img = image::Rgba32FImage::from_raw(width, height, pixels).with_context(|| {
+        format!(
+            "{}: image data does not match {width}x{height}",
+            path.display()
+        )
+    })?;
     write_atomically(path, |f| {
         image::DynamicImage::ImageRgba32F(img)
             .write_to(f, image::ImageFormat::OpenExr)

@@ -103,12 +103,22 @@ impl DirectPass {
     pub fn record(&self, cmd: &Cmd, inputs: &DirectInputs, radiance: &mut Image) {
         let _scope = cmd.scope("direct");
         let g = inputs.gbuffer;
-        for image in [&g.position, &g.normal, &g.albedo, &g.material, inputs.shadow_atlas] {
+        for image in [
+            &g.position,
+            &g.normal,
+            &g.albedo,
+            &g.material,
+            inputs.shadow_atlas,
+        ] {
             cmd.transition(image, Access::ComputeSampledRead);
         }
         cmd.transition(radiance, Access::ComputeStorageWrite);
         cmd.bind_pipeline(&self.pipeline);
         cmd.bind_sets(&self.pipeline, 0, &[self.set]);
-        cmd.dispatch(super::groups(radiance.width), super::groups(radiance.height), 1);
+        cmd.dispatch(
+            super::groups(radiance.width),
+            super::groups(radiance.height),
+            1,
+        );
     }
 }

@@ -9,8 +9,8 @@
 //! ```
 
 use crate::gpu::{
-    vk, Attachment, Binding, BindingKind, Blend, Buffer, Cmd, DescriptorLayout, DescriptorSet,
-    Depth, Gpu, GraphicsDesc, Image, ImageDesc, Load, Pipeline, ViewKind, Write,
+    vk, Attachment, Binding, BindingKind, Blend, Buffer, Cmd, Depth, DescriptorLayout,
+    DescriptorSet, Gpu, GraphicsDesc, Image, ImageDesc, Load, Pipeline, ViewKind, Write,
 };
 use crate::gpu_scene::{Draw, GpuScene};
 use crate::layout::{DrawPush, Vertex};
@@ -181,7 +181,11 @@ impl EyeGBufferPass {
                 .unwrap_or(&self.material_sets[0]);
             cmd.bind_sets(&self.pipeline, 1, &[*set]);
             cmd.push_constants(&self.pipeline, &d.push);
-            cmd.draw_indexed(d.range.index_count, d.range.first_index, d.range.vertex_offset);
+            cmd.draw_indexed(
+                d.range.index_count,
+                d.range.first_index,
+                d.range.vertex_offset,
+            );
         }
         cmd.end_rendering();
     }

@@ -2,7 +2,7 @@
 //! each (see `lighting.rs` for which views a light gets).
 
 use crate::gpu::{
-    vk, Attachment, Cmd, Depth, GpuResult, Gpu, GraphicsDesc, Image, ImageDesc, Load, Pipeline,
+    vk, Attachment, Cmd, Depth, Gpu, GpuResult, GraphicsDesc, Image, ImageDesc, Load, Pipeline,
     ViewKind,
 };
 use crate::gpu_scene::{Draw, GpuScene};
@@ -77,7 +77,11 @@ impl ShadowMapPass {
             cmd.bind_index_buffer(&scene.indices);
             for d in draws {
                 cmd.push_constants(&self.pipeline, &d.push);
-                cmd.draw_indexed(d.range.index_count, d.range.first_index, d.range.vertex_offset);
+                cmd.draw_indexed(
+                    d.range.index_count,
+                    d.range.first_index,
+                    d.range.vertex_offset,
+                );
             }
             cmd.end_rendering();
         }

@@ -109,7 +109,14 @@ impl TonemapPass {
         })
     }
 
-    pub fn record(&self, cmd: &Cmd, hdr: &Image, tonemap: Tonemap, exposure_ev: f32, ldr: &mut Image) {
+    pub fn record(
+        &self,
+        cmd: &Cmd,
+        hdr: &Image,
+        tonemap: Tonemap,
+        exposure_ev: f32,
+        ldr: &mut Image,
+    ) {
         let _scope = cmd.scope("tonemap");
         cmd.transition(hdr, Access::ComputeSampledRead);
         cmd.transition(ldr, Access::ComputeStorageWrite);

@@ -270,4 +270,20 @@ impl Camera {
     pub fn view(&self) -> Mat4 {
         self.transform.inverse()
     }
+
+    /// The pixel (x right, y down, continuous) that world point `p` lands on in a
+    /// `width`×`height` image, or `None` when it is behind the camera.
+    pub fn project_to_pixel(&self, p: Vec3, width: u32, height: u32) -> Option<Vec2> {
+        let q = self.view().transform_point3(p);
+        if q.z >= 0.0 {
+            return None;
+        }
+        let aspect = width as f32 / height as f32;
+        let t = (self.yfov * 0.5).tan();
+        let ndc = Vec2::new(q.x / (-q.z * t * aspect), q.y / (-q.z * t));
+        Some(Vec2::new(
+            (ndc.x + 1.0) * 0.5 * width as f32,
+            (1.0 - ndc.y) * 0.5 * height as f32,
+        ))
+    }
 }

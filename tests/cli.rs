@@ -1,0 +1,149 @@
+//! `ispm render` and `ispm info` as a user runs them: bad input gives one clear line and a
+//! non-zero exit, never a panic, and never an output file.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn ispm(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ispm"))
+        .args(args)
+        .env("ISPM_VALIDATION", "1")
+        .output()
+        .expect("run ispm")
+}
+
+/// Asserts a failure with exactly one line on stderr that mentions `needle`, no panic, and no
+/// file at `output`.
+fn assert_clean_failure(out: &Output, needle: &str, output: &Path) {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success(),
+        "expected failure, got success: {stderr}"
+    );
+    assert!(
+        !stderr.contains("panicked") && !stderr.contains("internal error"),
+        "panic: {stderr}"
+    );
+    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "expected one line, got:\n{stderr}");
+    assert!(lines[0].starts_with("ispm: "), "{stderr}");
+    assert!(
+        lines[0].contains(needle),
+        "expected {needle:?} in: {stderr}"
+    );
+    assert!(!output.exists(), "{} was written", output.display());
+    let leftovers: Vec<_> = std::fs::read_dir(output.parent().expect("parent"))
+        .expect("dir")
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
+}
+
+#[test]
+fn render_of_a_missing_file_fails_with_one_line_naming_it() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out_png = dir.path().join("out.png");
+    let missing = dir.path().join("nope.glb");
+    let out = ispm(&[
+        "render",
+        missing.to_str().expect("utf8"),
+        "-o",
+        out_png.to_str().expect("utf8"),
+    ]);
+    assert_clean_failure(&out, "nope.glb", &out_png);
+}
+
+#[test]
+fn render_of_a_truncated_glb_fails_with_one_line_naming_it() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let bytes = ispm::scene::bundled::bundled("cornell-box").expect("bundled");
+    let truncated = dir.path().join("truncated.glb");
+    std::fs::write(&truncated, &bytes[..bytes.len() / 3]).expect("write");
+    let out_png = dir.path().join("out.png");
+    let out = ispm(&[
+        "render",
+        truncated.to_str().expect("utf8"),
+        "-o",
+        out_png.to_str().expect("utf8"),
+    ]);
+    assert_clean_failure(&out, "truncated.glb", &out_png);
+}
+
+#[test]
+fn render_of_a_directory_fails_with_one_line_naming_it() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let scene_dir = dir.path().join("scenes.gltf");
+    std::fs::create_dir(&scene_dir).expect("mkdir");
+    let out_png = dir.path().join("out.png");
+    let out = ispm(&[
+        "render",
+        scene_dir.to_str().expect("utf8"),
+        "-o",
+        out_png.to_str().expect("utf8"),
+    ]);
+    assert_clean_failure(&out, "scenes.gltf", &out_png);
+}
+
+#[test]
+fn render_to_an_unknown_format_or_missing_folder_fails_cleanly() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let bad_ext = dir.path().join("out.jpg");
+    assert_clean_failure(
+        &ispm(&["render", "-o", bad_ext.to_str().expect("utf8")]),
+        "out.jpg",
+        &bad_ext,
+    );
+    let no_dir = dir.path().join("missing").join("out.png");
+    let out = ispm(&[
+        "render",
+        "--size",
+        "32x32",
+        "-o",
+        no_dir.to_str().expect("utf8"),
+    ]);
+    assert!(!out.status.success());
+    assert!(!no_dir.exists());
+}
+
+#[test]
+fn render_writes_png_and_exr_of_the_default_scene_validation_clean() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    for name in ["out.png", "out.exr"] {
+        let path = dir.path().join(name);
+        let out = ispm(&[
+            "render",
+            "--size",
+            "64x48",
+            "-o",
+            path.to_str().expect("utf8"),
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let img = image::open(&path).expect("readable image");
+        assert_eq!((img.width(), img.height()), (64, 48));
+    }
+}
+
+#[test]
+fn info_names_the_device_and_the_queues_used() {
+    let out = ispm(&["info"]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for needle in [
+        "Using:",
+        "graphics:",
+        "compute:",
+        "transfer:",
+        "queue family",
+    ] {
+        assert!(stdout.contains(needle), "{needle} missing from:\n{stdout}");
+    }
+}
