@@ -1,7 +1,8 @@
 #version 460
 // Eye G-buffer, fragment stage: what the later passes need to shade this pixel.
 //   position: camera-relative world position (w = 1 where geometry was drawn, 0 = background)
-//   normal:   unit shading normal turned towards the viewer
+//   normal:   unit shading normal turned towards the viewer; w = +1 if that is the side the
+//             mesh's normals face, -1 if it was turned (refraction needs the true side)
 //   albedo:   Lambertian reflectance times the base-colour texture (linear)
 //   material: index into the material buffer
 #include "shared.glsl"
@@ -31,16 +32,19 @@ void main() {
         len = length(n);
     }
     n = len > 0.0 ? n / len : vec3(0.0, 1.0, 0.0);
-    // Shade the side the viewer sees: the camera sits at the origin of camera-relative space.
-    if (dot(n, -v_position) < 0.0) {
+    // Shade the side the viewer sees (the camera, or the light of a light G-buffer).
+    vec3 to_viewer = frame.viewer.w > 0.5 ? frame.viewer.xyz - v_position : frame.viewer.xyz;
+    float side = 1.0;
+    if (dot(n, to_viewer) < 0.0) {
         n = -n;
+        side = -1.0;
     }
     vec3 albedo = m.lambertian.rgb;
     if ((m.flags.x & MATERIAL_TEXTURED) != 0u) {
         albedo *= texture(base_color, v_uv).rgb;
     }
     out_position = vec4(v_position, 1.0);
-    out_normal = vec4(n, 0.0);
+    out_normal = vec4(n, side);
     out_albedo = vec4(albedo, 1.0);
     out_material = draw.material.x;
 }

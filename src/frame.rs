@@ -129,7 +129,7 @@ impl Renderer {
             size_of::<crate::layout::ShadowView>() * setup.views.len().max(1),
             vk::BufferUsageFlags::STORAGE_BUFFER,
         )?;
-        let gbuffer = GBuffer::new(gpu, settings.width, settings.height)?;
+        let gbuffer = GBuffer::new(gpu, "eye_gbuffer", settings.width, settings.height, 1)?;
         let shadow_atlas =
             shadow_map::atlas(gpu, settings.shadow_resolution, setup.views.len() as u32)?;
         let radiance = Image::new(
@@ -148,7 +148,7 @@ impl Renderer {
         )?;
         let display = tonemap::output(gpu, settings.width, settings.height)?;
         let shadow_maps = ShadowMapPass::new(gpu)?;
-        let eye_gbuffer = EyeGBufferPass::new(gpu, &gpu_scene, &frame_uniforms)?;
+        let eye_gbuffer = EyeGBufferPass::new(gpu, "eye_gbuffer", &gpu_scene, &[&frame_uniforms])?;
         let direct = DirectPass::new(
             gpu,
             &DirectInputs {
@@ -224,6 +224,7 @@ impl Renderer {
                 0.0,
                 0.0,
             ),
+            viewer: Vec4::new(0.0, 0.0, 0.0, 1.0),
         };
         self.frame_uniforms
             .write(0, bytemuck::bytes_of(&uniforms))?;
@@ -246,8 +247,9 @@ impl Renderer {
             let _frame = cmd.scope("frame");
             self.shadow_maps
                 .record(&cmd, &self.scene, &shadow_draws, &mut self.shadow_atlas);
+            let size = (self.settings.width, self.settings.height);
             self.eye_gbuffer
-                .record(&cmd, &self.scene, &eye_draws, &mut self.gbuffer);
+                .record(&cmd, &self.scene, 0, &eye_draws, &mut self.gbuffer, 0, size);
             let inputs = DirectInputs {
                 frame: &self.frame_uniforms,
                 materials: &self.scene.materials,

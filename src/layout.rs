@@ -15,12 +15,32 @@ pub struct FrameUniforms {
     pub camera_pos: Vec4,
     pub counts: UVec4,
     pub params: Vec4,
+    pub viewer: Vec4,
 }
-const _: () = assert!(size_of::<FrameUniforms>() == 176);
+const _: () = assert!(size_of::<FrameUniforms>() == 192);
 const _: () = assert!(offset_of!(FrameUniforms, inv_view_proj) == 64);
 const _: () = assert!(offset_of!(FrameUniforms, camera_pos) == 128);
 const _: () = assert!(offset_of!(FrameUniforms, counts) == 144);
 const _: () = assert!(offset_of!(FrameUniforms, params) == 160);
+const _: () = assert!(offset_of!(FrameUniforms, viewer) == 176);
+
+/// `BounceView` (storage buffer, std430): one light view of the light G-buffer and bounce map.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct BounceView {
+    pub inv_view_proj: Mat4,
+    pub light: Vec4,
+    pub axis: Vec4,
+    pub intensity: Vec4,
+    pub params: Vec4,
+    pub texels: UVec4,
+}
+const _: () = assert!(size_of::<BounceView>() == 144);
+const _: () = assert!(offset_of!(BounceView, light) == 64);
+const _: () = assert!(offset_of!(BounceView, axis) == 80);
+const _: () = assert!(offset_of!(BounceView, intensity) == 96);
+const _: () = assert!(offset_of!(BounceView, params) == 112);
+const _: () = assert!(offset_of!(BounceView, texels) == 128);
 
 /// `GpuMaterial` (storage buffer, std430).
 #[repr(C)]

@@ -9,14 +9,18 @@ struct LightSample {
     vec3 irradiance;  // W/m^2 on a surface facing the light (before the cosine)
 };
 
-// KHR_lights_punctual spot falloff: a smooth ramp between the outer and inner cone.
-float spot_falloff(GpuLight light, vec3 to_point) {
-    float cos_outer = light.direction.w;
-    float cos_inner = light.intensity.w;
-    float cd = dot(light.direction.xyz, to_point);
+// KHR_lights_punctual spot falloff: a smooth ramp between the outer and inner cone, as a
+// function of the cosine `cd` between the axis and the direction to the point (the twin of
+// photon::emit::spot_falloff).
+float spot_falloff_cos(float cos_inner, float cos_outer, float cd) {
     float scale = 1.0 / max(1e-4, cos_inner - cos_outer);
     float t = clamp((cd - cos_outer) * scale, 0.0, 1.0);
     return t * t;
+}
+
+float spot_falloff(GpuLight light, vec3 to_point) {
+    return spot_falloff_cos(light.intensity.w, light.direction.w,
+                            dot(light.direction.xyz, to_point));
 }
 
 LightSample sample_light(GpuLight light, vec3 p) {

@@ -15,6 +15,8 @@ struct FrameUniforms {
     vec4 camera_pos;     // absolute world position of the camera (xyz)
     uvec4 counts;        // x: lights, y: shadow views, z: width, w: height
     vec4 params;         // x: shadow texel size (1/res), y: scene scale (m), z, w: unused
+    vec4 viewer;         // w = 1: camera-relative viewer position (xyz); w = 0: unit direction
+                         // towards a viewer at infinity (orthographic light views)
 };
 
 // An über-BSDF material (storage buffer, std430).
@@ -38,6 +40,17 @@ struct GpuLight {
 struct ShadowView {
     mat4 view_proj;   // camera-relative world -> light clip
     vec4 params;      // x: world-space texel size at unit distance (normal offset), y: is_ortho
+};
+
+// One light view of the light G-buffer / bounce map (storage buffer, std430).
+struct BounceView {
+    mat4 inv_view_proj;  // light clip -> camera-relative world
+    vec4 light;          // xyz: camera-relative light position (perspective views); w: unused
+    vec4 axis;           // xyz: unit direction light travels (spot axis, directional); w: cos(outer)
+    vec4 intensity;      // rgb: W/sr, or W/m^2 for directional, times the view's exact-flux
+                         // normalisation; w: cos(inner)
+    vec4 params;         // x: tan(fov/2) (perspective) or texel area in m^2 (ortho); y: 1 if ortho
+    uvec4 texels;        // x: resolution; y: first bounce-map index; z: kind (LIGHT_*); w: light
 };
 
 // Per-draw push constants of the raster passes (128 bytes: the guaranteed minimum).

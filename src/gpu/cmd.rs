@@ -376,6 +376,28 @@ impl<'a> Cmd<'a> {
         }
     }
 
+    /// Restricts drawing to the top-left `width`×`height` texels of the attachments.
+    pub fn set_viewport(&self, width: u32, height: u32) {
+        let viewport = vk::Viewport {
+            x: 0.0,
+            y: 0.0,
+            width: width as f32,
+            height: height as f32,
+            min_depth: 0.0,
+            max_depth: 1.0,
+        };
+        let scissor = vk::Rect2D {
+            offset: vk::Offset2D::default(),
+            extent: vk::Extent2D { width, height },
+        };
+        // SAFETY: recording state inside a rendering scope; viewport and scissor are dynamic
+        // states of every graphics pipeline (pipeline.rs).
+        unsafe {
+            self.device().cmd_set_viewport(self.raw, 0, &[viewport]);
+            self.device().cmd_set_scissor(self.raw, 0, &[scissor]);
+        }
+    }
+
     pub fn end_rendering(&self) {
         // SAFETY: paired with begin_rendering by the caller.
         unsafe { self.device().cmd_end_rendering(self.raw) };

@@ -1,8 +1,10 @@
-//! Eye G-buffer: the scene rasterised from the camera into what later passes shade from.
+//! Eye G-buffer: the scene rasterised from the camera into what later passes shade from. The
+//! same raster, with one set of view uniforms per light view, fills the light G-buffers
+//! (`light_gbuffer.rs`).
 //!
 //! ```text
 //!   position  RGBA32F   camera-relative world position, w = 1 on geometry, 0 on background
-//!   normal    RGBA16F   unit shading normal turned towards the viewer
+//!   normal    RGBA16F   unit shading normal turned towards the viewer; w = ±1: the mesh side
 //!   albedo    RGBA16F   Lambertian reflectance × base-colour texture (linear)
 //!   material  R32_UINT  index into the material buffer
 //!   depth     D32F      reversed-Z (1 at the near plane, 0 at infinity)
@@ -32,31 +34,43 @@ pub struct GBuffer {
 }
 
 impl GBuffer {
-    pub fn new(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<GBuffer> {
+    /// A G-buffer of `layers` layers (one per view), named `name.position` etc.
+    pub fn new(
+        gpu: &Arc<Gpu>,
+        name: &str,
+        width: u32,
+        height: u32,
+        layers: u32,
+    ) -> anyhow::Result<GBuffer> {
+        let view = if layers > 1 {
+            ViewKind::D2Array
+        } else {
+            ViewKind::D2
+        };
         let color = vk::ImageUsageFlags::COLOR_ATTACHMENT
             | vk::ImageUsageFlags::SAMPLED
             | vk::ImageUsageFlags::TRANSFER_SRC;
-        let image = |name: &str, format, usage| {
+        let image = |part: &str, format, usage| {
             Image::new(
                 gpu,
                 &ImageDesc {
-                    name,
+                    name: &format!("{name}.{part}"),
                     format,
                     width,
                     height,
-                    layers: 1,
+                    layers: layers.max(1),
                     usage,
-                    view: ViewKind::D2,
+                    view,
                 },
             )
         };
         Ok(GBuffer {
-            position: image("eye_gbuffer.position", POSITION, color)?,
-            normal: image("eye_gbuffer.normal", NORMAL, color)?,
-            albedo: image("eye_gbuffer.albedo", ALBEDO, color)?,
-            material: image("eye_gbuffer.material", MATERIAL, color)?,
+            position: image("position", POSITION, color)?,
+            normal: image("normal", NORMAL, color)?,
+            albedo: image("albedo", ALBEDO, color)?,
+            material: image("material", MATERIAL, color)?,
             depth: image(
-                "eye_gbuffer.depth",
+                "depth",
                 DEPTH,
                 vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
             )?,
@@ -64,17 +78,29 @@ impl GBuffer {
     }
 }
 
-pub struct EyeGBufferPass {
+/// Rasterises G-buffers: the eye's (one view) or the lights' (one view per layer).
+pub struct GBufferPass {
+    name: &'static str,
     pipeline: Pipeline,
     _frame_layout: DescriptorLayout,
     _texture_layout: DescriptorLayout,
-    frame_set: DescriptorSet,
+    /// One set per view: its `FrameUniforms` and the materials.
+    frame_sets: Vec<DescriptorSet>,
     /// One set per material (its base-colour texture, or white).
     material_sets: Vec<DescriptorSet>,
 }
 
-impl EyeGBufferPass {
-    pub fn new(gpu: &Arc<Gpu>, scene: &GpuScene, frame: &Buffer) -> anyhow::Result<Self> {
+/// The eye G-buffer pass: [`GBufferPass`] with the camera as its only view.
+pub type EyeGBufferPass = GBufferPass;
+
+impl GBufferPass {
+    /// A raster named `name` with one view per buffer in `frames` (each a `FrameUniforms`).
+    pub fn new(
+        gpu: &Arc<Gpu>,
+        name: &'static str,
+        scene: &GpuScene,
+        frames: &[&Buffer],
+    ) -> anyhow::Result<Self> {
         let graphics = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         let frame_layout = DescriptorLayout::new(
             gpu,
@@ -91,7 +117,7 @@ impl EyeGBufferPass {
                     stages: graphics,
                 },
             ],
-            1,
+            frames.len().max(1) as u32,
         )?;
         let sets = scene.material_textures.len().max(1) as u32;
         let texture_layout = DescriptorLayout::new(
@@ -104,8 +130,10 @@ impl EyeGBufferPass {
             }],
             sets,
         )?;
-        let frame_set =
-            frame_layout.allocate(&[Write::Buffer(frame), Write::Buffer(&scene.materials)])?;
+        let frame_sets = frames
+            .iter()
+            .map(|f| frame_layout.allocate(&[Write::Buffer(f), Write::Buffer(&scene.materials)]))
+            .collect::<Result<Vec<_>, _>>()?;
         let mut material_sets = Vec::new();
         for t in &scene.material_textures {
             let image = t.map_or(&scene.white, |i| &scene.textures[i]);
@@ -124,7 +152,7 @@ impl EyeGBufferPass {
         let pipeline = Pipeline::graphics(
             gpu,
             &GraphicsDesc {
-                name: "eye_gbuffer",
+                name,
                 vertex: &crate::gpu::shader_table::EYE_GBUFFER_VERT,
                 fragment: Some(&crate::gpu::shader_table::EYE_GBUFFER_FRAG),
                 vertex_stride: size_of::<Vertex>() as u32,
@@ -146,19 +174,30 @@ impl EyeGBufferPass {
             },
         )?;
         Ok(Self {
+            name,
             pipeline,
             _frame_layout: frame_layout,
             _texture_layout: texture_layout,
-            frame_set,
+            frame_sets,
             material_sets,
         })
     }
 
-    pub fn record(&self, cmd: &Cmd, scene: &GpuScene, draws: &[Draw], gbuffer: &mut GBuffer) {
-        let _scope = cmd.scope("eye_gbuffer");
+    /// Draws view `view` into layer `layer` of `gbuffer`, over its top-left `extent` texels.
+    pub fn record(
+        &self,
+        cmd: &Cmd,
+        scene: &GpuScene,
+        view: usize,
+        draws: &[Draw],
+        gbuffer: &mut GBuffer,
+        layer: u32,
+        extent: (u32, u32),
+    ) {
+        let _scope = cmd.scope(self.name);
         let clear = |image| Attachment {
             image,
-            layer: 0,
+            layer,
             load: Load::Clear([0.0; 4]),
         };
         cmd.begin_rendering(
@@ -170,8 +209,9 @@ impl EyeGBufferPass {
             ],
             Some(&clear(&gbuffer.depth)),
         );
+        cmd.set_viewport(extent.0, extent.1);
         cmd.bind_pipeline(&self.pipeline);
-        cmd.bind_sets(&self.pipeline, 0, &[self.frame_set]);
+        cmd.bind_sets(&self.pipeline, 0, &[self.frame_sets[view]]);
         cmd.bind_vertex_buffer(&scene.vertices);
         cmd.bind_index_buffer(&scene.indices);
         for d in draws {
