@@ -3,7 +3,7 @@
 #ifndef KERNEL_GLSL
 #define KERNEL_GLSL
 
-const float KERNEL_NORMAL_RATIO = 0.25;
+const float KERNEL_NORMAL_RATIO = 0.5;
 const float KERNEL_PI = 3.14159265358979;
 
 // (r_xy, r_z) of a photon with path density rho_p; r_min, r_max in metres.

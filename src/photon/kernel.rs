@@ -26,8 +26,12 @@
 use crate::scene::Aabb;
 use glam::Vec3;
 
-/// `r_z / r_xy`: how much the ellipsoid is compressed along the photon's normal.
-pub const NORMAL_RATIO: f32 = 0.25;
+/// `r_z / r_xy`: how much the ellipsoid is compressed along the photon's normal. Stronger
+/// compression leaks less between parallel surfaces but loses kernel mass on curved or faceted
+/// surfaces: a neighbouring facet tilted by β scales `t` by `1 + sin β·(r_xy − r_z)/r_z`.
+/// At 0.25 the photon-gather radiance inside the 1280-facet sphere came out 6 % low; at 0.5,
+/// 1.5 % low (`tests/physics_furnace.rs`).
+pub const NORMAL_RATIO: f32 = 0.5;
 /// `r_max / r_min` of [`KernelSettings::scene_relative`].
 pub const RADIUS_RANGE: f32 = 50.0;
 /// `r_max = RADIUS_SCALE · diagonal / √photons`: about 40 photons per kernel on the walls of a

@@ -158,6 +158,11 @@ pub fn bsdf_at(scene: &Scene, hit: &Hit) -> Bsdf {
     Bsdf::new(material, lambertian_at(scene, material, hit.uv))
 }
 
+/// True when `power` is finite and positive in some channel.
+pub fn carries_power(power: Vec3) -> bool {
+    power.is_finite() && power.max_element() > 0.0
+}
+
 /// True when the BSDF has a finite (non-delta) part the eye can see photons through.
 pub fn has_finite_lobe(bsdf: &Bsdf) -> bool {
     bsdf.lambertian.max_element() > 0.0
@@ -176,7 +181,7 @@ fn scatter(
     let s =
         bsdf.sample_russian_roulette(-dir, hit.shading_normal, hit.geometric_normal, rng.next_3())?;
     let power = state.power * s.weight;
-    if !(power.max_element() > 0.0 && power.is_finite()) {
+    if !carries_power(power) {
         return None;
     }
     let eta = if s.lobe == Lobe::Refraction {
@@ -197,7 +202,7 @@ fn scatter(
 /// The CPU bounce map: traces an emitted photon to its first hit and bounces it there (no
 /// photon is stored: hit 1 is direct light). `None` when it misses or is absorbed.
 pub fn first_bounce(scene: &Scene, bvh: &SceneBvh, photon: &EmittedPhoton) -> Option<PhotonState> {
-    if !(photon.power.max_element() > 0.0) {
+    if !carries_power(photon.power) {
         return None;
     }
     let hit = bvh.intersect(&Ray::new(photon.origin, photon.direction))?;
@@ -239,7 +244,7 @@ fn trace_path(
     out: &mut Chunk,
 ) {
     let max = settings.max_bounces as usize;
-    if start.bounces as usize > max || !(start.power.max_element() > 0.0) {
+    if start.bounces as usize > max || !carries_power(start.power) {
         return;
     }
     out.attrition[start.bounces as usize] += 1;
