@@ -3,10 +3,13 @@
 
 pub mod bsdf;
 pub mod bvh;
+pub mod emit;
+pub mod kernel;
 pub mod ray;
 pub mod rng;
 pub mod sampling;
 pub mod shapes;
+pub mod trace;
 pub mod triangle;
 pub mod types;
 

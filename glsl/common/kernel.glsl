@@ -1,0 +1,39 @@
+// Photon kernel: the twin of src/photon/kernel.rs, formula for formula (see its module docs for
+// the normalisation proof). Header only.
+#ifndef KERNEL_GLSL
+#define KERNEL_GLSL
+
+const float KERNEL_NORMAL_RATIO = 0.5;
+const float KERNEL_PI = 3.14159265358979;
+
+// (r_xy, r_z) of a photon with path density rho_p; r_min, r_max in metres.
+vec2 kernel_radius(float rho_p, float r_min, float r_max) {
+    float r = (rho_p > 0.0 && !isinf(rho_p)) ? clamp(r_min * inversesqrt(rho_p), r_min, r_max)
+                                             : r_max;
+    return vec2(r, r * KERNEL_NORMAL_RATIO);
+}
+
+float kernel_t(vec3 x, vec3 n, float r_xy, float r_z, vec3 s) {
+    vec3 d = s - x;
+    float dist = length(d);
+    if (dist == 0.0) {
+        return 0.0;
+    }
+    float c = min(abs(dot(d, n)) / dist, 1.0);
+    return (dist / r_xy) * (1.0 + c * (r_xy - r_z) / r_z);
+}
+
+// kappa (1/m^2): integrates to 1 over the tangent disk of radius r_xy.
+float kernel_weight(vec3 photon_pos, vec3 photon_normal, float r_xy, float r_z, vec3 s) {
+    if (!(r_xy > 0.0 && r_z > 0.0)) {
+        return 0.0;
+    }
+    vec3 d = s - photon_pos;
+    if (dot(d, d) >= r_xy * r_xy) {
+        return 0.0;
+    }
+    float t = kernel_t(photon_pos, photon_normal, r_xy, r_z, s);
+    return t >= 1.0 ? 0.0 : 3.0 / (KERNEL_PI * r_xy * r_xy) * (1.0 - t);
+}
+
+#endif

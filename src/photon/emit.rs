@@ -1,0 +1,310 @@
+//! Photon emission from punctual lights on the CPU (DESIGN.md §2.3): the reference renderers
+//! emit with it, and it is the CPU twin of the GPU bounce map's emission.
+//!
+//! - **Point**: directions uniform on the sphere, flux `Φ = 4π·I`.
+//! - **Spot**: directions importance-sampled from the KHR_lights_punctual falloff inside the
+//!   outer cone (`cos θ` drawn from a pdf ∝ falloff, φ uniform), so every photon carries the same
+//!   power; `Φ = 2π·I·∫ falloff(cos θ) d cos θ` in closed form ([`spot_falloff_integral`]).
+//! - **Directional**: origins uniform on the disk perpendicular to the direction that covers
+//!   the scene's bounding sphere, placed just outside it; `Φ = E·π R²`.
+//!
+//! Budget: light L gets `round(N·Φ̄_L/Φ̄_total)` photons (Φ̄: mean of RGB), each carrying
+//! `Φ_L / N_L`, so a light's photon powers sum to its flux exactly (up to float rounding),
+//! whatever the rounding of the budget.
+//!
+//! Random numbers: photon `i` of light `l` draws from `Rng::new(seed)` with
+//! `seed = seed_bounce_map_texel(light.position, i, hash2(global_seed, l))`; the photon keeps
+//! that seed so that the first bounce ([`super::trace::first_bounce`]) is reproducible too.
+
+use super::rng::{hash2, seed_bounce_map_texel, Rng};
+use super::sampling::{concentric_disk, uniform_sphere, Frame};
+use crate::scene::{Aabb, Light, LightKind, Scene};
+use glam::Vec3;
+use std::f32::consts::{PI, TAU};
+
+/// A photon leaving a light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EmittedPhoton {
+    pub origin: Vec3,
+    /// Unit direction of travel.
+    pub direction: Vec3,
+    /// Power Φ (W, linear RGB).
+    pub power: Vec3,
+    /// Index into `Scene::lights`.
+    pub light: u32,
+    /// The photon's RNG seed (emission, then the first bounce).
+    pub seed: u32,
+}
+
+/// KHR_lights_punctual spot falloff (as `glsl/common/lights.glsl`): `clamp((cd − cos_o)·s)²`
+/// with `s = 1/max(10⁻⁴, cos_i − cos_o)`.
+pub fn spot_falloff(cos_inner: f32, cos_outer: f32, cd: f32) -> f32 {
+    let scale = 1.0 / (cos_inner - cos_outer).max(1e-4);
+    let t = ((cd - cos_outer) * scale).clamp(0.0, 1.0);
+    t * t
+}
+
+/// `∫_{cos_o}^{1} falloff(c) dc` in closed form, for cone angles in radians (computed in
+/// `f64` with `1 − cos θ = 2 sin²(θ/2)`, exact for narrow cones too).
+pub fn spot_falloff_integral(inner_cone_angle: f32, outer_cone_angle: f32) -> f32 {
+    let (inner, outer) = (inner_cone_angle as f64, outer_cone_angle as f64);
+    let width = (inner.cos() - outer.cos()).max(1e-4);
+    let one_minus_cos_outer = 2.0 * (0.5 * outer).sin().powi(2);
+    let plateau = one_minus_cos_outer - width;
+    let integral = if plateau >= 0.0 {
+        width / 3.0 + plateau
+    } else {
+        let u = one_minus_cos_outer / width;
+        width * u * u * u / 3.0
+    };
+    integral as f32
+}
+
+/// Samples `cos θ` in `[cos_o, 1]` with pdf ∝ falloff.
+fn sample_spot_cos(inner_cone_angle: f32, outer_cone_angle: f32, u: f32) -> f32 {
+    let (cos_inner, cos_outer) = (inner_cone_angle.cos(), outer_cone_angle.cos());
+    let width = (cos_inner - cos_outer).max(1e-4);
+    let total = spot_falloff_integral(inner_cone_angle, outer_cone_angle);
+    let x = u * total;
+    let ramp_mass = (width / 3.0).min(total);
+    if x < ramp_mass {
+        // ∫₀^c' (c/w)² dc = c'³/(3w²) = x  ⇒  c' = (3 x w²)^(1/3).
+        let c = (3.0 * x * width * width).cbrt();
+        (cos_outer + c).min(1.0)
+    } else {
+        (cos_outer + width + (x - ramp_mass)).min(1.0)
+    }
+}
+
+/// Centre and radius of the bounding sphere of `bounds` (unit sphere at the origin if empty).
+fn bounding_sphere(bounds: &Aabb) -> (Vec3, f32) {
+    if bounds.is_empty() {
+        (Vec3::ZERO, 1.0)
+    } else {
+        (bounds.center(), (bounds.extent().length() * 0.5).max(1e-6))
+    }
+}
+
+fn sanitize(v: Vec3) -> Vec3 {
+    Vec3::from_array(
+        v.to_array()
+            .map(|c| if c.is_finite() { c.max(0.0) } else { 0.0 }),
+    )
+}
+
+/// The light's flux Φ (W, RGB); `scene_bounds` sizes a directional light's disk.
+pub fn light_flux(light: &Light, scene_bounds: &Aabb) -> Vec3 {
+    let intensity = sanitize(light.intensity);
+    match light.kind {
+        LightKind::Point => intensity * (4.0 * PI),
+        LightKind::Spot {
+            inner_cone_angle,
+            outer_cone_angle,
+        } => intensity * (TAU * spot_falloff_integral(inner_cone_angle, outer_cone_angle)),
+        LightKind::Directional => {
+            let (_, r) = bounding_sphere(scene_bounds);
+            intensity * (PI * r * r)
+        }
+    }
+}
+
+fn mean(v: Vec3) -> f32 {
+    (v.x + v.y + v.z) / 3.0
+}
+
+/// How many of `photons` each light emits: ∝ its mean flux, rounded.
+pub fn photon_budget(scene: &Scene, photons: usize) -> Vec<usize> {
+    let bounds = scene.bounds();
+    let flux: Vec<f32> = scene
+        .lights
+        .iter()
+        .map(|l| mean(light_flux(l, &bounds)))
+        .collect();
+    let total: f32 = flux.iter().sum();
+    if !(total > 0.0 && total.is_finite()) {
+        return vec![0; scene.lights.len()];
+    }
+    flux.iter()
+        .map(|f| ((photons as f64) * (*f as f64) / (total as f64)).round() as usize)
+        .collect()
+}
+
+/// One photon of `light`, drawn with `rng`, carrying `power`.
+fn emit_one(light: &Light, bounds: &Aabb, rng: &mut Rng) -> (Vec3, Vec3) {
+    match light.kind {
+        LightKind::Point => (light.position, uniform_sphere(rng.next_2())),
+        LightKind::Spot {
+            inner_cone_angle,
+            outer_cone_angle,
+        } => {
+            let cos_t = sample_spot_cos(inner_cone_angle, outer_cone_angle, rng.next_f32());
+            let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+            let phi = TAU * rng.next_f32();
+            let axis = light.direction.try_normalize().unwrap_or(Vec3::NEG_Z);
+            let local = Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t);
+            (light.position, Frame::from_normal(axis).to_world(local))
+        }
+        LightKind::Directional => {
+            let (c, r) = bounding_sphere(bounds);
+            let dir = light.direction.try_normalize().unwrap_or(Vec3::NEG_Y);
+            let disk = concentric_disk(rng.next_2()) * r;
+            let frame = Frame::from_normal(dir);
+            let origin = c - dir * (r * 1.01) + frame.to_world(Vec3::new(disk.x, disk.y, 0.0));
+            (origin, dir)
+        }
+    }
+}
+
+/// `count` photons of light `index`, whose powers sum to its flux.
+pub fn emit_from_light(
+    scene: &Scene,
+    index: usize,
+    count: usize,
+    global_seed: u32,
+) -> Vec<EmittedPhoton> {
+    let light = &scene.lights[index];
+    let bounds = scene.bounds();
+    if count == 0 {
+        return Vec::new();
+    }
+    let power = light_flux(light, &bounds) / count as f32;
+    let light_seed = hash2(global_seed, index as u32);
+    (0..count)
+        .map(|i| {
+            let seed = seed_bounce_map_texel(light.position, i as u32, light_seed);
+            let mut rng = Rng::new(seed);
+            let (origin, direction) = emit_one(light, &bounds, &mut rng);
+            EmittedPhoton {
+                origin,
+                direction,
+                power,
+                light: index as u32,
+                seed,
+            }
+        })
+        .collect()
+}
+
+/// About `photons` photons from all lights, budgeted by power ([`photon_budget`]).
+pub fn emit_photons(scene: &Scene, photons: usize, global_seed: u32) -> Vec<EmittedPhoton> {
+    photon_budget(scene, photons)
+        .into_iter()
+        .enumerate()
+        .flat_map(|(i, n)| emit_from_light(scene, i, n, global_seed))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Mat4;
+
+    fn scene_with(lights: Vec<Light>) -> Scene {
+        let mut s = crate::photon::shapes::scene_of(vec![(
+            crate::photon::shapes::icosphere(1),
+            Mat4::from_scale(Vec3::splat(3.0)),
+        )]);
+        s.lights = lights;
+        s
+    }
+
+    fn light(kind: LightKind, intensity: Vec3) -> Light {
+        Light {
+            name: "l".into(),
+            kind,
+            position: Vec3::new(0.1, 0.2, 0.3),
+            direction: Vec3::new(0.0, -1.0, 0.2).normalize(),
+            intensity,
+        }
+    }
+
+    fn kinds() -> [LightKind; 4] {
+        [
+            LightKind::Point,
+            LightKind::Spot {
+                inner_cone_angle: 0.3,
+                outer_cone_angle: 0.7,
+            },
+            LightKind::Spot {
+                inner_cone_angle: 0.0,
+                outer_cone_angle: 1e-3,
+            },
+            LightKind::Directional,
+        ]
+    }
+
+    #[test]
+    fn photon_power_sums_to_light_flux_for_every_light_kind() {
+        for kind in kinds() {
+            let s = scene_with(vec![light(kind, Vec3::new(1.0, 2.0, 3.5))]);
+            let flux = light_flux(&s.lights[0], &s.bounds());
+            for n in [1, 7, 1000] {
+                let sum = emit_from_light(&s, 0, n, 9)
+                    .iter()
+                    .fold(glam::DVec3::ZERO, |a, p| a + p.power.as_dvec3());
+                let flux = flux.as_dvec3();
+                assert!(
+                    ((sum - flux).abs() / flux).max_element() < 1e-6,
+                    "{kind:?}, n = {n}: {sum} vs {flux}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn spot_flux_matches_numerical_integral_of_the_falloff() {
+        for (inner, outer) in [(0.3f32, 0.7f32), (0.0, 1.2), (0.5, 0.5001), (0.0, 0.05)] {
+            let (ci, co) = (inner.cos(), outer.cos());
+            let n = 200_000;
+            let numeric: f64 = (0..n)
+                .map(|i| {
+                    let c = co + (1.0 - co) * (i as f32 + 0.5) / n as f32;
+                    spot_falloff(ci, co, c) as f64 * (1.0 - co) as f64 / n as f64
+                })
+                .sum();
+            let exact = spot_falloff_integral(inner, outer) as f64;
+            assert!(
+                (numeric - exact).abs() <= 1e-3 * exact,
+                "{inner},{outer}: {numeric} {exact}"
+            );
+        }
+    }
+
+    #[test]
+    fn spot_photons_stay_inside_the_outer_cone_and_follow_the_falloff() {
+        let kind = LightKind::Spot {
+            inner_cone_angle: 0.2,
+            outer_cone_angle: 0.6,
+        };
+        let l = light(kind, Vec3::ONE);
+        let s = scene_with(vec![l.clone()]);
+        let photons = emit_from_light(&s, 0, 20_000, 3);
+        let cos_o = 0.6f32.cos();
+        let cos_i = 0.2f32.cos();
+        let inside_inner = photons
+            .iter()
+            .filter(|p| p.direction.dot(l.direction) >= cos_i)
+            .count() as f32
+            / photons.len() as f32;
+        assert!(photons
+            .iter()
+            .all(|p| p.direction.dot(l.direction) >= cos_o - 1e-5));
+        let expected = (1.0 - cos_i) / spot_falloff_integral(0.2, 0.6);
+        assert!(
+            (inside_inner - expected).abs() < 0.015,
+            "{inside_inner} vs {expected}"
+        );
+    }
+
+    #[test]
+    fn budget_follows_power_and_skips_dark_lights() {
+        let s = scene_with(vec![
+            light(LightKind::Point, Vec3::ONE),
+            light(LightKind::Point, Vec3::splat(3.0)),
+            light(LightKind::Point, Vec3::ZERO),
+        ]);
+        assert_eq!(photon_budget(&s, 1000), vec![250, 750, 0]);
+        let dark = scene_with(vec![light(LightKind::Point, Vec3::ZERO)]);
+        assert!(emit_photons(&dark, 100, 1).is_empty());
+    }
+}

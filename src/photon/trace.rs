@@ -1,0 +1,354 @@
+//! The CPU photon tracer (DESIGN.md §2 step 4, paper §5): photons leaving the first bounce are
+//! traced on through the scene with Russian roulette, and stored just before each indirect
+//! bounce.
+//!
+//! # Two inputs, one continuation
+//! - **From the lights** (the references): [`trace_from_lights`] traces each
+//!   [`EmittedPhoton`] to its first hit and bounces it there ([`first_bounce`], the CPU
+//!   equivalent of one bounce-map texel), then continues with [`trace_photons`].
+//! - **From the GPU bounce map**: [`PhotonState::from_bounce_map`] turns a read-back texel (its
+//!   position recovered from the light G-buffer depth by the caller) into the same state.
+//!
+//! # What is stored, and where
+//! A photon is stored at the k-th surface it hits only when k ≥ 2 (it has bounced at least
+//! once: hit 1 is direct light, which the renderer computes with shadow maps / NEE) **and** the
+//! surface has a non-delta lobe (Lambertian, or glossy with a finite exponent): the surface
+//! seen by the eye through the photon's kernel must have a finite BSDF, and a pure mirror or
+//! glass surface never is the last surface before the eye (the eye path follows delta
+//! bounces). A photon reaching a diffuse floor through glass (L S D, a caustic) is stored; a
+//! photon at the glass itself is not. The stored record is the *incident* power, the incident
+//! direction (towards where it came from) packed with the path density ρp of the path so far,
+//! the hit position and the geometric normal turned to the incident side. Storing happens
+//! before the bounce, and independently of whether the photon then survives.
+//!
+//! # Bounces
+//! `max_bounces` caps the number of scattering events of a photon: stored photons have
+//! 1…`max_bounces` bounces. `attrition[k]` counts the photons alive after bounce k
+//! (`attrition[0]`: photons emitted with non-zero power; paper Fig. 10).
+//! η is tracked as the product of the relative indices crossed by refraction.
+//!
+//! # Determinism
+//! Each path draws from `Rng::new(seed_from_position(origin, seed))` (frame-coherent: the
+//! same start gives the same path). Work is split into fixed-size chunks traced in parallel by
+//! rayon; per-chunk buffers are concatenated in chunk order, so the photon map does not depend
+//! on the number of threads.
+
+use super::bsdf::{Bsdf, Lobe};
+use super::bvh::SceneBvh;
+use super::emit::EmittedPhoton;
+use super::ray::{Hit, Ray};
+use super::rng::{hash2, seed_from_position, Rng};
+use super::types::{pack_direction, unpack_direction, BounceMapPhoton, Photon};
+use crate::scene::{Material, Scene};
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+
+/// Paths per parallel work item.
+const CHUNK: usize = 256;
+/// Stream of the first bounce in a photon's RNG seed (emission uses the seed itself).
+const FIRST_BOUNCE_STREAM: u32 = 0x6f1b_0b01;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TraceSettings {
+    /// Most scattering events a photon may take (≥ 1).
+    pub max_bounces: u32,
+    /// The renderer's `--seed`.
+    pub seed: u32,
+}
+
+impl Default for TraceSettings {
+    fn default() -> Self {
+        Self {
+            max_bounces: 16,
+            seed: 0,
+        }
+    }
+}
+
+/// A photon in flight that has bounced `bounces` times and now leaves `origin`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PhotonState {
+    /// Start of the next ray (already offset off the surface it leaves).
+    pub origin: Vec3,
+    /// Unit direction of travel.
+    pub direction: Vec3,
+    pub power: Vec3,
+    /// Path density so far (1 at the light).
+    pub rho_p: f32,
+    /// Index of refraction of the medium it travels in.
+    pub eta: f32,
+    pub bounces: u32,
+}
+
+impl PhotonState {
+    /// The state of a GPU bounce-map photon whose hit point (recovered from the light
+    /// G-buffer's depth) is `position`. `None` for absorbed texels (zero power or direction).
+    /// The origin is pushed along the direction by a relative epsilon, since the read-back
+    /// texel has no normal or error bound.
+    pub fn from_bounce_map(p: &BounceMapPhoton, position: Vec3) -> Option<Self> {
+        let (direction, rho_p) = unpack_direction(p.direction);
+        if direction == Vec3::ZERO || p.power.max_element() <= 0.0 || !p.power.is_finite() {
+            return None;
+        }
+        let offset = 1e-4 * (1.0 + position.abs().max_element());
+        Some(Self {
+            origin: position + direction * offset,
+            direction,
+            power: p.power,
+            rho_p,
+            eta: if p.eta > 0.0 { p.eta } else { 1.0 },
+            bounces: 1,
+        })
+    }
+
+    /// The bounce-map record of this state at light G-buffer depth `depth`.
+    pub fn to_bounce_map(&self, depth: f32) -> BounceMapPhoton {
+        BounceMapPhoton {
+            power: self.power,
+            direction: pack_direction(self.direction, self.rho_p),
+            eta: self.eta,
+            depth,
+        }
+    }
+}
+
+/// The traced photons and their statistics.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PhotonMap {
+    pub photons: Vec<Photon>,
+    /// `attrition[k]`: photons alive after bounce k (length `max_bounces + 1`).
+    pub attrition: Vec<u64>,
+    /// `stored_power[k]`: total power of the photons stored after k bounces (index 0 unused).
+    pub stored_power: Vec<Vec3>,
+    /// Number of photons emitted (trace from lights) or started (bounce map).
+    pub emitted: u64,
+}
+
+/// Sampled Lambertian reflectance of `material` at `uv` (nearest texel, repeat, sRGB decoded).
+pub fn lambertian_at(scene: &Scene, material: &Material, uv: Vec2) -> Option<Vec3> {
+    let tex = scene.textures.get(material.lambertian_texture?)?;
+    if tex.width == 0 || tex.height == 0 || tex.rgba8.len() < (tex.width * tex.height * 4) as usize
+    {
+        return None;
+    }
+    let x = ((uv.x - uv.x.floor()) * tex.width as f32) as u32 % tex.width;
+    let y = ((uv.y - uv.y.floor()) * tex.height as f32) as u32 % tex.height;
+    let i = ((y * tex.width + x) * 4) as usize;
+    let decode = |c: u8| {
+        let c = c as f32 / 255.0;
+        if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    Some(
+        material.lambertian
+            * Vec3::new(
+                decode(tex.rgba8[i]),
+                decode(tex.rgba8[i + 1]),
+                decode(tex.rgba8[i + 2]),
+            ),
+    )
+}
+
+/// The BSDF at a hit (texture applied).
+pub fn bsdf_at(scene: &Scene, hit: &Hit) -> Bsdf {
+    let material = &scene.materials[hit.material];
+    Bsdf::new(material, lambertian_at(scene, material, hit.uv))
+}
+
+/// True when `power` is finite and positive in some channel.
+pub fn carries_power(power: Vec3) -> bool {
+    power.is_finite() && power.max_element() > 0.0
+}
+
+/// True when the BSDF has a finite (non-delta) part the eye can see photons through.
+pub fn has_finite_lobe(bsdf: &Bsdf) -> bool {
+    bsdf.lambertian.max_element() > 0.0
+        || (bsdf.exponent.is_finite() && (bsdf.glossy.max_element() > 0.0 || bsdf.fresnel))
+}
+
+/// Scatters a photon arriving at `hit` along `dir`; `None` when absorbed.
+fn scatter(
+    scene: &Scene,
+    hit: &Hit,
+    dir: Vec3,
+    state: &PhotonState,
+    rng: &mut Rng,
+) -> Option<PhotonState> {
+    let bsdf = bsdf_at(scene, hit);
+    let s =
+        bsdf.sample_russian_roulette(-dir, hit.shading_normal, hit.geometric_normal, rng.next_3())?;
+    let power = state.power * s.weight;
+    if !carries_power(power) {
+        return None;
+    }
+    let eta = if s.lobe == Lobe::Refraction {
+        state.eta * s.eta
+    } else {
+        state.eta
+    };
+    Some(PhotonState {
+        origin: hit.spawn_ray(s.wi).origin,
+        direction: s.wi,
+        power,
+        rho_p: state.rho_p * s.path_density_factor,
+        eta,
+        bounces: state.bounces + 1,
+    })
+}
+
+/// The CPU bounce map: traces an emitted photon to its first hit and bounces it there (no
+/// photon is stored: hit 1 is direct light). `None` when it misses or is absorbed.
+pub fn first_bounce(scene: &Scene, bvh: &SceneBvh, photon: &EmittedPhoton) -> Option<PhotonState> {
+    if !carries_power(photon.power) {
+        return None;
+    }
+    let hit = bvh.intersect(&Ray::new(photon.origin, photon.direction))?;
+    let start = PhotonState {
+        origin: photon.origin,
+        direction: photon.direction,
+        power: photon.power,
+        rho_p: 1.0,
+        eta: 1.0,
+        bounces: 0,
+    };
+    let mut rng = Rng::new(hash2(photon.seed, FIRST_BOUNCE_STREAM));
+    scatter(scene, &hit, photon.direction, &start, &mut rng)
+}
+
+#[derive(Default)]
+struct Chunk {
+    photons: Vec<Photon>,
+    attrition: Vec<u64>,
+    stored_power: Vec<Vec3>,
+}
+
+impl Chunk {
+    fn new(max_bounces: u32) -> Self {
+        let n = max_bounces as usize + 1;
+        Self {
+            photons: Vec::new(),
+            attrition: vec![0; n],
+            stored_power: vec![Vec3::ZERO; n],
+        }
+    }
+}
+
+fn trace_path(
+    scene: &Scene,
+    bvh: &SceneBvh,
+    start: &PhotonState,
+    settings: &TraceSettings,
+    out: &mut Chunk,
+) {
+    let max = settings.max_bounces as usize;
+    if start.bounces as usize > max || !carries_power(start.power) {
+        return;
+    }
+    out.attrition[start.bounces as usize] += 1;
+    let mut rng = Rng::new(seed_from_position(start.origin, settings.seed));
+    let mut state = *start;
+    loop {
+        let Some(hit) = bvh.intersect(&Ray::new(state.origin, state.direction)) else {
+            return;
+        };
+        let bsdf = bsdf_at(scene, &hit);
+        let k = state.bounces as usize;
+        if k >= 1 && has_finite_lobe(&bsdf) {
+            let wi = -state.direction;
+            let n = if hit.geometric_normal.dot(wi) < 0.0 {
+                -hit.geometric_normal
+            } else {
+                hit.geometric_normal
+            };
+            out.photons
+                .push(Photon::new(state.power, wi, state.rho_p, hit.position, n));
+            out.stored_power[k] += state.power;
+        }
+        if k >= max {
+            return;
+        }
+        match scatter(scene, &hit, state.direction, &state, &mut rng) {
+            Some(next) => {
+                state = next;
+                out.attrition[state.bounces as usize] += 1;
+            }
+            None => return,
+        }
+    }
+}
+
+fn merge(chunks: Vec<Chunk>, max_bounces: u32, emitted: u64) -> PhotonMap {
+    let mut total = Chunk::new(max_bounces);
+    let count = chunks.iter().map(|c| c.photons.len()).sum();
+    total.photons.reserve_exact(count);
+    for c in chunks {
+        total.photons.extend_from_slice(&c.photons);
+        for (a, b) in total.attrition.iter_mut().zip(&c.attrition) {
+            *a += b;
+        }
+        for (a, b) in total.stored_power.iter_mut().zip(&c.stored_power) {
+            *a += *b;
+        }
+    }
+    PhotonMap {
+        photons: total.photons,
+        attrition: total.attrition,
+        stored_power: total.stored_power,
+        emitted,
+    }
+}
+
+/// Continues photons that have already bounced (bounce-map photons, or [`first_bounce`]'s),
+/// on all of rayon's threads; the result does not depend on the thread count.
+pub fn trace_photons(
+    scene: &Scene,
+    bvh: &SceneBvh,
+    starts: &[PhotonState],
+    settings: &TraceSettings,
+) -> PhotonMap {
+    let max_bounces = settings.max_bounces.max(1);
+    let settings = TraceSettings {
+        max_bounces,
+        ..*settings
+    };
+    let chunks: Vec<Chunk> = starts
+        .par_chunks(CHUNK)
+        .map(|chunk| {
+            let mut out = Chunk::new(max_bounces);
+            for s in chunk {
+                trace_path(scene, bvh, s, &settings, &mut out);
+            }
+            out
+        })
+        .collect();
+    merge(chunks, max_bounces, starts.len() as u64)
+}
+
+/// The reference path: emitted photons → [`first_bounce`] → [`trace_photons`].
+pub fn trace_from_lights(
+    scene: &Scene,
+    bvh: &SceneBvh,
+    emitted: &[EmittedPhoton],
+    settings: &TraceSettings,
+) -> PhotonMap {
+    let starts: Vec<PhotonState> = emitted
+        .par_chunks(CHUNK)
+        .map(|chunk| {
+            chunk
+                .iter()
+                .filter_map(|p| first_bounce(scene, bvh, p))
+                .collect::<Vec<_>>()
+        })
+        .collect::<Vec<_>>()
+        .concat();
+    let mut map = trace_photons(scene, bvh, &starts, settings);
+    map.attrition[0] = emitted
+        .iter()
+        .filter(|p| p.power.max_element() > 0.0)
+        .count() as u64;
+    map.emitted = emitted.len() as u64;
+    map
+}

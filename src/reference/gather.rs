@@ -1,0 +1,142 @@
+//! Photon mapping by gathering: `photon-gather` (one photon map, ISPM's per-photon kernel
+//! radius from ρp) and `progressive` (a new photon map per iteration and a global radius
+//! shrinking as Knaus & Zwicker 2011).
+//!
+//! Estimator (DESIGN.md §2.2, paper eq. 1 without the cosine): `L = Σ f(s, ωi, ωo)·Φ·κ`.
+//! The stored power is flux through the surface, so `Φ·κ` (κ in 1/m², integrating to 1 over the
+//! tangent disk) is already irradiance; a `max(0, ωi·n)` factor would count the cosine twice.
+//! Only its sign survives, as the front-side test that `Bsdf::eval` applies (0 for ωi on the
+//! other side of the surface from ωo). `docs/references.md` lists the tests that decide this.
+
+use super::photon_index::PhotonGrid;
+use super::{direct_light, eye_path, Accumulator, Ctx, HdrImage};
+use crate::photon::bsdf::Bsdf;
+use crate::photon::emit::emit_photons;
+use crate::photon::kernel::{kernel_radius, kernel_weight, KernelSettings, NORMAL_RATIO};
+use crate::photon::ray::Hit;
+use crate::photon::rng::hash2;
+use crate::photon::trace::{trace_from_lights, PhotonMap, TraceSettings};
+use crate::photon::types::unpack_direction;
+use anyhow::Result;
+use glam::Vec3;
+
+/// Most surfaces an eye path visits through delta bounces.
+const EYE_DEPTH: u32 = 16;
+
+/// A photon map ready to gather from: per-photon kernel radii and a grid.
+pub struct GatherMap {
+    pub map: PhotonMap,
+    /// `(r_xy, r_z)` per photon.
+    pub radii: Vec<(f32, f32)>,
+    grid: PhotonGrid,
+}
+
+impl GatherMap {
+    /// Radii from each photon's ρp ([`kernel_radius`]).
+    pub fn with_path_density(map: PhotonMap, kernel: &KernelSettings) -> Self {
+        let radii: Vec<(f32, f32)> = map
+            .photons
+            .iter()
+            .map(|p| kernel_radius(unpack_direction(p.direction).1, kernel))
+            .collect();
+        Self::with_radii(map, radii)
+    }
+
+    /// One global radius `r` (`r_z = NORMAL_RATIO·r`).
+    pub fn with_global_radius(map: PhotonMap, r: f32) -> Self {
+        let radii = vec![(r, r * NORMAL_RATIO); map.photons.len()];
+        Self::with_radii(map, radii)
+    }
+
+    fn with_radii(map: PhotonMap, radii: Vec<(f32, f32)>) -> Self {
+        let cell = radii.iter().map(|r| r.0).fold(0.0f32, f32::max);
+        let grid = PhotonGrid::new(&map.photons, cell);
+        Self { map, radii, grid }
+    }
+
+    /// Indirect radiance reflected towards `wo` at `hit`: `Σ f·Φ·κ`.
+    pub fn radiance(&self, hit: &Hit, bsdf: &Bsdf, wo: Vec3) -> Vec3 {
+        let mut sum = Vec3::ZERO;
+        self.grid.for_each_near(hit.position, |i| {
+            let p = &self.map.photons[i];
+            let (r_xy, r_z) = self.radii[i];
+            let kappa = kernel_weight(p.position, p.normal, r_xy, r_z, hit.position);
+            if kappa > 0.0 {
+                let (wi, _) = unpack_direction(p.direction);
+                let f = bsdf.eval(wo, wi, hit.shading_normal, hit.geometric_normal);
+                sum += f * p.power * kappa;
+            }
+        });
+        sum
+    }
+}
+
+/// The photon map of `ctx`'s scene with `photons` photons and seed `seed`.
+pub(super) fn photon_map(ctx: &Ctx, photons: usize, seed: u32) -> PhotonMap {
+    let emitted = emit_photons(ctx.scene, photons, seed);
+    let settings = TraceSettings {
+        max_bounces: ctx.settings.bounces.max(1),
+        seed,
+    };
+    trace_from_lights(ctx.scene, ctx.bvh, &emitted, &settings)
+}
+
+/// Eye passes over `map` into `acc`; false when cancelled.
+fn gather_passes(ctx: &Ctx, map: &GatherMap, first_pass: u32, acc: &mut Accumulator) -> bool {
+    for pass in 0..ctx.settings.spp.max(1) {
+        let image = ctx.pass(first_pass + pass, |x, y, rng| {
+            let ray = ctx.camera_ray(x, y, rng);
+            eye_path(ctx, ray, rng, EYE_DEPTH, |hit, bsdf, wo| {
+                direct_light(ctx.scene, ctx.bvh, hit, bsdf, wo) + map.radiance(hit, bsdf, wo)
+            })
+        });
+        match image {
+            Some(image) => acc.add(image),
+            None => return false,
+        }
+    }
+    true
+}
+
+pub(super) fn render_gather(ctx: &Ctx) -> Result<HdrImage> {
+    let s = ctx.settings;
+    ctx.set_length(s.spp.max(1) as u64 * s.height as u64);
+    let kernel = KernelSettings::scene_relative(&ctx.scene.bounds(), s.photons, s.radius);
+    let map = GatherMap::with_path_density(photon_map(ctx, s.photons, s.seed), &kernel);
+    let mut acc = Accumulator::new(s.width, s.height);
+    gather_passes(ctx, &map, 0, &mut acc);
+    acc.finish()
+}
+
+/// Knaus–Zwicker radius of iteration `i` (0-based): `r²_{i+1} = r²_i·(i+α)/(i+1)` (1-based).
+pub fn progressive_radius(r0: f32, alpha: f32, i: u32) -> f32 {
+    let mut r2 = (r0 as f64) * (r0 as f64);
+    for k in 1..=i {
+        r2 *= (k as f64 + alpha as f64) / (k as f64 + 1.0);
+    }
+    r2.sqrt() as f32
+}
+
+pub(super) fn render_progressive(ctx: &Ctx) -> Result<HdrImage> {
+    let s = ctx.settings;
+    let iterations = s.iterations.max(1);
+    ctx.set_length(iterations as u64 * s.spp.max(1) as u64 * s.height as u64);
+    let r0 = KernelSettings::scene_relative(&ctx.scene.bounds(), s.photons, s.radius).r_max;
+    let mut acc = Accumulator::new(s.width, s.height);
+    for i in 0..iterations {
+        if ctx.cancelled() {
+            break;
+        }
+        let r = progressive_radius(r0, s.alpha, i);
+        let map = photon_map(ctx, s.photons, hash2(s.seed, i));
+        let map = GatherMap::with_global_radius(map, r);
+        // Each iteration is a complete estimate; the image is their running mean.
+        let mut one = Accumulator::new(s.width, s.height);
+        if !gather_passes(ctx, &map, i * s.spp.max(1), &mut one) {
+            break;
+        }
+        let image = one.finish()?;
+        acc.add(image.pixels.into_iter().map(Vec3::from_array).collect());
+    }
+    acc.finish()
+}

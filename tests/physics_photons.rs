@@ -1,0 +1,257 @@
+//! Photon power accounting, determinism and robustness of the CPU photon tracer.
+
+use glam::{DVec3, Mat4, Vec2, Vec3};
+use ispm::photon::bvh::SceneBvh;
+use ispm::photon::emit::{emit_from_light, emit_photons, light_flux};
+use ispm::photon::shapes::icosphere;
+use ispm::photon::trace::{
+    first_bounce, trace_from_lights, trace_photons, PhotonState, TraceSettings,
+};
+use ispm::photon::types::unpack_direction;
+use ispm::reference::scenes::{furnace_sphere, grey_box};
+use ispm::scene::{Instance, Light, LightKind, Mesh};
+
+fn sum_power(p: impl Iterator<Item = Vec3>) -> DVec3 {
+    p.fold(DVec3::ZERO, |a, v| a + v.as_dvec3())
+}
+
+#[test]
+fn photon_power_sums_to_flux_for_point_spot_and_directional_lights() {
+    let mut scene = grey_box(0.5, 1.0);
+    let intensity = Vec3::new(0.5, 1.0, 2.0);
+    scene.lights = [
+        LightKind::Point,
+        LightKind::Spot {
+            inner_cone_angle: 0.25,
+            outer_cone_angle: 0.9,
+        },
+        LightKind::Directional,
+    ]
+    .into_iter()
+    .map(|kind| Light {
+        name: format!("{kind:?}"),
+        kind,
+        position: Vec3::new(0.1, 0.5, -0.2),
+        direction: Vec3::new(0.2, -1.0, 0.1).normalize(),
+        intensity,
+    })
+    .collect();
+    let bounds = scene.bounds();
+    for (i, light) in scene.lights.iter().enumerate() {
+        let flux = light_flux(light, &bounds).as_dvec3();
+        let sum = sum_power(emit_from_light(&scene, i, 4099, 1).iter().map(|p| p.power));
+        let err = ((sum - flux).abs() / flux).max_element();
+        assert!(err < 1e-6, "{:?}: {sum} vs {flux}", light.kind);
+    }
+    // All lights together, budgeted by power: the total is still the total flux.
+    let total: DVec3 = scene
+        .lights
+        .iter()
+        .map(|l| light_flux(l, &bounds).as_dvec3())
+        .sum();
+    let sum = sum_power(emit_photons(&scene, 10_000, 2).iter().map(|p| p.power));
+    assert!(((sum - total).abs() / total).max_element() < 1e-6);
+}
+
+/// In a closed grey box of albedo ρ with a point light, the power stored after k bounces is
+/// Φ·ρ^k: each bounce survives Russian roulette with probability ρ and keeps its power (weight
+/// ρ/ρ = 1). The count after k bounces is binomial(N, ρ^k); we allow 5 standard deviations.
+#[test]
+fn stored_power_per_bounce_follows_the_geometric_series_in_a_closed_box() {
+    for rho in [0.3f32, 0.7] {
+        let scene = grey_box(rho, 1.0);
+        let bvh = SceneBvh::new(&scene);
+        let n = 20_000usize;
+        let emitted = emit_photons(&scene, n, 11);
+        let flux = light_flux(&scene.lights[0], &scene.bounds()).x as f64;
+        let settings = TraceSettings {
+            max_bounces: 8,
+            seed: 5,
+        };
+        let map = trace_from_lights(&scene, &bvh, &emitted, &settings);
+        assert_eq!(
+            map.stored_power[0],
+            Vec3::ZERO,
+            "direct photons are never stored"
+        );
+        assert_eq!(map.attrition[0], n as u64);
+        // Closed box, every surface diffuse: every surviving photon is stored once per hit.
+        assert_eq!(
+            map.photons.len() as u64,
+            map.attrition[1..].iter().sum::<u64>()
+        );
+        for k in 1..=8 {
+            let p = (rho as f64).powi(k as i32);
+            let expected = flux * p;
+            let sigma = flux * (p * (1.0 - p) / n as f64).sqrt();
+            let got = map.stored_power[k].x as f64;
+            assert!(
+                (got - expected).abs() < 5.0 * sigma + 1e-9,
+                "ρ = {rho}, k = {k}: {got} vs {expected} ± {sigma}"
+            );
+            let alive = map.attrition[k] as f64 / n as f64;
+            assert!((alive - p).abs() < 5.0 * (p * (1.0 - p) / n as f64).sqrt());
+        }
+    }
+}
+
+#[test]
+fn photon_map_is_bit_identical_with_one_and_two_threads() {
+    let scene = furnace_sphere(2, 0.6, 1.0);
+    let bvh = SceneBvh::new(&scene);
+    let emitted = emit_photons(&scene, 5_000, 3);
+    let settings = TraceSettings {
+        max_bounces: 12,
+        seed: 9,
+    };
+    let run = |threads| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| trace_from_lights(&scene, &bvh, &emitted, &settings))
+    };
+    let (one, two) = (run(1), run(2));
+    assert!(one.photons.len() > 1000);
+    assert_eq!(
+        bytemuck::cast_slice::<_, u8>(&one.photons),
+        bytemuck::cast_slice::<_, u8>(&two.photons)
+    );
+    assert_eq!(one.attrition, two.attrition);
+}
+
+/// The GPU path (bounce-map records + positions) and the CPU path share the continuation:
+/// the same states give the same photons, and a round trip through `BounceMapPhoton` keeps
+/// power, direction, ρp and η.
+#[test]
+fn bounce_map_photons_continue_like_cpu_first_bounces() {
+    let scene = grey_box(0.5, 1.0);
+    let bvh = SceneBvh::new(&scene);
+    let emitted = emit_photons(&scene, 2_000, 4);
+    let states: Vec<PhotonState> = emitted
+        .iter()
+        .filter_map(|p| first_bounce(&scene, &bvh, p))
+        .collect();
+    assert!(states.iter().all(|s| s.bounces == 1));
+    for s in &states {
+        let record = s.to_bounce_map(1.0);
+        let back = PhotonState::from_bounce_map(&record, s.origin).unwrap();
+        assert_eq!(back.power, s.power);
+        assert!((back.direction - s.direction).length() < 1e-6);
+        // ρp rides on ‖v‖ = ρp + 1: f32 keeps it to one ulp of 1 (types.rs's packing docs).
+        assert!((back.rho_p - s.rho_p).abs() <= 2.5e-7 + 1e-6 * s.rho_p);
+        assert_eq!(back.eta, s.eta);
+    }
+    let settings = TraceSettings::default();
+    let a = trace_photons(&scene, &bvh, &states, &settings);
+    let b = trace_from_lights(&scene, &bvh, &emitted, &settings);
+    assert_eq!(a.photons, b.photons);
+    // Stored photons carry ρp = product of the lobe factors: ρ/1000 per diffuse bounce.
+    for p in &a.photons {
+        let (_, rho) = unpack_direction(p.direction);
+        assert!(rho <= 0.5e-3 + 2.5e-7, "ρp = {rho}");
+    }
+}
+
+/// A refracting sphere inside the box: photons that enter carry η = ior, those that leave
+/// again η = 1, and no photon is stored on the glass itself.
+#[test]
+fn photons_track_eta_through_glass_and_are_not_stored_on_it() {
+    let mut scene = grey_box(0.5, 1.0);
+    scene.materials.push(ispm::scene::Material {
+        name: "glass".into(),
+        lambertian: Vec3::ZERO,
+        glossy: Vec3::splat(0.04),
+        exponent: f32::INFINITY,
+        transmission: Vec3::splat(0.96),
+        ior: 1.5,
+        fresnel: true,
+        ..Default::default()
+    });
+    let mut ball = icosphere(2);
+    ball.material = scene.materials.len() - 1;
+    scene.meshes.push(ball);
+    scene.instances.push(Instance {
+        name: "ball".into(),
+        mesh: scene.meshes.len() - 1,
+        transform: Mat4::from_scale(Vec3::splat(0.4))
+            * Mat4::from_translation(Vec3::new(0.0, -1.0, 0.0)),
+    });
+    scene.lights[0].position = Vec3::new(0.0, 0.8, 0.0);
+    let bvh = SceneBvh::new(&scene);
+    let emitted = emit_photons(&scene, 5_000, 8);
+    let states: Vec<PhotonState> = emitted
+        .iter()
+        .filter_map(|p| first_bounce(&scene, &bvh, p))
+        .collect();
+    let inside = states.iter().filter(|s| (s.eta - 1.5).abs() < 1e-6).count();
+    assert!(inside > 50, "{inside} photons entered the glass");
+    assert!(states
+        .iter()
+        .all(|s| (s.eta - 1.0).abs() < 1e-6 || (s.eta - 1.5).abs() < 1e-6));
+    let map = trace_from_lights(&scene, &bvh, &emitted, &TraceSettings::default());
+    for p in &map.photons {
+        // The ball has radius 0.4 about (0, −0.4, 0); its facets lie inside that sphere.
+        let r = (p.position - Vec3::new(0.0, -0.4, 0.0)).length();
+        assert!(r > 0.401, "photon stored on the glass at r = {r}");
+    }
+    // Caustic photons (through the glass only) have ρp near 1: much larger than diffuse ones.
+    assert!(map
+        .photons
+        .iter()
+        .any(|p| unpack_direction(p.direction).1 > 0.1));
+}
+
+#[test]
+fn zero_power_lights_and_degenerate_triangles_give_finite_photons() {
+    let mut scene = furnace_sphere(2, 0.5, 1.0);
+    scene.lights.push(Light {
+        name: "dark".into(),
+        kind: LightKind::Point,
+        position: Vec3::new(0.1, 0.0, 0.0),
+        direction: Vec3::NEG_Y,
+        intensity: Vec3::ZERO,
+    });
+    // Zero-area and collinear triangles in the middle of the sphere.
+    let p = vec![
+        Vec3::new(0.2, 0.2, 0.2),
+        Vec3::new(0.2, 0.2, 0.2),
+        Vec3::new(0.4, 0.4, 0.4),
+        Vec3::new(0.6, 0.6, 0.6),
+    ];
+    scene.meshes.push(Mesh {
+        name: "degenerate".into(),
+        normals: vec![Vec3::Y; p.len()],
+        uvs: vec![Vec2::ZERO; p.len()],
+        positions: p,
+        triangles: vec![[0, 1, 2], [1, 2, 3], [0, 0, 0]],
+        material: 0,
+    });
+    scene.instances.push(Instance {
+        name: "degenerate".into(),
+        mesh: 1,
+        transform: Mat4::IDENTITY,
+    });
+    let bvh = SceneBvh::new(&scene);
+    let emitted = emit_photons(&scene, 3_000, 1);
+    assert!(
+        emitted.iter().all(|p| p.light == 0),
+        "the dark light emits nothing"
+    );
+    let map = trace_from_lights(&scene, &bvh, &emitted, &TraceSettings::default());
+    assert!(!map.photons.is_empty());
+    for p in &map.photons {
+        for v in [p.power, p.direction, p.position, p.normal] {
+            assert!(v.is_finite(), "{p:?}");
+        }
+    }
+    // Only a dark light: nothing at all, and no NaN.
+    scene.lights.remove(0);
+    let emitted = emit_photons(&scene, 3_000, 1);
+    assert!(emitted.is_empty());
+    assert!(
+        trace_from_lights(&scene, &bvh, &emitted, &TraceSettings::default())
+            .photons
+            .is_empty()
+    );
+}
