@@ -4,7 +4,7 @@
 // depth-compare (bilinear PCF) lookups in the light's shadow-atlas layer.
 #include "shared.glsl"
 #include "lights.glsl"
-#include "direct_bsdf.glsl"
+#include "material.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -66,6 +66,7 @@ void main() {
     vec3 n = normalize(texelFetch(g_normal, px, 0).xyz);
     vec3 albedo = texelFetch(g_albedo, px, 0).rgb;
     GpuMaterial m = materials[texelFetch(g_material, px, 0).x];
+    Bsdf bsdf = material_bsdf(m, albedo);
     vec3 wo = normalize(-p);
 
     vec3 radiance = m.emission.rgb;
@@ -80,7 +81,7 @@ void main() {
         if (vis <= 0.0) {
             continue;
         }
-        vec3 f = direct_bsdf_eval(m, albedo, wo, s.wi, n);
+        vec3 f = bsdf_eval(bsdf, wo, s.wi, n, n);
         radiance += f * s.irradiance * cos_i * vis;
     }
     imageStore(out_radiance, px, vec4(radiance, 1.0));

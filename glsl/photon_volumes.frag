@@ -1,0 +1,48 @@
+#version 460
+// Photon volumes, fragment stage: the photon's contribution to the surface point the eye
+// G-buffer holds at this pixel, ΔL = f(s, ωi, ωo) · Φ · κ (paper eq. 1, with the cosine as a
+// front-side test), added into the indirect radiance buffer by additive blending. Alpha counts
+// the volumes that touched the pixel (the overdraw view).
+#include "shared.glsl"
+#include "packing.glsl"
+#include "kernel.glsl"
+#include "material.glsl"
+
+layout(set = 0, binding = 0) uniform Frame { FrameUniforms frame; };
+layout(std430, set = 0, binding = 1) readonly buffer Photons { PackedPhoton photons[]; };
+layout(std430, set = 0, binding = 2) readonly buffer Materials { GpuMaterial materials[]; };
+layout(set = 0, binding = 3) uniform sampler2D g_position;
+layout(set = 0, binding = 4) uniform sampler2D g_normal;
+layout(set = 0, binding = 5) uniform sampler2D g_albedo;
+layout(set = 0, binding = 6) uniform usampler2D g_material;
+
+layout(location = 0) flat in uint v_photon;
+layout(location = 1) flat in vec2 v_radius;
+
+layout(location = 0) out vec4 out_indirect;
+
+void main() {
+    ivec2 px = ivec2(gl_FragCoord.xy);
+    vec4 pos = texelFetch(g_position, px, 0);
+    if (pos.w == 0.0) {
+        discard;
+    }
+    Photon photon = photon_load(photons[v_photon]);
+    float kappa = kernel_weight(photon.position, normalize(photon.normal), v_radius.x,
+                                v_radius.y, pos.xyz);
+    if (!(kappa > 0.0)) {
+        discard;
+    }
+    float rho_p;
+    vec3 wi = unpack_direction(photon.direction, rho_p);
+    vec3 n = normalize(texelFetch(g_normal, px, 0).xyz);
+    // Front-side test: the photon arrived on the side of the surface the viewer sees.
+    if (dot(wi, n) <= 0.0) {
+        discard;
+    }
+    vec3 wo = normalize(-pos.xyz);
+    GpuMaterial m = materials[texelFetch(g_material, px, 0).x];
+    Bsdf bsdf = material_bsdf(m, texelFetch(g_albedo, px, 0).rgb);
+    vec3 f = bsdf_eval(bsdf, wo, wi, n, n);
+    out_indirect = vec4(f * photon.power * kappa, 1.0);
+}

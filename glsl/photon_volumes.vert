@@ -1,0 +1,43 @@
+#version 460
+// Photon volumes, vertex stage: one instance per photon; the icosahedron (inscribed sphere of
+// radius 1, from the vertex buffer) is scaled to bound the photon's ellipsoidal kernel:
+// r_xy in the tangent plane of the surface the photon hit, r_z along its normal.
+#include "shared.glsl"
+#include "packing.glsl"
+#include "kernel.glsl"
+#include "bsdf.glsl"
+
+layout(location = 0) in vec3 in_position;
+
+layout(set = 0, binding = 0) uniform Frame { FrameUniforms frame; };
+layout(std430, set = 0, binding = 1) readonly buffer Photons { PackedPhoton photons[]; };
+
+layout(push_constant) uniform Push {
+    float r_min;
+    float r_max;
+    uint count;
+    uint pad;
+} push;
+
+layout(location = 0) flat out uint v_photon;
+layout(location = 1) flat out vec2 v_radius;
+
+void main() {
+    Photon photon = photon_load(photons[gl_InstanceIndex]);
+    float rho_p;
+    unpack_direction(photon.direction, rho_p);
+    vec2 r = kernel_radius(rho_p, push.r_min, push.r_max);
+    vec3 n = normalize(photon.normal);
+    vec3 t;
+    vec3 b;
+    frame_from_normal(n, t, b);
+    vec3 world = photon.position + (t * in_position.x + b * in_position.y) * r.x
+                 + n * (in_position.z * r.y);
+    if (!any(greaterThan(photon.power, vec3(0.0)))) {
+        // No power: collapse the volume to a point, which rasterises nothing.
+        world = photon.position;
+    }
+    gl_Position = frame.view_proj * vec4(world, 1.0);
+    v_photon = uint(gl_InstanceIndex);
+    v_radius = r;
+}
