@@ -1,0 +1,183 @@
+//! The project's own scenes, written as glTF 2.0 binary (`.glb`) with serde_json.
+//!
+//! `cargo run --example make-scenes` writes [`all`] to `assets/`; `tests/scene_bundled.rs`
+//! checks that the committed files equal what this module produces now. Each material carries
+//! standard metallic-roughness values (so other viewers show something sensible) and its exact
+//! über-BSDF parameters in `extras.ispm`, which the loader applies verbatim.
+
+mod shapes;
+mod writer;
+
+pub use shapes::{cuboid, icosphere, look_rotation, quad, ring, Geometry};
+pub use writer::{GltfWriter, MaterialSpec};
+
+use glam::{Quat, Vec3};
+
+/// Every bundled scene: `(name, .glb bytes)`.
+pub fn all() -> Vec<(&'static str, Vec<u8>)> {
+    vec![
+        ("cornell-box", cornell_box()),
+        ("caustic-ring", caustic_ring()),
+        ("glass-sphere", glass_sphere()),
+    ]
+}
+
+const WHITE: [f32; 3] = [0.75, 0.75, 0.75];
+
+/// The paper's Figure 6: a 2 m Cornell box (open towards the camera at +Z) with a glossy purple
+/// sphere, a glass sphere (η = 1.3), a white box and two spot lights (white, blue) aiming down.
+pub fn cornell_box() -> Vec<u8> {
+    let mut w = GltfWriter::default();
+    let white = w.material(&MaterialSpec::diffuse("white", WHITE));
+    let red = w.material(&MaterialSpec::diffuse("red", [0.63, 0.065, 0.05]));
+    let green = w.material(&MaterialSpec::diffuse("green", [0.14, 0.45, 0.091]));
+    let purple = w.material(&MaterialSpec {
+        base_color: [0.45, 0.15, 0.55],
+        roughness: 0.376,
+        lambertian: [0.25, 0.05, 0.3],
+        glossy: [0.35, 0.2, 0.4],
+        exponent: 100.0,
+        ..MaterialSpec::diffuse("glossy-purple", [0.0; 3])
+    });
+    let glass = w.material(&MaterialSpec {
+        base_color: [1.0, 1.0, 1.0],
+        roughness: 0.0,
+        transmission_factor: 0.9,
+        ior_ext: Some(1.3),
+        lambertian: [0.02; 3],
+        glossy: [0.05; 3],
+        exponent: f32::INFINITY,
+        transmission: [0.9; 3],
+        ior: 1.3,
+        fresnel: true,
+        ..MaterialSpec::diffuse("glass-1.3", [0.0; 3])
+    });
+    let walls = [
+        ("floor", Vec3::ZERO, Vec3::Y, white),
+        ("ceiling", Vec3::new(0.0, 2.0, 0.0), Vec3::NEG_Y, white),
+        ("back", Vec3::new(0.0, 1.0, -1.0), Vec3::Z, white),
+        ("left", Vec3::new(-1.0, 1.0, 0.0), Vec3::X, red),
+        ("right", Vec3::new(1.0, 1.0, 0.0), Vec3::NEG_X, green),
+    ];
+    for (name, c, n, m) in walls {
+        let mesh = w.mesh(name, &quad(c, n, 1.0, 1.0), m);
+        w.mesh_node(name, mesh, Vec3::ZERO, Quat::IDENTITY);
+    }
+    let sphere = w.mesh("glossy-sphere", &icosphere(0.3, 3), purple);
+    w.mesh_node(
+        "glossy-sphere",
+        sphere,
+        Vec3::new(-0.45, 0.3, -0.35),
+        Quat::IDENTITY,
+    );
+    let ball = w.mesh("glass-sphere", &icosphere(0.32, 4), glass);
+    w.mesh_node(
+        "glass-sphere",
+        ball,
+        Vec3::new(0.2, 0.32, 0.35),
+        Quat::IDENTITY,
+    );
+    let block = w.mesh("white-box", &cuboid(Vec3::new(0.25, 0.5, 0.25)), white);
+    w.mesh_node(
+        "white-box",
+        block,
+        Vec3::new(0.5, 0.5, -0.45),
+        Quat::from_rotation_y(0.3),
+    );
+    // 4 W/sr from 1.95 m: about 1.05 W/m² on the floor below each light.
+    let down = Vec3::new(0.0, -1.95, 0.0);
+    let (white_at, blue_at) = (Vec3::new(-0.4, 1.95, 0.0), Vec3::new(0.4, 1.95, 0.0));
+    w.spot(
+        "white-spot",
+        white_at,
+        white_at + down,
+        [1.0, 1.0, 1.0],
+        4.0,
+        (0.45, 0.6),
+    );
+    w.spot(
+        "blue-spot",
+        blue_at,
+        blue_at + down,
+        [0.25, 0.45, 1.0],
+        4.0,
+        (0.45, 0.6),
+    );
+    w.camera(
+        "camera",
+        Vec3::new(0.0, 1.0, 3.6),
+        Vec3::new(0.0, 1.0, 0.0),
+        0.7,
+    );
+    w.glb()
+}
+
+/// The paper's Figure 5: a mirror ring on a diffuse floor lit at 20° elevation, so its
+/// reflection focuses into a cardioid caustic inside the ring.
+pub fn caustic_ring() -> Vec<u8> {
+    let mut w = GltfWriter::default();
+    let floor_m = w.material(&MaterialSpec::diffuse("floor", WHITE));
+    let metal = w.material(&MaterialSpec {
+        base_color: [0.95, 0.93, 0.88],
+        metallic: 1.0,
+        roughness: 0.0,
+        lambertian: [0.0; 3],
+        glossy: [0.95, 0.93, 0.88],
+        exponent: f32::INFINITY,
+        double_sided: true,
+        ..MaterialSpec::diffuse("mirror-metal", [0.0; 3])
+    });
+    let floor = w.mesh("floor", &quad(Vec3::ZERO, Vec3::Y, 2.0, 2.0), floor_m);
+    w.mesh_node("floor", floor, Vec3::ZERO, Quat::IDENTITY);
+    let r = w.mesh("ring", &ring(0.5, 0.2, 0.015, 192), metal);
+    w.mesh_node("ring", r, Vec3::ZERO, Quat::IDENTITY);
+    let elevation = 20f32.to_radians();
+    let dir = Vec3::new(-elevation.cos(), -elevation.sin(), 0.0);
+    w.sun("sun", dir, [1.0, 1.0, 1.0], 3.0);
+    w.camera("camera", Vec3::new(0.0, 1.5, 1.2), Vec3::ZERO, 0.7);
+    w.glb()
+}
+
+/// A glass sphere (η = 1.5) on a diffuse plane under a spot light: a refractive caustic.
+pub fn glass_sphere() -> Vec<u8> {
+    let mut w = GltfWriter::default();
+    let floor_m = w.material(&MaterialSpec::diffuse("floor", WHITE));
+    let glass = w.material(&MaterialSpec {
+        base_color: [1.0, 1.0, 1.0],
+        roughness: 0.0,
+        transmission_factor: 0.95,
+        ior_ext: Some(1.5),
+        lambertian: [0.0; 3],
+        glossy: [0.04; 3],
+        exponent: f32::INFINITY,
+        transmission: [0.95; 3],
+        ior: 1.5,
+        fresnel: true,
+        ..MaterialSpec::diffuse("glass-1.5", [0.0; 3])
+    });
+    let floor = w.mesh("floor", &quad(Vec3::ZERO, Vec3::Y, 3.0, 3.0), floor_m);
+    w.mesh_node("floor", floor, Vec3::ZERO, Quat::IDENTITY);
+    let ball = w.mesh("glass-sphere", &icosphere(0.5, 4), glass);
+    w.mesh_node(
+        "glass-sphere",
+        ball,
+        Vec3::new(0.0, 0.5, 0.0),
+        Quat::IDENTITY,
+    );
+    // 10 W/sr from 3 m: about 1.1 W/m² on the plane.
+    w.spot(
+        "spot",
+        Vec3::new(0.3, 3.0, 0.0),
+        Vec3::new(0.0, 0.5, 0.0),
+        [1.0, 1.0, 1.0],
+        10.0,
+        (0.35, 0.45),
+    );
+    w.camera(
+        "camera",
+        Vec3::new(2.0, 1.5, 2.0),
+        Vec3::new(0.0, 0.4, 0.0),
+        0.7,
+    );
+    w.glb()
+}
