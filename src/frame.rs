@@ -1,13 +1,16 @@
 //! The frame, as an ordered script of passes.
 //!
 //! ```text
-//!   shadow_maps ──► eye_gbuffer ──► direct ──► tonemap ──► (readback)
-//!   light views     camera          HDR radiance  8-bit
+//!  photons (--method ispm):
+//!   light_gbuffers ──► bounce_map ──► readback ══► cpu_trace (all cores) ══► upload
+//!  every method:
+//!   shadow_maps ──► eye_gbuffer ──► direct ──► photon_volumes ──► composite ──► tonemap
+//!                                             (ispm only)        (ispm only)
 //! ```
 //!
-//! Everything is recorded into one command buffer on the graphics queue and timed per pass.
-//! (The photon passes and the overlapped multi-queue schedule of the paper's Figure 3 join this
-//! script in later work.)
+//! The photon steps are one command buffer; the host waits for it, traces, and the rest of the
+//! frame follows in a second one, everything on the graphics queue and timed per pass. This is
+//! the serial order; the overlapped schedule of the paper's Figure 3 reorders the same steps.
 
 use crate::gpu::{
     vk, Buffer, Gpu, Image, ImageDesc, MemoryLocation, QueueRole, Span, Timestamps, ViewKind,
@@ -16,16 +19,37 @@ use crate::gpu_scene::GpuScene;
 use crate::layout::FrameUniforms;
 use crate::lighting::LightSetup;
 use crate::passes::direct::{DirectInputs, DirectPass};
-use crate::passes::eye_gbuffer::{EyeGBufferPass, GBuffer};
+use crate::passes::eye_gbuffer::{EyeGBufferPass, GBuffer, View};
 use crate::passes::shadow_map::{self, ShadowMapPass};
 use crate::passes::tonemap::{self, Tonemap, TonemapPass};
+use crate::photon_frame::PhotonFrame;
 use crate::scene::{Camera, Light, Scene};
 use glam::{DMat4, UVec4, Vec4};
 use std::sync::Arc;
 
+/// How the frame computes light.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    /// Image Space Photon Mapping: direct light plus photon-mapped indirect light.
+    #[default]
+    Ispm,
+    /// Shadow-mapped deferred direct light only.
+    Direct,
+}
+
 /// What to render and how.
 #[derive(Clone, Debug)]
 pub struct RenderSettings {
+    pub method: Method,
+    /// Photons emitted from all lights together (split by power).
+    pub photons: usize,
+    /// Most scattering events a photon may take.
+    pub bounces: u32,
+    /// Largest kernel radius in metres (`None`: relative to the scene and photon count).
+    pub radius: Option<f32>,
+    /// Seed of every random choice (frame-coherent: same seed, same photons).
+    pub seed: u32,
     pub width: u32,
     pub height: u32,
     /// Shadow-map resolution per light view (texels per side).
@@ -38,6 +62,11 @@ pub struct RenderSettings {
 impl Default for RenderSettings {
     fn default() -> Self {
         Self {
+            method: Method::Ispm,
+            photons: 100_000,
+            bounces: 8,
+            radius: None,
+            seed: 0,
             width: 640,
             height: 480,
             shadow_resolution: 1024,
@@ -58,6 +87,20 @@ pub struct FrameImage {
     pub ldr: Vec<u8>,
     /// GPU time of each pass.
     pub gpu_spans: Vec<Span>,
+    pub stats: FrameStats,
+}
+
+/// The paper's Table 2 numbers for one frame.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct FrameStats {
+    pub emitted_photons: usize,
+    /// Photons that survived the first (GPU) bounce.
+    pub bounce_map_photons: usize,
+    pub stored_photons: usize,
+    /// Photons alive after each bounce (the paper's Figure 10).
+    pub attrition: Vec<u64>,
+    pub cpu_trace_ms: f64,
+    pub passes_run: Vec<String>,
 }
 
 /// Renders frames of one scene at one size.
@@ -78,6 +121,7 @@ pub struct Renderer {
     eye_gbuffer: EyeGBufferPass,
     direct: DirectPass,
     tonemap: TonemapPass,
+    photons: Option<PhotonFrame>,
     timestamps: Arc<Timestamps>,
 }
 
@@ -129,7 +173,14 @@ impl Renderer {
             size_of::<crate::layout::ShadowView>() * setup.views.len().max(1),
             vk::BufferUsageFlags::STORAGE_BUFFER,
         )?;
-        let gbuffer = GBuffer::new(gpu, "eye_gbuffer", settings.width, settings.height, 1)?;
+        let gbuffer = GBuffer::new(
+            gpu,
+            "eye_gbuffer",
+            settings.width,
+            settings.height,
+            1,
+            ViewKind::D2,
+        )?;
         let shadow_atlas =
             shadow_map::atlas(gpu, settings.shadow_resolution, setup.views.len() as u32)?;
         let radiance = Image::new(
@@ -148,7 +199,8 @@ impl Renderer {
         )?;
         let display = tonemap::output(gpu, settings.width, settings.height)?;
         let shadow_maps = ShadowMapPass::new(gpu)?;
-        let eye_gbuffer = EyeGBufferPass::new(gpu, "eye_gbuffer", &gpu_scene, &[&frame_uniforms])?;
+        let eye_gbuffer =
+            EyeGBufferPass::new(gpu, "eye_gbuffer", &gpu_scene, &[&frame_uniforms], true)?;
         let direct = DirectPass::new(
             gpu,
             &DirectInputs {
@@ -162,7 +214,19 @@ impl Renderer {
             &radiance,
         )?;
         let tonemap = TonemapPass::new(gpu, &radiance, &display)?;
-        let timestamps = Timestamps::new(gpu, "frame.timestamps", 32)?;
+        let photons = match settings.method {
+            Method::Ispm => Some(PhotonFrame::new(
+                gpu,
+                scene,
+                &gpu_scene,
+                &settings,
+                &frame_uniforms,
+                &gbuffer,
+                &radiance,
+            )?),
+            Method::Direct => None,
+        };
+        let timestamps = Timestamps::new(gpu, "frame.timestamps", 64)?;
         Ok(Self {
             gpu: gpu.clone(),
             settings,
@@ -180,6 +244,7 @@ impl Renderer {
             eye_gbuffer,
             direct,
             tonemap,
+            photons,
             timestamps,
         })
     }
@@ -241,15 +306,27 @@ impl Renderer {
         let eye_draws = self.scene.draws(camera_pos, None);
 
         self.timestamps.reset();
+        let mut stats = FrameStats::default();
+        if let Some(photons) = &mut self.photons {
+            stats = photons.emit_and_trace(&self.scene, &self.timestamps)?;
+        }
         let rec = gpu.record(QueueRole::Graphics, "frame", Some(self.timestamps.clone()))?;
         {
             let cmd = rec.cmd();
             let _frame = cmd.scope("frame");
+            if let Some(photons) = &self.photons {
+                photons.record_upload(&cmd);
+            }
             self.shadow_maps
                 .record(&cmd, &self.scene, &shadow_draws, &mut self.shadow_atlas);
-            let size = (self.settings.width, self.settings.height);
+            let view = View {
+                index: 0,
+                draws: &eye_draws,
+                layer: 0,
+                extent: (self.settings.width, self.settings.height),
+            };
             self.eye_gbuffer
-                .record(&cmd, &self.scene, 0, &eye_draws, &mut self.gbuffer, 0, size);
+                .record(&cmd, &self.scene, &view, &mut self.gbuffer);
             let inputs = DirectInputs {
                 frame: &self.frame_uniforms,
                 materials: &self.scene.materials,
@@ -259,6 +336,15 @@ impl Renderer {
                 shadow_atlas: &self.shadow_atlas,
             };
             self.direct.record(&cmd, &inputs, &mut self.radiance);
+            if let Some(photons) = &mut self.photons {
+                photons.record_estimate(
+                    &cmd,
+                    &self.frame_uniforms,
+                    &self.scene.materials,
+                    &self.gbuffer,
+                    &mut self.radiance,
+                );
+            }
             self.tonemap.record(
                 &cmd,
                 &self.radiance,
@@ -270,6 +356,8 @@ impl Renderer {
         let done = gpu.submit(rec, &[])?;
         gpu.wait(done)?;
         let gpu_spans = self.timestamps.read()?;
+        stats.passes_run = gpu_spans.iter().map(|s| s.name.clone()).collect();
+        stats.passes_run.dedup();
         let hdr_bytes = gpu.read_image(&self.radiance)?;
         let ldr = gpu.read_image(&self.display)?;
         let hdr: Vec<f32> = bytemuck::pod_collect_to_vec(&hdr_bytes);
@@ -280,6 +368,7 @@ impl Renderer {
             hdr,
             ldr,
             gpu_spans,
+            stats,
         })
     }
 
@@ -287,9 +376,19 @@ impl Renderer {
         &self.gpu
     }
 
+    /// Image width in pixels.
+    pub fn width(&self) -> u32 {
+        self.settings.width
+    }
+
     /// The scene's triangle count (for statistics).
     pub fn triangles(&self) -> usize {
         self.scene.triangles
+    }
+
+    /// The photon part of the frame (`--method ispm` only).
+    pub fn photons(&self) -> Option<&PhotonFrame> {
+        self.photons.as_ref()
     }
 
     /// Reads back one of the eye G-buffer's colour images, by name, as raw texels.

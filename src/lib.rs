@@ -12,13 +12,16 @@
 pub mod frame;
 pub mod gpu;
 pub mod gpu_scene;
+pub mod ispm;
 pub mod layout;
 pub mod lighting;
 pub mod output;
 pub mod passes;
 pub mod photon;
+pub mod photon_frame;
 pub mod reference;
 pub mod scene;
+pub mod stats;
 
 /// Constants shared with GLSL (generated into `shared_constants.glsl` by `build.rs`).
 pub mod shared_constants {

@@ -34,8 +34,16 @@ enum Command {
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum Method {
-    /// Shadow-mapped deferred direct light only.
+    /// Image Space Photon Mapping on the GPU (direct + photon-mapped indirect light).
+    Ispm,
+    /// Shadow-mapped deferred direct light only (GPU).
     Direct,
+    /// CPU reference: traditional photon mapping with a k-d tree gather, same kernel as ISPM.
+    PhotonGather,
+    /// CPU reference: unidirectional path tracing with next-event estimation.
+    PathTrace,
+    /// CPU reference: progressive photon mapping (consistent, for caustics).
+    Progressive,
 }
 
 #[derive(clap::Args)]
@@ -48,8 +56,29 @@ struct RenderArgs {
     /// Image size, WIDTHxHEIGHT.
     #[arg(long, default_value = "640x480", value_parser = parse_size)]
     size: (u32, u32),
-    #[arg(long, value_enum, default_value = "direct")]
+    #[arg(long, value_enum, default_value = "ispm")]
     method: Method,
+    /// Photons emitted per frame, split over the lights by power.
+    #[arg(long, default_value_t = 100_000)]
+    photons: usize,
+    /// Most scattering events per photon (and per path for the references).
+    #[arg(long, default_value_t = 8)]
+    bounces: u32,
+    /// Largest photon kernel radius in metres (default: from the scene size and photon count).
+    #[arg(long)]
+    radius: Option<f32>,
+    /// Eye samples per pixel (CPU references).
+    #[arg(long, default_value_t = 16)]
+    spp: u32,
+    /// Iterations of progressive photon mapping.
+    #[arg(long, default_value_t = 16)]
+    frames: u32,
+    /// Seed of every random choice.
+    #[arg(long, default_value_t = 0)]
+    seed: u32,
+    /// Write the frame's statistics (the paper's Table 2 columns) as JSON.
+    #[arg(long)]
+    stats: Option<PathBuf>,
     /// Display transform for PNG output.
     #[arg(long, value_enum, default_value = "pbr-neutral")]
     tonemap: Tonemap,
@@ -106,36 +135,117 @@ fn check_validation(gpu: &Gpu) -> anyhow::Result<()> {
 
 fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
     let format = OutputFormat::from_path(&args.output)?;
+    if let Some(r) = args.radius {
+        anyhow::ensure!(
+            r.is_finite() && r > 0.0,
+            "--radius {r} must be a positive length"
+        );
+    }
     let scene = load_scene(args.scene.as_deref())?;
+    let (width, height) = args.size;
+    let reference = match args.method {
+        Method::PhotonGather => Some(ispm::reference::Method::PhotonGather),
+        Method::PathTrace => Some(ispm::reference::Method::PathTrace),
+        Method::Progressive => Some(ispm::reference::Method::Progressive),
+        Method::Ispm | Method::Direct => None,
+    };
+    if let Some(method) = reference {
+        return render_reference(&args, &scene, method, format);
+    }
     let gpu = gpu(device)?;
     let settings = RenderSettings {
-        width: args.size.0,
-        height: args.size.1,
+        method: if args.method == Method::Direct {
+            ispm::frame::Method::Direct
+        } else {
+            ispm::frame::Method::Ispm
+        },
+        photons: args.photons,
+        bounces: args.bounces,
+        radius: args.radius,
+        seed: args.seed,
+        width,
+        height,
         shadow_resolution: args.shadow_resolution.clamp(16, 8192),
         tonemap: args.tonemap,
         exposure_ev: args.exposure,
     };
-    let frame = {
+    let (frame, triangles) = {
         let mut renderer = Renderer::new(&gpu, &scene, settings)?;
-        match args.method {
-            Method::Direct => renderer.render()?,
-        }
+        (renderer.render()?, renderer.triangles())
     };
     check_validation(&gpu)?;
     match format {
         OutputFormat::Png => write_png(&args.output, frame.width, frame.height, &frame.ldr)?,
         OutputFormat::Exr => write_exr(&args.output, frame.width, frame.height, &frame.hdr)?,
     }
+    if let Some(path) = &args.stats {
+        let json = ispm::stats::frame_json(
+            &scene,
+            &frame,
+            triangles,
+            args.bounces,
+            gpu.validation_message_count(),
+        );
+        ispm::output::write_atomically(path, |f| {
+            serde_json::to_writer_pretty(f, &json)
+                .with_context(|| format!("{}: cannot write JSON", path.display()))
+        })?;
+    }
     for s in &frame.gpu_spans {
-        log::info!("{:>14}: {:.3} ms", s.name, s.ms());
+        log::info!("{:>16}: {:.3} ms", s.name, s.ms());
     }
     eprintln!(
-        "wrote {} ({}x{}, {} triangles, {} lights)",
+        "wrote {} ({}x{}, {} triangles, {} lights, {} photons stored)",
         args.output.display(),
         frame.width,
         frame.height,
-        scene.triangle_count(),
-        scene.lights.len()
+        triangles,
+        scene.lights.len(),
+        frame.stats.stored_photons
+    );
+    Ok(())
+}
+
+fn render_reference(
+    args: &RenderArgs,
+    scene: &ispm::scene::Scene,
+    method: ispm::reference::Method,
+    format: OutputFormat,
+) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        format == OutputFormat::Exr,
+        "{}: the CPU references write linear EXR (use a .exr file name)",
+        args.output.display()
+    );
+    let settings = ispm::reference::RefSettings {
+        width: args.size.0,
+        height: args.size.1,
+        spp: args.spp.max(1),
+        photons: args.photons,
+        bounces: args.bounces,
+        iterations: args.frames.max(1),
+        radius: args.radius,
+        seed: args.seed,
+        ..Default::default()
+    };
+    let cancel = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    {
+        let cancel = cancel.clone();
+        // Ctrl-C stops after the current pass and keeps the last complete image.
+        let _ = ctrlc::set_handler(move || cancel.store(true, std::sync::atomic::Ordering::SeqCst));
+    }
+    let progress = indicatif::ProgressBar::new(0);
+    if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        progress.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    let image = ispm::reference::render(scene, method, &settings, Some(&progress), &cancel)?;
+    progress.finish_and_clear();
+    image.write_exr(&args.output)?;
+    eprintln!(
+        "wrote {} ({}x{})",
+        args.output.display(),
+        image.width,
+        image.height
     );
     Ok(())
 }

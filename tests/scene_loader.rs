@@ -1,6 +1,8 @@
 //! glTF loader: every exporter layout we support, every repair, every rejection.
 //!
 //! Fixtures are built here, in code, and written into temporary directories.
+// glTF fixtures spell rotations as JSON quaternion literals such as 0.7071068.
+#![allow(clippy::approx_constant)]
 
 use glam::{Mat4, Vec3};
 use ispm::scene::load::{load, load_from_slice};

@@ -305,11 +305,8 @@ impl<'a> Cmd<'a> {
             .map(|a| a.image.extent())
             .unwrap_or_default();
         for c in colors {
-            let access = match c.load {
-                Load::Clear(_) => Access::ColorAttachmentWrite,
-                Load::Keep => Access::ColorAttachmentBlend,
-            };
-            self.transition(c.image, access);
+            // Read-write: a blending pipeline reads the attachment even after a clear.
+            self.transition(c.image, Access::ColorAttachmentBlend);
         }
         if let Some(d) = depth {
             self.transition(d.image, Access::DepthAttachmentWrite);
@@ -467,6 +464,15 @@ impl<'a> Cmd<'a> {
         unsafe {
             self.device()
                 .cmd_draw_indexed(self.raw, indices, 1, first_index, vertex_offset, 0)
+        };
+    }
+
+    /// Draws `instances` instances of the bound index buffer's first `indices` indices.
+    pub fn draw_indexed_instanced(&self, indices: u32, instances: u32) {
+        // SAFETY: recording state inside a rendering scope; index/vertex buffers bound.
+        unsafe {
+            self.device()
+                .cmd_draw_indexed(self.raw, indices, instances, 0, 0, 0)
         };
     }
 

@@ -34,19 +34,16 @@ pub struct GBuffer {
 }
 
 impl GBuffer {
-    /// A G-buffer of `layers` layers (one per view), named `name.position` etc.
+    /// A G-buffer of `layers` layers (one per view), named `name.position` etc., sampled as
+    /// `view` (light G-buffers are always arrays, even of one layer).
     pub fn new(
         gpu: &Arc<Gpu>,
         name: &str,
         width: u32,
         height: u32,
         layers: u32,
+        view: ViewKind,
     ) -> anyhow::Result<GBuffer> {
-        let view = if layers > 1 {
-            ViewKind::D2Array
-        } else {
-            ViewKind::D2
-        };
         let color = vk::ImageUsageFlags::COLOR_ATTACHMENT
             | vk::ImageUsageFlags::SAMPLED
             | vk::ImageUsageFlags::TRANSFER_SRC;
@@ -78,6 +75,17 @@ impl GBuffer {
     }
 }
 
+/// One view of a [`GBufferPass`]: which uniforms, what to draw, and where.
+pub struct View<'a> {
+    /// Index into the `frames` the pass was created with.
+    pub index: usize,
+    pub draws: &'a [Draw],
+    /// Layer of the G-buffer to draw into.
+    pub layer: u32,
+    /// Drawn into the top-left `extent` texels.
+    pub extent: (u32, u32),
+}
+
 /// Rasterises G-buffers: the eye's (one view) or the lights' (one view per layer).
 pub struct GBufferPass {
     name: &'static str,
@@ -86,6 +94,8 @@ pub struct GBufferPass {
     _texture_layout: DescriptorLayout,
     /// One set per view: its `FrameUniforms` and the materials.
     frame_sets: Vec<DescriptorSet>,
+    /// Depth the attachment is cleared to: 0 with reversed-Z (the eye), 1 otherwise (lights).
+    depth_clear: f32,
     /// One set per material (its base-colour texture, or white).
     material_sets: Vec<DescriptorSet>,
 }
@@ -95,11 +105,14 @@ pub type EyeGBufferPass = GBufferPass;
 
 impl GBufferPass {
     /// A raster named `name` with one view per buffer in `frames` (each a `FrameUniforms`).
+    /// `reversed_z`: the views' projections map the near plane to depth 1 (the eye's infinite
+    /// reversed-Z projection) rather than 0 (the lights' finite projections).
     pub fn new(
         gpu: &Arc<Gpu>,
         name: &'static str,
         scene: &GpuScene,
         frames: &[&Buffer],
+        reversed_z: bool,
     ) -> anyhow::Result<Self> {
         let graphics = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         let frame_layout = DescriptorLayout::new(
@@ -163,7 +176,11 @@ impl GBufferPass {
                     format: DEPTH,
                     test: true,
                     write: true,
-                    compare: vk::CompareOp::GREATER,
+                    compare: if reversed_z {
+                        vk::CompareOp::GREATER
+                    } else {
+                        vk::CompareOp::LESS
+                    },
                     bias: None,
                 }),
                 // Surfaces are shaded from the side the viewer sees (the fragment shader turns
@@ -179,25 +196,17 @@ impl GBufferPass {
             _frame_layout: frame_layout,
             _texture_layout: texture_layout,
             frame_sets,
+            depth_clear: if reversed_z { 0.0 } else { 1.0 },
             material_sets,
         })
     }
 
-    /// Draws view `view` into layer `layer` of `gbuffer`, over its top-left `extent` texels.
-    pub fn record(
-        &self,
-        cmd: &Cmd,
-        scene: &GpuScene,
-        view: usize,
-        draws: &[Draw],
-        gbuffer: &mut GBuffer,
-        layer: u32,
-        extent: (u32, u32),
-    ) {
+    /// Draws `view` into its layer of `gbuffer`.
+    pub fn record(&self, cmd: &Cmd, scene: &GpuScene, view: &View, gbuffer: &mut GBuffer) {
         let _scope = cmd.scope(self.name);
         let clear = |image| Attachment {
             image,
-            layer,
+            layer: view.layer,
             load: Load::Clear([0.0; 4]),
         };
         cmd.begin_rendering(
@@ -207,14 +216,18 @@ impl GBufferPass {
                 clear(&gbuffer.albedo),
                 clear(&gbuffer.material),
             ],
-            Some(&clear(&gbuffer.depth)),
+            Some(&Attachment {
+                image: &gbuffer.depth,
+                layer: view.layer,
+                load: Load::Clear([self.depth_clear; 4]),
+            }),
         );
-        cmd.set_viewport(extent.0, extent.1);
+        cmd.set_viewport(view.extent.0, view.extent.1);
         cmd.bind_pipeline(&self.pipeline);
-        cmd.bind_sets(&self.pipeline, 0, &[self.frame_sets[view]]);
+        cmd.bind_sets(&self.pipeline, 0, &[self.frame_sets[view.index]]);
         cmd.bind_vertex_buffer(&scene.vertices);
         cmd.bind_index_buffer(&scene.indices);
-        for d in draws {
+        for d in view.draws {
             let set = self
                 .material_sets
                 .get(d.push.material.x as usize)

@@ -5,12 +5,20 @@
 //! | pass | queue | reads | writes |
 //! |---|---|---|---|
 //! | [`shadow_map`] | graphics | scene geometry | shadow atlas (one layer per light view) |
+//! | [`light_gbuffer`] | graphics | scene geometry, materials | light G-buffer (a layer per view) |
+//! | [`bounce_map`] | graphics (compute) | light G-buffer, materials | bounce map (first bounces) |
 //! | [`eye_gbuffer`] | graphics | scene geometry, materials, textures | eye G-buffer |
 //! | [`direct`] | graphics (compute) | G-buffer, lights, shadow atlas | HDR radiance |
+//! | [`photon_volumes`] | graphics | photon map, eye G-buffer | HDR indirect radiance |
+//! | [`composite`] | graphics (compute) | indirect | HDR radiance (+= indirect) |
 //! | [`tonemap`] | graphics (compute) | HDR radiance | 8-bit display image |
 
+pub mod bounce_map;
+pub mod composite;
 pub mod direct;
 pub mod eye_gbuffer;
+pub mod light_gbuffer;
+pub mod photon_volumes;
 pub mod shadow_map;
 pub mod tonemap;
 

@@ -1,0 +1,101 @@
+//! Bounce map (compute): the first bounce of every photon, one per light G-buffer texel, in
+//! the record layout of DESIGN.md §2.1 (`photon::types::BounceMapPhoton`, 32 bytes). The map
+//! is then copied to a host-visible buffer for the CPU trace.
+
+use super::eye_gbuffer::GBuffer;
+use crate::gpu::{
+    vk, Access, Binding, BindingKind, Buffer, Cmd, ComputeDesc, DescriptorLayout, DescriptorSet,
+    Filter, Gpu, Pipeline, Sampler, Write,
+};
+use std::sync::Arc;
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Push {
+    seed: u32,
+    pad: [u32; 3],
+}
+
+pub struct BounceMapPass {
+    pipeline: Pipeline,
+    _layout: DescriptorLayout,
+    set: DescriptorSet,
+    _sampler: Sampler,
+}
+
+/// What the bounce map reads and writes.
+pub struct BounceMapIo<'a> {
+    pub materials: &'a Buffer,
+    pub views: &'a Buffer,
+    pub light_gbuffer: &'a GBuffer,
+    /// `BounceMapPhoton[texels]`, device-local.
+    pub bounce_map: &'a Buffer,
+}
+
+impl BounceMapPass {
+    pub fn new(gpu: &Arc<Gpu>, io: &BounceMapIo) -> anyhow::Result<Self> {
+        let kinds = [
+            BindingKind::StorageBuffer,
+            BindingKind::StorageBuffer,
+            BindingKind::SampledImage,
+            BindingKind::SampledImage,
+            BindingKind::SampledImage,
+            BindingKind::SampledImage,
+            BindingKind::StorageBuffer,
+        ];
+        let bindings: Vec<Binding> = kinds
+            .iter()
+            .enumerate()
+            .map(|(i, &kind)| Binding {
+                binding: i as u32,
+                kind,
+                stages: vk::ShaderStageFlags::COMPUTE,
+            })
+            .collect();
+        let layout = DescriptorLayout::new(gpu, "bounce_map", &bindings, 1)?;
+        let sampler = Sampler::new(gpu, "bounce_map.nearest", Filter::Nearest, false)?;
+        let g = io.light_gbuffer;
+        let image = |image| Write::Image {
+            image,
+            sampler: &sampler,
+        };
+        let set = layout.allocate(&[
+            Write::Buffer(io.materials),
+            Write::Buffer(io.views),
+            image(&g.position),
+            image(&g.normal),
+            image(&g.albedo),
+            image(&g.material),
+            Write::Buffer(io.bounce_map),
+        ])?;
+        let pipeline = Pipeline::compute(
+            gpu,
+            &ComputeDesc {
+                name: "bounce_map",
+                shader: &crate::gpu::shader_table::BOUNCE_MAP_COMP,
+                set_layouts: &[&layout],
+                push_constant_size: size_of::<Push>() as u32,
+            },
+        )?;
+        Ok(Self {
+            pipeline,
+            _layout: layout,
+            set,
+            _sampler: sampler,
+        })
+    }
+
+    /// Runs the first bounce over `views` views of up to `resolution`² texels.
+    pub fn record(&self, cmd: &Cmd, io: &BounceMapIo, resolution: u32, views: u32, seed: u32) {
+        let _scope = cmd.scope("bounce_map");
+        let g = io.light_gbuffer;
+        for image in [&g.position, &g.normal, &g.albedo, &g.material] {
+            cmd.transition(image, Access::ComputeSampledRead);
+        }
+        cmd.transition_buffer(io.bounce_map, Access::ComputeStorageWrite);
+        cmd.bind_pipeline(&self.pipeline);
+        cmd.bind_sets(&self.pipeline, 0, &[self.set]);
+        cmd.push_constants(&self.pipeline, &Push { seed, pad: [0; 3] });
+        cmd.dispatch(super::groups(resolution), super::groups(resolution), views);
+    }
+}

@@ -1,0 +1,68 @@
+//! Light G-buffers: the scene rasterised from every light view (spot: one frustum, point: six
+//! cube faces, directional: an orthographic box), each into one layer of an array G-buffer, at
+//! the resolution the light's share of the photon budget asks for (drawn into the layer's
+//! top-left texels). Texel (x, y) of a view is where the photon through that texel first hits
+//! the scene: the bounce map starts from it.
+
+use super::eye_gbuffer::{GBuffer, GBufferPass, View};
+use crate::gpu::{vk, Buffer, Cmd, Gpu, MemoryLocation};
+use crate::gpu_scene::{Draw, GpuScene};
+use crate::layout::FrameUniforms;
+use std::sync::Arc;
+
+pub struct LightGBufferPass {
+    raster: GBufferPass,
+    /// One `FrameUniforms` per light view.
+    frames: Vec<Buffer>,
+}
+
+impl LightGBufferPass {
+    pub fn new(gpu: &Arc<Gpu>, scene: &GpuScene, views: usize) -> anyhow::Result<Self> {
+        let frames = (0..views.max(1))
+            .map(|i| {
+                Buffer::new(
+                    gpu,
+                    &format!("light_gbuffers.view[{i}]"),
+                    size_of::<FrameUniforms>() as u64,
+                    vk::BufferUsageFlags::UNIFORM_BUFFER,
+                    MemoryLocation::CpuToGpu,
+                )
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let refs: Vec<&Buffer> = frames.iter().collect();
+        let raster = GBufferPass::new(gpu, "light_gbuffer", scene, &refs, false)?;
+        Ok(Self { raster, frames })
+    }
+
+    /// Writes the uniforms of every view (before recording).
+    pub fn update(&self, uniforms: &[FrameUniforms]) -> anyhow::Result<()> {
+        for (buffer, u) in self.frames.iter().zip(uniforms) {
+            buffer.write(0, bytemuck::bytes_of(u))?;
+        }
+        Ok(())
+    }
+
+    /// Draws view i (`draws[i]` at `resolutions[i]`²) into layer i of `gbuffer`; views of
+    /// resolution 0 (lights without photons) are skipped.
+    pub fn record(
+        &self,
+        cmd: &Cmd,
+        scene: &GpuScene,
+        draws: &[Vec<Draw>],
+        resolutions: &[u32],
+        gbuffer: &mut GBuffer,
+    ) {
+        for (i, (d, &res)) in draws.iter().zip(resolutions).enumerate() {
+            if res == 0 {
+                continue;
+            }
+            let view = View {
+                index: i,
+                draws: d,
+                layer: i as u32,
+                extent: (res, res),
+            };
+            self.raster.record(cmd, scene, &view, gbuffer);
+        }
+    }
+}

@@ -1,0 +1,264 @@
+//! Photon volumes: the radiance estimate by scattering (paper §4). Every photon is drawn as an
+//! instanced icosahedron that bounds its ellipsoidal kernel; the fragment shader reads the eye
+//! G-buffer at its pixel and adds f · Φ · κ into the HDR indirect buffer.
+//!
+//! Only **back faces** are drawn, with a reversed depth test (a back face passes where it lies
+//! *behind* the visible surface). A convex volume has exactly one back face over every pixel
+//! it covers, so each photon reaches each pixel once; surfaces behind the whole volume are
+//! culled by the test; and when the camera is inside a volume, or the volume crosses the near
+//! plane, its back faces are still there, so no dark blotch appears as the viewer approaches a
+//! surface. The cost: no early rejection of volumes in front of the surface (the kernel test
+//! discards them in the fragment shader).
+
+use super::eye_gbuffer::{GBuffer, DEPTH};
+use crate::gpu::{
+    vk, Access, Attachment, Binding, BindingKind, Blend, Buffer, Cmd, Depth, DescriptorLayout,
+    DescriptorSet, Filter, Gpu, GraphicsDesc, Image, ImageDesc, Load, Pipeline, Sampler,
+    VertexAttribute, ViewKind, Write,
+};
+use std::sync::Arc;
+
+pub const FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
+
+/// Radius of the sphere inscribed in an icosahedron whose vertices lie on the unit sphere.
+const ICOSAHEDRON_INRADIUS: f32 = 0.794_654_5;
+
+/// The icosahedron's vertices (scaled so that its inscribed sphere has radius 1) and its 20
+/// faces, counter-clockwise seen from outside.
+pub fn icosahedron() -> ([[f32; 3]; 12], [u32; 60]) {
+    let t = (1.0 + 5f32.sqrt()) / 2.0;
+    let raw = [
+        [-1.0, t, 0.0],
+        [1.0, t, 0.0],
+        [-1.0, -t, 0.0],
+        [1.0, -t, 0.0],
+        [0.0, -1.0, t],
+        [0.0, 1.0, t],
+        [0.0, -1.0, -t],
+        [0.0, 1.0, -t],
+        [t, 0.0, -1.0],
+        [t, 0.0, 1.0],
+        [-t, 0.0, -1.0],
+        [-t, 0.0, 1.0],
+    ];
+    let scale = 1.0 / ((1.0 + t * t).sqrt() * ICOSAHEDRON_INRADIUS);
+    let vertices = raw.map(|v: [f32; 3]| v.map(|c| c * scale));
+    let faces = [
+        0, 11, 5, 0, 5, 1, 0, 1, 7, 0, 7, 10, 0, 10, 11, 1, 5, 9, 5, 11, 4, 11, 10, 2, 10, 7, 6, 7,
+        1, 8, 3, 9, 4, 3, 4, 2, 3, 2, 6, 3, 6, 8, 3, 8, 9, 4, 9, 5, 2, 4, 11, 6, 2, 10, 8, 6, 7, 9,
+        8, 1,
+    ];
+    (vertices, faces)
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Push {
+    r_min: f32,
+    r_max: f32,
+    count: u32,
+    pad: u32,
+}
+
+/// The indirect-radiance target (alpha: number of volumes that touched the pixel).
+pub fn target(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<Image> {
+    Ok(Image::new(
+        gpu,
+        &ImageDesc {
+            name: "indirect",
+            format: FORMAT,
+            width,
+            height,
+            layers: 1,
+            usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
+                | vk::ImageUsageFlags::SAMPLED
+                | vk::ImageUsageFlags::TRANSFER_SRC,
+            view: ViewKind::D2,
+        },
+    )?)
+}
+
+/// What the photon volumes read.
+pub struct PhotonVolumeInputs<'a> {
+    pub frame: &'a Buffer,
+    pub photons: &'a Buffer,
+    pub materials: &'a Buffer,
+    pub gbuffer: &'a GBuffer,
+}
+
+pub struct PhotonVolumesPass {
+    pipeline: Pipeline,
+    layout: DescriptorLayout,
+    set: DescriptorSet,
+    sampler: Sampler,
+    vertices: Buffer,
+    indices: Buffer,
+}
+
+impl PhotonVolumesPass {
+    pub fn new(gpu: &Arc<Gpu>, inputs: &PhotonVolumeInputs) -> anyhow::Result<Self> {
+        let graphics = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+        let kinds = [
+            BindingKind::UniformBuffer,
+            BindingKind::StorageBuffer,
+            BindingKind::StorageBuffer,
+            BindingKind::SampledImage,
+            BindingKind::SampledImage,
+            BindingKind::SampledImage,
+            BindingKind::SampledImage,
+        ];
+        let bindings: Vec<Binding> = kinds
+            .iter()
+            .enumerate()
+            .map(|(i, &kind)| Binding {
+                binding: i as u32,
+                kind,
+                stages: graphics,
+            })
+            .collect();
+        let layout = DescriptorLayout::new(gpu, "photon_volumes", &bindings, 1)?;
+        let sampler = Sampler::new(gpu, "photon_volumes.nearest", Filter::Nearest, false)?;
+        let set = layout.allocate(&Self::writes(inputs, &sampler))?;
+        let (vertices, indices) = icosahedron();
+        let vertices = gpu.upload_buffer(
+            "photon_volumes.icosahedron.vertices",
+            vk::BufferUsageFlags::VERTEX_BUFFER,
+            bytemuck::cast_slice(&vertices),
+            Access::VertexInput,
+        )?;
+        let indices = gpu.upload_buffer(
+            "photon_volumes.icosahedron.indices",
+            vk::BufferUsageFlags::INDEX_BUFFER,
+            bytemuck::cast_slice(&indices),
+            Access::IndexInput,
+        )?;
+        let pipeline = Pipeline::graphics(
+            gpu,
+            &GraphicsDesc {
+                name: "photon_volumes",
+                vertex: &crate::gpu::shader_table::PHOTON_VOLUMES_VERT,
+                fragment: Some(&crate::gpu::shader_table::PHOTON_VOLUMES_FRAG),
+                vertex_stride: 12,
+                vertex_attributes: &[VertexAttribute {
+                    location: 0,
+                    format: vk::Format::R32G32B32_SFLOAT,
+                    offset: 0,
+                }],
+                color_formats: &[FORMAT],
+                blend: Blend::Additive,
+                depth: Some(Depth {
+                    format: DEPTH,
+                    test: true,
+                    write: false,
+                    // Reversed-Z: passes where the back face is behind the stored surface.
+                    compare: vk::CompareOp::LESS_OR_EQUAL,
+                    bias: None,
+                }),
+                cull: vk::CullModeFlags::FRONT,
+                set_layouts: &[&layout],
+                push_constant_size: size_of::<Push>() as u32,
+            },
+        )?;
+        Ok(Self {
+            pipeline,
+            layout,
+            set,
+            sampler,
+            vertices,
+            indices,
+        })
+    }
+
+    fn writes<'a>(inputs: &'a PhotonVolumeInputs, sampler: &'a Sampler) -> [Write<'a>; 7] {
+        let g = inputs.gbuffer;
+        let image = |image| Write::Image { image, sampler };
+        [
+            Write::Buffer(inputs.frame),
+            Write::Buffer(inputs.photons),
+            Write::Buffer(inputs.materials),
+            image(&g.position),
+            image(&g.normal),
+            image(&g.albedo),
+            image(&g.material),
+        ]
+    }
+
+    /// Points the pass at new inputs (a larger photon buffer). The GPU must be done with the
+    /// previous frame.
+    pub fn rebind(&self, inputs: &PhotonVolumeInputs) {
+        self.layout
+            .update(self.set, &Self::writes(inputs, &self.sampler));
+    }
+
+    /// Draws `count` photon volumes with kernel radii clamped to [`r_min`, `r_max`].
+    pub fn record(
+        &self,
+        cmd: &Cmd,
+        inputs: &PhotonVolumeInputs,
+        count: u32,
+        radius: (f32, f32),
+        indirect: &mut Image,
+    ) {
+        let _scope = cmd.scope("photon_volumes");
+        let g = inputs.gbuffer;
+        for image in [&g.position, &g.normal, &g.albedo, &g.material] {
+            cmd.transition(image, Access::FragmentSampledRead);
+        }
+        cmd.transition_buffer(inputs.photons, Access::GraphicsStorageRead);
+        cmd.begin_rendering(
+            &[Attachment {
+                image: indirect,
+                layer: 0,
+                load: Load::Clear([0.0; 4]),
+            }],
+            Some(&Attachment {
+                image: &g.depth,
+                layer: 0,
+                load: Load::Keep,
+            }),
+        );
+        if count > 0 {
+            cmd.bind_pipeline(&self.pipeline);
+            cmd.bind_sets(&self.pipeline, 0, &[self.set]);
+            cmd.bind_vertex_buffer(&self.vertices);
+            cmd.bind_index_buffer(&self.indices);
+            cmd.push_constants(
+                &self.pipeline,
+                &Push {
+                    r_min: radius.0,
+                    r_max: radius.1,
+                    count,
+                    pad: 0,
+                },
+            );
+            cmd.draw_indexed_instanced(60, count);
+        }
+        cmd.end_rendering();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    #[test]
+    fn icosahedron_faces_wind_outwards_and_bound_the_unit_sphere() {
+        let (v, f) = icosahedron();
+        for tri in f.chunks_exact(3) {
+            let [a, b, c] = [0, 1, 2].map(|i| Vec3::from(v[tri[i] as usize]));
+            let normal = (b - a).cross(c - a).normalize();
+            assert!(normal.dot(a) > 0.0, "face {tri:?} winds inwards");
+            // The face's plane lies at distance ≥ 1 from the centre: the unit sphere is inside.
+            assert!(
+                normal.dot(a) >= 1.0 - 1e-5,
+                "face {tri:?} cuts the unit sphere"
+            );
+        }
+        let mut uses = [0; 12];
+        for &i in &f {
+            uses[i as usize] += 1;
+        }
+        assert!(uses.iter().all(|&u| u == 5), "{uses:?}");
+    }
+}

@@ -1,0 +1,62 @@
+//! The stats JSON of a frame (DESIGN.md §7): the paper's Table 2 columns and per-stage times.
+
+use crate::frame::FrameImage;
+use crate::scene::Scene;
+use serde_json::{json, Map, Value};
+
+/// The stages the stats always report (0 when a stage did not run).
+pub const STAGES: &[&str] = &[
+    "shadow_maps",
+    "light_gbuffers",
+    "bounce_map",
+    "readback",
+    "cpu_trace",
+    "upload",
+    "eye_gbuffer",
+    "direct",
+    "photon_volumes",
+    "upsample",
+    "translucent",
+    "frame",
+];
+
+/// Builds the stats object of `frame`.
+pub fn frame_json(
+    scene: &Scene,
+    frame: &FrameImage,
+    triangles: usize,
+    bounces: u32,
+    validation_messages: usize,
+) -> Value {
+    let mut ms = Map::new();
+    for stage in STAGES {
+        let gpu: f64 = frame
+            .gpu_spans
+            .iter()
+            .filter(|s| s.name == *stage)
+            .map(|s| s.ms())
+            .sum();
+        let value = if *stage == "cpu_trace" {
+            frame.stats.cpu_trace_ms
+        } else {
+            gpu
+        };
+        ms.insert((*stage).to_string(), json!(value));
+    }
+    let s = &frame.stats;
+    json!({
+        "triangles": triangles,
+        "lights": scene.lights.len(),
+        "emitted_photons": s.emitted_photons,
+        "bounce_map_photons": s.bounce_map_photons,
+        "stored_photons": s.stored_photons,
+        "bounces": bounces,
+        "attrition": s.attrition,
+        "width": frame.width,
+        "height": frame.height,
+        "subsample": 1,
+        "ms": ms,
+        "passes_run": s.passes_run,
+        "validation_messages": validation_messages,
+    })
+}
