@@ -327,14 +327,10 @@ pub fn trace_photons(
     merge(chunks, max_bounces, starts.len() as u64)
 }
 
-/// The reference path: emitted photons → [`first_bounce`] → [`trace_photons`].
-pub fn trace_from_lights(
-    scene: &Scene,
-    bvh: &SceneBvh,
-    emitted: &[EmittedPhoton],
-    settings: &TraceSettings,
-) -> PhotonMap {
-    let starts: Vec<PhotonState> = emitted
+/// The CPU bounce map: [`first_bounce`] of every emitted photon, in parallel, in input order,
+/// absorbed and missing photons dropped.
+pub fn first_bounces(scene: &Scene, bvh: &SceneBvh, emitted: &[EmittedPhoton]) -> Vec<PhotonState> {
+    emitted
         .par_chunks(CHUNK)
         .map(|chunk| {
             chunk
@@ -343,12 +339,19 @@ pub fn trace_from_lights(
                 .collect::<Vec<_>>()
         })
         .collect::<Vec<_>>()
-        .concat();
+        .concat()
+}
+
+/// The reference path: emitted photons → [`first_bounces`] → [`trace_photons`].
+pub fn trace_from_lights(
+    scene: &Scene,
+    bvh: &SceneBvh,
+    emitted: &[EmittedPhoton],
+    settings: &TraceSettings,
+) -> PhotonMap {
+    let starts = first_bounces(scene, bvh, emitted);
     let mut map = trace_photons(scene, bvh, &starts, settings);
-    map.attrition[0] = emitted
-        .iter()
-        .filter(|p| p.power.max_element() > 0.0)
-        .count() as u64;
+    map.attrition[0] = emitted.iter().filter(|p| carries_power(p.power)).count() as u64;
     map.emitted = emitted.len() as u64;
     map
 }
