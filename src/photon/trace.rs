@@ -171,13 +171,12 @@ pub fn has_finite_lobe(bsdf: &Bsdf) -> bool {
 
 /// Scatters a photon arriving at `hit` along `dir`; `None` when absorbed.
 fn scatter(
-    scene: &Scene,
+    bsdf: &Bsdf,
     hit: &Hit,
     dir: Vec3,
     state: &PhotonState,
     rng: &mut Rng,
 ) -> Option<PhotonState> {
-    let bsdf = bsdf_at(scene, hit);
     let s =
         bsdf.sample_russian_roulette(-dir, hit.shading_normal, hit.geometric_normal, rng.next_3())?;
     let power = state.power * s.weight;
@@ -215,7 +214,13 @@ pub fn first_bounce(scene: &Scene, bvh: &SceneBvh, photon: &EmittedPhoton) -> Op
         bounces: 0,
     };
     let mut rng = Rng::new(hash2(photon.seed, FIRST_BOUNCE_STREAM));
-    scatter(scene, &hit, photon.direction, &start, &mut rng)
+    scatter(
+        &bsdf_at(scene, &hit),
+        &hit,
+        photon.direction,
+        &start,
+        &mut rng,
+    )
 }
 
 #[derive(Default)]
@@ -270,7 +275,7 @@ fn trace_path(
         if k >= max {
             return;
         }
-        match scatter(scene, &hit, state.direction, &state, &mut rng) {
+        match scatter(&bsdf, &hit, state.direction, &state, &mut rng) {
             Some(next) => {
                 state = next;
                 out.attrition[state.bounces as usize] += 1;
