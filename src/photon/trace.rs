@@ -360,3 +360,63 @@ pub fn trace_from_lights(
     map.emitted = emitted.len() as u64;
     map
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::photon::emit::emit_photons;
+    use crate::reference::scenes::grey_box;
+
+    #[test]
+    fn one_bounce_cap_stores_only_once_bounced_photons() {
+        let scene = grey_box(0.8, 1.0);
+        let bvh = SceneBvh::new(&scene);
+        let emitted = emit_photons(&scene, 1000, 2);
+        let settings = TraceSettings {
+            max_bounces: 1,
+            seed: 1,
+        };
+        let map = trace_from_lights(&scene, &bvh, &emitted, &settings);
+        assert_eq!(map.attrition.len(), 2);
+        // Closed box: every photon that survived its first bounce is stored once, at hit 2.
+        assert_eq!(map.photons.len() as u64, map.attrition[1]);
+        assert_eq!(map.stored_power[0], Vec3::ZERO);
+    }
+
+    #[test]
+    fn pure_mirrors_and_glass_have_no_finite_lobe() {
+        let mirror = Material {
+            lambertian: Vec3::ZERO,
+            glossy: Vec3::ONE,
+            exponent: f32::INFINITY,
+            ..Material::default()
+        };
+        let glass = Material {
+            lambertian: Vec3::ZERO,
+            transmission: Vec3::ONE,
+            exponent: f32::INFINITY,
+            fresnel: true,
+            ..Material::default()
+        };
+        let glossy = Material {
+            lambertian: Vec3::ZERO,
+            glossy: Vec3::splat(0.5),
+            exponent: 50.0,
+            ..Material::default()
+        };
+        assert!(!has_finite_lobe(&Bsdf::new(&mirror, None)));
+        assert!(!has_finite_lobe(&Bsdf::new(&glass, None)));
+        assert!(has_finite_lobe(&Bsdf::new(&glossy, None)));
+        assert!(has_finite_lobe(&Bsdf::new(&Material::default(), None)));
+    }
+
+    #[test]
+    fn absorbed_or_empty_bounce_map_texels_start_no_path() {
+        let empty = BounceMapPhoton::default();
+        assert!(PhotonState::from_bounce_map(&empty, Vec3::ONE).is_none());
+        let lit = BounceMapPhoton::new(Vec3::ONE, Vec3::Y, 0.5, 1.0, 3.0);
+        let s = PhotonState::from_bounce_map(&lit, Vec3::ZERO).unwrap();
+        assert_eq!(s.bounces, 1);
+        assert!(s.origin.y > 0.0 && (s.rho_p - 0.5).abs() < 1e-6);
+    }
+}
