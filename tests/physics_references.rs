@@ -181,3 +181,25 @@ fn exr_is_written_atomically_and_reads_back() {
     // A folder that does not exist: an error, and nothing written.
     assert!(img.write_exr(&dir.path().join("missing/out.exr")).is_err());
 }
+
+/// Cancelling after the first pass keeps the complete passes: an image, and fewer rows
+/// rendered than asked for.
+#[test]
+fn cancel_after_first_pass_returns_the_last_complete_image() {
+    let scene = cornell(1);
+    let settings = small(400, 0);
+    let bar = indicatif::ProgressBar::hidden();
+    let cancel = AtomicBool::new(false);
+    let image = std::thread::scope(|s| {
+        s.spawn(|| {
+            while bar.position() < settings.height as u64 {
+                std::thread::yield_now();
+            }
+            cancel.store(true, std::sync::atomic::Ordering::Relaxed);
+        });
+        render(&scene, Method::PathTrace, &settings, Some(&bar), &cancel)
+    })
+    .unwrap();
+    assert!(image.mean() > 0.0 && image.pixels.iter().flatten().all(|c| c.is_finite()));
+    assert!(bar.position() < 400 * settings.height as u64);
+}

@@ -171,13 +171,12 @@ pub fn has_finite_lobe(bsdf: &Bsdf) -> bool {
 
 /// Scatters a photon arriving at `hit` along `dir`; `None` when absorbed.
 fn scatter(
-    scene: &Scene,
+    bsdf: &Bsdf,
     hit: &Hit,
     dir: Vec3,
     state: &PhotonState,
     rng: &mut Rng,
 ) -> Option<PhotonState> {
-    let bsdf = bsdf_at(scene, hit);
     let s =
         bsdf.sample_russian_roulette(-dir, hit.shading_normal, hit.geometric_normal, rng.next_3())?;
     let power = state.power * s.weight;
@@ -215,7 +214,13 @@ pub fn first_bounce(scene: &Scene, bvh: &SceneBvh, photon: &EmittedPhoton) -> Op
         bounces: 0,
     };
     let mut rng = Rng::new(hash2(photon.seed, FIRST_BOUNCE_STREAM));
-    scatter(scene, &hit, photon.direction, &start, &mut rng)
+    scatter(
+        &bsdf_at(scene, &hit),
+        &hit,
+        photon.direction,
+        &start,
+        &mut rng,
+    )
 }
 
 #[derive(Default)]
@@ -270,7 +275,7 @@ fn trace_path(
         if k >= max {
             return;
         }
-        match scatter(scene, &hit, state.direction, &state, &mut rng) {
+        match scatter(&bsdf, &hit, state.direction, &state, &mut rng) {
             Some(next) => {
                 state = next;
                 out.attrition[state.bounces as usize] += 1;
@@ -327,14 +332,10 @@ pub fn trace_photons(
     merge(chunks, max_bounces, starts.len() as u64)
 }
 
-/// The reference path: emitted photons → [`first_bounce`] → [`trace_photons`].
-pub fn trace_from_lights(
-    scene: &Scene,
-    bvh: &SceneBvh,
-    emitted: &[EmittedPhoton],
-    settings: &TraceSettings,
-) -> PhotonMap {
-    let starts: Vec<PhotonState> = emitted
+/// The CPU bounce map: [`first_bounce`] of every emitted photon, in parallel, in input order,
+/// absorbed and missing photons dropped.
+pub fn first_bounces(scene: &Scene, bvh: &SceneBvh, emitted: &[EmittedPhoton]) -> Vec<PhotonState> {
+    emitted
         .par_chunks(CHUNK)
         .map(|chunk| {
             chunk
@@ -343,12 +344,79 @@ pub fn trace_from_lights(
                 .collect::<Vec<_>>()
         })
         .collect::<Vec<_>>()
-        .concat();
+        .concat()
+}
+
+/// The reference path: emitted photons → [`first_bounces`] → [`trace_photons`].
+pub fn trace_from_lights(
+    scene: &Scene,
+    bvh: &SceneBvh,
+    emitted: &[EmittedPhoton],
+    settings: &TraceSettings,
+) -> PhotonMap {
+    let starts = first_bounces(scene, bvh, emitted);
     let mut map = trace_photons(scene, bvh, &starts, settings);
-    map.attrition[0] = emitted
-        .iter()
-        .filter(|p| p.power.max_element() > 0.0)
-        .count() as u64;
+    map.attrition[0] = emitted.iter().filter(|p| carries_power(p.power)).count() as u64;
     map.emitted = emitted.len() as u64;
     map
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::photon::emit::emit_photons;
+    use crate::reference::scenes::grey_box;
+
+    #[test]
+    fn one_bounce_cap_stores_only_once_bounced_photons() {
+        let scene = grey_box(0.8, 1.0);
+        let bvh = SceneBvh::new(&scene);
+        let emitted = emit_photons(&scene, 1000, 2);
+        let settings = TraceSettings {
+            max_bounces: 1,
+            seed: 1,
+        };
+        let map = trace_from_lights(&scene, &bvh, &emitted, &settings);
+        assert_eq!(map.attrition.len(), 2);
+        // Closed box: every photon that survived its first bounce is stored once, at hit 2.
+        assert_eq!(map.photons.len() as u64, map.attrition[1]);
+        assert_eq!(map.stored_power[0], Vec3::ZERO);
+    }
+
+    #[test]
+    fn pure_mirrors_and_glass_have_no_finite_lobe() {
+        let mirror = Material {
+            lambertian: Vec3::ZERO,
+            glossy: Vec3::ONE,
+            exponent: f32::INFINITY,
+            ..Material::default()
+        };
+        let glass = Material {
+            lambertian: Vec3::ZERO,
+            transmission: Vec3::ONE,
+            exponent: f32::INFINITY,
+            fresnel: true,
+            ..Material::default()
+        };
+        let glossy = Material {
+            lambertian: Vec3::ZERO,
+            glossy: Vec3::splat(0.5),
+            exponent: 50.0,
+            ..Material::default()
+        };
+        assert!(!has_finite_lobe(&Bsdf::new(&mirror, None)));
+        assert!(!has_finite_lobe(&Bsdf::new(&glass, None)));
+        assert!(has_finite_lobe(&Bsdf::new(&glossy, None)));
+        assert!(has_finite_lobe(&Bsdf::new(&Material::default(), None)));
+    }
+
+    #[test]
+    fn absorbed_or_empty_bounce_map_texels_start_no_path() {
+        let empty = BounceMapPhoton::default();
+        assert!(PhotonState::from_bounce_map(&empty, Vec3::ONE).is_none());
+        let lit = BounceMapPhoton::new(Vec3::ONE, Vec3::Y, 0.5, 1.0, 3.0);
+        let s = PhotonState::from_bounce_map(&lit, Vec3::ZERO).unwrap();
+        assert_eq!(s.bounces, 1);
+        assert!(s.origin.y > 0.0 && (s.rho_p - 0.5).abs() < 1e-6);
+    }
 }

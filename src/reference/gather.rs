@@ -140,3 +140,23 @@ pub(super) fn render_progressive(ctx: &Ctx) -> Result<HdrImage> {
     }
     acc.finish()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::progressive_radius;
+
+    #[test]
+    fn progressive_radius_follows_knaus_zwicker() {
+        let (r0, a) = (0.2f32, 2.0 / 3.0);
+        assert_eq!(progressive_radius(r0, a, 0), r0);
+        let r1 = progressive_radius(r0, a, 1);
+        assert!((r1 * r1 - r0 * r0 * (1.0 + a) / 2.0).abs() < 1e-7);
+        // r_i² ∝ i^(α−1) asymptotically: the radius keeps shrinking, ever more slowly.
+        let (r100, r1000) = (
+            progressive_radius(r0, a, 100),
+            progressive_radius(r0, a, 1000),
+        );
+        let ratio = (r1000 / r100).powi(2);
+        assert!((ratio - 10f32.powf(a - 1.0)).abs() < 0.01, "{ratio}");
+    }
+}

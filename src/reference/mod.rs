@@ -14,7 +14,7 @@
 //! and stop at the next row when `cancel` is set, returning the last complete pass.
 //! Never touches Vulkan.
 
-mod gather;
+pub mod gather;
 mod image;
 mod path_trace;
 pub mod photon_index;

@@ -87,3 +87,34 @@ impl PhotonGrid {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::photon::rng::Rng;
+
+    #[test]
+    fn grid_visits_every_photon_within_the_cell_size_exactly_once() {
+        let mut rng = Rng::new(5);
+        let mut point = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 4.0 - 2.0;
+        let photons: Vec<Photon> = (0..3000)
+            .map(|_| Photon {
+                position: point(),
+                ..Photon::default()
+            })
+            .collect();
+        let r = 0.3;
+        let grid = PhotonGrid::new(&photons, r);
+        for _ in 0..200 {
+            let q = point();
+            let mut seen = vec![0u32; photons.len()];
+            grid.for_each_near(q, |i| seen[i] += 1);
+            for (i, p) in photons.iter().enumerate() {
+                assert!(seen[i] <= 1, "photon {i} visited twice");
+                if (p.position - q).length() < r {
+                    assert_eq!(seen[i], 1, "photon {i} within r missed");
+                }
+            }
+        }
+    }
+}

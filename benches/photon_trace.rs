@@ -1,0 +1,89 @@
+//! CPU photon tracing throughput: photon bounces (rays cast by the tracer, each followed by a
+//! BSDF evaluation and Russian roulette) per second, against the raw incoherent ray-cast rate
+//! of the same `SceneBvh` on the same scene, with 1 and 2 rayon threads.
+//! `cargo bench --bench photon_trace`; results in `docs/performance.md`.
+//!
+//! Scene: the Cornell-like closed box of `reference::scenes::cornell` (walls of albedo 0.7,
+//! coloured side walls) with its sphere subdivided 6 times (81 920 + 12 triangles); a point
+//! light below the ceiling; 8192 photons per iteration, up to 16 bounces.
+
+use std::sync::LazyLock;
+
+use divan::counter::ItemsCount;
+use divan::Bencher;
+use glam::Vec3;
+use ispm::photon::bvh::SceneBvh;
+use ispm::photon::emit::{emit_photons, EmittedPhoton};
+use ispm::photon::ray::Ray;
+use ispm::photon::rng::Rng;
+use ispm::photon::trace::{trace_from_lights, TraceSettings};
+use ispm::reference::scenes::cornell;
+use ispm::scene::Scene;
+use rayon::prelude::*;
+
+const PHOTONS: usize = 8192;
+const RAYS: usize = 8192;
+
+fn main() {
+    divan::main();
+}
+
+static SCENE: LazyLock<Scene> = LazyLock::new(|| cornell(6));
+static BVH: LazyLock<SceneBvh> = LazyLock::new(|| SceneBvh::new(&SCENE));
+static EMITTED: LazyLock<Vec<EmittedPhoton>> = LazyLock::new(|| emit_photons(&SCENE, PHOTONS, 1));
+
+const SETTINGS: TraceSettings = TraceSettings {
+    max_bounces: 16,
+    seed: 3,
+};
+
+/// Rays the tracer casts per iteration: one per photon alive after each bounce count
+/// (`attrition[0]`: the emitted photons' first rays).
+static PHOTON_RAYS: LazyLock<u64> = LazyLock::new(|| {
+    trace_from_lights(&SCENE, &BVH, &EMITTED, &SETTINGS)
+        .attrition
+        .iter()
+        .sum()
+});
+
+/// Incoherent rays inside the box: origins uniform in it, directions uniform on the sphere.
+static RAY_BATCH: LazyLock<Vec<Ray>> = LazyLock::new(|| {
+    let mut rng = Rng::new(7);
+    (0..RAYS)
+        .map(|_| {
+            let o = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 1.9 - 0.95;
+            let d = ispm::photon::sampling::uniform_sphere(rng.next_2());
+            Ray::new(o, d)
+        })
+        .collect()
+});
+
+fn pool(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("rayon pool")
+}
+
+#[divan::bench(args = [1, 2])]
+fn photon_bounces(bencher: Bencher, threads: usize) {
+    let pool = pool(threads);
+    let rays = *PHOTON_RAYS as usize;
+    bencher
+        .counter(ItemsCount::new(rays))
+        .bench(|| pool.install(|| trace_from_lights(&SCENE, &BVH, &EMITTED, &SETTINGS)));
+}
+
+#[divan::bench(args = [1, 2])]
+fn incoherent_rays_scene_bvh(bencher: Bencher, threads: usize) {
+    let pool = pool(threads);
+    LazyLock::force(&BVH);
+    bencher.counter(ItemsCount::new(RAYS)).bench(|| {
+        pool.install(|| {
+            RAY_BATCH
+                .par_chunks(256)
+                .map(|c| c.iter().filter(|r| BVH.intersect(r).is_some()).count())
+                .sum::<usize>()
+        })
+    });
+}
