@@ -20,15 +20,18 @@ layout(set = 0, binding = 8) uniform sampler2DArrayShadow shadow_atlas;
 layout(set = 0, binding = 9, rgba32f) uniform writeonly image2D out_radiance;
 
 float shadow_visibility(GpuLight light, vec3 p, vec3 n, vec3 wi) {
-    uint vi = shadow_view_index(light, p);
-    ShadowView view = shadow_views[vi];
     // Normal offset: push the lookup point off the surface by about one shadow texel,
     // measured at the point's distance from the light (perspective) or absolutely (ortho).
-    float dist = view.params.y > 0.5 ? 1.0 : length(light.position.xyz - p);
-    float texel = view.params.x * dist;
+    ShadowView first = shadow_views[light.shadow.y];
+    float dist = first.params.y > 0.5 ? 1.0 : length(light.position.xyz - p);
+    float texel = first.params.x * dist;
     float cos_t = clamp(dot(n, wi), 0.0, 1.0);
     float sin_t = sqrt(max(0.0, 1.0 - cos_t * cos_t));
     vec3 q = p + n * (1.5 * texel * max(sin_t, 0.2));
+    // The face is chosen for the point actually looked up (cube faces overlap by a margin
+    // that covers the offset and the PCF footprint, see lighting.rs).
+    uint vi = shadow_view_index(light, q);
+    ShadowView view = shadow_views[vi];
     vec4 clip = view.view_proj * vec4(q, 1.0);
     if (clip.w <= 0.0) {
         return 1.0;
@@ -63,7 +66,10 @@ void main() {
         return;
     }
     vec3 p = pos.xyz;
-    vec3 n = normalize(texelFetch(g_normal, px, 0).xyz);
+    vec4 nw = texelFetch(g_normal, px, 0);
+    vec3 n = normalize(nw.xyz);
+    // The BSDF decides entering/leaving a dielectric from the mesh's own side.
+    vec3 n_mesh = n * (nw.w < 0.0 ? -1.0 : 1.0);
     vec3 albedo = texelFetch(g_albedo, px, 0).rgb;
     GpuMaterial m = materials[texelFetch(g_material, px, 0).x];
     Bsdf bsdf = material_bsdf(m, albedo);
@@ -81,7 +87,7 @@ void main() {
         if (vis <= 0.0) {
             continue;
         }
-        vec3 f = bsdf_eval(bsdf, wo, s.wi, n, n);
+        vec3 f = bsdf_eval(bsdf, wo, s.wi, n_mesh, n_mesh);
         radiance += f * s.irradiance * cos_i * vis;
     }
     imageStore(out_radiance, px, vec4(radiance, 1.0));

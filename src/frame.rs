@@ -27,6 +27,9 @@ use crate::scene::{Camera, Light, Scene};
 use glam::{DMat4, UVec4, Vec4};
 use std::sync::Arc;
 
+/// Texels by which shadow cube faces overlap (normal offset 1.5 + PCF 1 + bilinear 0.5).
+const SHADOW_FACE_MARGIN: u32 = 3;
+
 /// How the frame computes light.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
@@ -154,6 +157,7 @@ impl Renderer {
             scene.camera.position().as_dvec3(),
             &gpu_scene.bounds,
             settings.shadow_resolution,
+            SHADOW_FACE_MARGIN,
         );
         let frame_uniforms = host_buffer(
             gpu,
@@ -271,6 +275,7 @@ impl Renderer {
             camera_pos,
             &self.scene.bounds,
             self.settings.shadow_resolution,
+            SHADOW_FACE_MARGIN,
         );
         let view_proj = self.eye_view_proj();
         let uniforms = FrameUniforms {

@@ -120,7 +120,7 @@ impl GpuScene {
             "scene.materials",
             vk::BufferUsageFlags::STORAGE_BUFFER,
             bytemuck::cast_slice(&materials),
-            Access::GraphicsStorageRead,
+            Access::AnyShaderStorageRead,
         )?;
         let mut textures = Vec::new();
         for (i, t) in scene.textures.iter().enumerate() {

@@ -62,7 +62,7 @@ impl BouncePlan {
     pub fn new(scene: &Scene, camera: DVec3, bounds: &Aabb, photons: usize) -> BouncePlan {
         // Shadow views are the light G-buffer's views; with resolution 1 their texel parameter
         // is the full window: 2·tan(fov/2) (perspective) or 2·radius (orthographic).
-        let setup = LightSetup::new(&scene.lights, camera, bounds, 1);
+        let setup = LightSetup::new(&scene.lights, camera, bounds, 1, 0);
         let budget = photon_budget(scene, photons);
         let mut plan = BouncePlan {
             camera,
@@ -180,7 +180,8 @@ impl BouncePlan {
                     let Some(p) = bounce_map.get(offset + (y * res + x) as usize) else {
                         continue;
                     };
-                    if !(p.power.max_element() > 0.0) {
+                    if p.power.max_element().partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+                    {
                         continue;
                     }
                     let ndc = texel_ndc(x, y, res);

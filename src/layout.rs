@@ -142,7 +142,16 @@ pub const SHARED_LAYOUTS: &[LayoutDescription] = &[
         inv_view_proj,
         camera_pos,
         counts,
-        params
+        params,
+        viewer
+    }),
+    describe!(BounceView {
+        inv_view_proj,
+        light,
+        axis,
+        intensity,
+        params,
+        texels
     }),
     describe!(GpuMaterial {
         lambertian,

@@ -61,8 +61,17 @@ fn perspective(fov: f64, near: f64, far: f64) -> DMat4 {
 
 impl LightSetup {
     /// Builds the lights and shadow views of `lights` for a camera at `camera` over a scene
-    /// with `bounds`, with shadow maps of `resolution`² texels.
-    pub fn new(lights: &[Light], camera: DVec3, bounds: &Aabb, resolution: u32) -> LightSetup {
+    /// with `bounds`, with shadow maps of `resolution`² texels. Cube faces are widened by
+    /// `margin` texels on each side so that a lookup near a face's edge (normal offset, 3×3
+    /// PCF, bilinear footprint) stays inside the face; photon emission passes 0, because its
+    /// faces must tile the sphere exactly once.
+    pub fn new(
+        lights: &[Light],
+        camera: DVec3,
+        bounds: &Aabb,
+        resolution: u32,
+        margin: u32,
+    ) -> LightSetup {
         let mut setup = LightSetup::default();
         let res = f64::from(resolution.max(1));
         for light in lights {
@@ -91,7 +100,8 @@ impl LightSetup {
                 }
                 LightKind::Point | LightKind::Spot { .. } => {
                     let (near, far) = near_far(pos, bounds);
-                    let proj = perspective(std::f64::consts::FRAC_PI_2, near, far);
+                    let half = (1.0 + 2.0 * f64::from(margin) / res).atan();
+                    let proj = perspective(2.0 * half, near, far);
                     let faces = [
                         (DVec3::X, DVec3::NEG_Y),
                         (DVec3::NEG_X, DVec3::NEG_Y),
@@ -102,7 +112,11 @@ impl LightSetup {
                     ];
                     for (forward, up) in faces {
                         let view = glam::dcamera::rh::view::look_to_mat4(pos, forward, up);
-                        setup.push_view(proj * view * to_relative, (2.0 / res) as f32, false);
+                        setup.push_view(
+                            proj * view * to_relative,
+                            (2.0 * half.tan() / res) as f32,
+                            false,
+                        );
                     }
                 }
                 LightKind::Directional => {
@@ -178,7 +192,7 @@ mod tests {
             }),
             light(LightKind::Directional),
         ];
-        let s = LightSetup::new(&lights, DVec3::ZERO, &unit_bounds(), 256);
+        let s = LightSetup::new(&lights, DVec3::ZERO, &unit_bounds(), 256, 3);
         let counts: Vec<u32> = s.lights.iter().map(|l| l.shadow.z).collect();
         assert_eq!(counts, vec![6, 1, 6, 1]);
         assert_eq!(s.views.len(), 14);
@@ -193,7 +207,7 @@ mod tests {
             outer_cone_angle: 0.5,
         })];
         let camera = DVec3::new(0.0, 0.0, 3.0);
-        let s = LightSetup::new(&lights, camera, &unit_bounds(), 256);
+        let s = LightSetup::new(&lights, camera, &unit_bounds(), 256, 3);
         let p = DVec3::new(0.1, -1.0, 0.0) - camera;
         let clip = s.view_matrices[0] * p.extend(1.0);
         let ndc = clip.truncate() / clip.w;
@@ -204,7 +218,7 @@ mod tests {
     #[test]
     fn cube_faces_cover_every_direction() {
         let lights = [light(LightKind::Point)];
-        let s = LightSetup::new(&lights, DVec3::ZERO, &unit_bounds(), 256);
+        let s = LightSetup::new(&lights, DVec3::ZERO, &unit_bounds(), 256, 3);
         let pos = DVec3::new(0.0, 0.9, 0.0);
         for d in [
             DVec3::X,

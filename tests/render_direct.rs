@@ -1,20 +1,23 @@
-//! Headless direct-light renders of the bundled scenes on the GPU, validation on.
+//! Headless renders of the bundled scenes on the GPU, validation on: direct light where the
+//! assertions are about direct light, both methods where they hold for any image.
 
 mod common;
 
 use glam::{Vec2, Vec3};
-use ispm::frame::{FrameImage, RenderSettings, Renderer};
+use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
 use ispm::scene::bundled;
 
 const SIZE: u32 = 128;
 
-fn render(scene: &ispm::scene::Scene) -> FrameImage {
+fn render(scene: &ispm::scene::Scene, method: Method) -> FrameImage {
     let gpu = common::gpu();
     let frame = {
         let mut r = Renderer::new(
             &gpu,
             scene,
             RenderSettings {
+                method,
+                photons: 20_000,
                 width: SIZE,
                 height: SIZE,
                 shadow_resolution: 512,
@@ -64,7 +67,7 @@ fn save(test: &str, frame: &FrameImage) -> std::path::PathBuf {
 #[test]
 fn cornell_box_direct_light_is_validation_clean_lit_where_aimed_and_shadowed_behind_objects() {
     let scene = bundled::resolve(Some("cornell-box")).expect("bundled scene");
-    let frame = render(&scene);
+    let frame = render(&scene, Method::Direct);
     let path = save("cornell_box_direct", &frame);
     let at = |p| radiance_at(&scene, &frame, p);
 
@@ -108,10 +111,13 @@ fn cornell_box_direct_light_is_validation_clean_lit_where_aimed_and_shadowed_beh
 
 #[test]
 fn every_bundled_scene_renders_finite_non_negative_radiance_and_round_trips_through_exr() {
-    for name in bundled::BUNDLED {
+    for (name, method) in bundled::BUNDLED
+        .iter()
+        .flat_map(|n| [(n, Method::Direct), (n, Method::Ispm)])
+    {
         let scene = bundled::resolve(Some(name)).expect("bundled scene");
-        let frame = render(&scene);
-        let dir = common::image_dir(&format!("bundled_{name}"));
+        let frame = render(&scene, method);
+        let dir = common::image_dir(&format!("bundled_{name}_{method:?}"));
         let exr = dir.join("actual.exr");
         ispm::output::write_exr(&exr, frame.width, frame.height, &frame.hdr).expect("exr");
         let (w, h, pixels) = ispm::output::read_exr(&exr).expect("read exr");

@@ -25,6 +25,9 @@ pub enum Access {
     ComputeStorageRead,
     /// Storage buffer read by a vertex or fragment shader.
     GraphicsStorageRead,
+    /// Storage buffer read by graphics and compute shaders alike (scene-wide data such as the
+    /// material buffer).
+    AnyShaderStorageRead,
     VertexInput,
     IndexInput,
     TransferSrc,
@@ -91,6 +94,11 @@ impl Access {
                 A::SHADER_STORAGE_READ,
                 L::GENERAL,
             ),
+            Access::AnyShaderStorageRead => (
+                S::VERTEX_SHADER | S::FRAGMENT_SHADER | S::COMPUTE_SHADER,
+                A::SHADER_STORAGE_READ,
+                L::GENERAL,
+            ),
             Access::VertexInput => (
                 S::VERTEX_ATTRIBUTE_INPUT,
                 A::VERTEX_ATTRIBUTE_READ,
@@ -138,6 +146,7 @@ mod tests {
             Access::ComputeStorageWrite,
             Access::ComputeStorageRead,
             Access::GraphicsStorageRead,
+            Access::AnyShaderStorageRead,
             Access::VertexInput,
             Access::IndexInput,
             Access::TransferSrc,

@@ -425,8 +425,13 @@ impl<'a> Cmd<'a> {
     }
 
     pub fn push_constants<T: bytemuck::Pod>(&self, pipeline: &Pipeline, value: &T) {
-        // SAFETY: recording state; the pipeline layout declares a push range covering
-        // size_of::<T>() bytes for these stages (checked by the pass that owns both).
+        assert_eq!(
+            size_of::<T>() as u32,
+            pipeline.push_size,
+            "push constants of the wrong size for this pipeline"
+        );
+        // SAFETY: recording state; the pipeline layout declares a push range of exactly
+        // size_of::<T>() bytes for these stages (asserted above).
         unsafe {
             self.device().cmd_push_constants(
                 self.raw,

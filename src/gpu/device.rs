@@ -188,7 +188,8 @@ impl Gpu {
         let mut f12 = vk::PhysicalDeviceVulkan12Features::default()
             .timeline_semaphore(true)
             .host_query_reset(true)
-            .scalar_block_layout(true);
+            .scalar_block_layout(true)
+            .separate_depth_stencil_layouts(true);
         let mut f13 = vk::PhysicalDeviceVulkan13Features::default()
             .synchronization2(true)
             .dynamic_rendering(true)
@@ -538,6 +539,10 @@ fn check_suitable(
         (f12.timeline_semaphore, "timelineSemaphore"),
         (f12.host_query_reset, "hostQueryReset"),
         (f12.scalar_block_layout, "scalarBlockLayout"),
+        (
+            f12.separate_depth_stencil_layouts,
+            "separateDepthStencilLayouts",
+        ),
         (base.fragment_stores_and_atomics, "fragmentStoresAndAtomics"),
     ]
     .into_iter()

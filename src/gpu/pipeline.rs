@@ -263,6 +263,8 @@ pub struct Pipeline {
     pub(super) layout: vk::PipelineLayout,
     pub(super) bind_point: vk::PipelineBindPoint,
     pub(super) push_stages: vk::ShaderStageFlags,
+    /// Bytes of push constants the layout declares.
+    pub(super) push_size: u32,
 }
 
 fn create_layout(
@@ -407,6 +409,7 @@ impl Pipeline {
             layout,
             bind_point: vk::PipelineBindPoint::GRAPHICS,
             push_stages,
+            push_size: desc.push_constant_size,
         })
     }
 
@@ -440,6 +443,7 @@ impl Pipeline {
             layout,
             bind_point: vk::PipelineBindPoint::COMPUTE,
             push_stages,
+            push_size: desc.push_constant_size,
         })
     }
 }
