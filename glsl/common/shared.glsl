@@ -56,7 +56,7 @@ struct BounceView {
 // Per-draw push constants of the raster passes (128 bytes: the guaranteed minimum).
 struct DrawPush {
     mat4 model;       // object -> camera-relative world (eye) or object -> light clip (shadow)
-    vec4 normal0;     // rows of the object -> world normal matrix (inverse transpose)
+    vec4 normal0;     // columns of the object -> world normal matrix (inverse transpose)
     vec4 normal1;
     vec4 normal2;
     uvec4 material;   // x: material index

@@ -515,7 +515,7 @@ impl<'a> Cmd<'a> {
         };
     }
 
-    /// Copies `buffer` (tightly packed rows) into layer `layer` of `image`.
+    /// Copies `buffer` (tightly packed rows, layer after layer) into every layer of `image`.
     pub fn copy_buffer_to_image(&self, buffer: &Buffer, image: &Image) {
         self.transition(image, Access::TransferDst);
         self.transition_buffer(buffer, Access::TransferSrc);

@@ -15,7 +15,7 @@
 //! [`Gpu::collect_garbage`] once all those values have completed (or at shutdown).
 
 use super::error::{vk_err, GpuError, GpuResult};
-use super::instance::{create_instance, ValidationLog};
+use super::instance::{create_instance, InstanceParts};
 use ash::vk;
 use gpu_allocator::vulkan::{Allocation, Allocator, AllocatorCreateDesc};
 use std::ffi::CStr;
@@ -89,12 +89,6 @@ pub(super) enum Retired {
 
 /// Everything the renderer knows about the Vulkan device.
 pub struct Gpu {
-    /// Keeps the Vulkan loader library loaded while the instance lives.
-    _entry: ash::Entry,
-    pub(super) instance: ash::Instance,
-    debug_utils_instance: ash::ext::debug_utils::Instance,
-    messenger: vk::DebugUtilsMessengerEXT,
-    validation_log: Box<ValidationLog>,
     pub(super) debug_utils: ash::ext::debug_utils::Device,
     pub(super) device: ash::Device,
     pub properties: DeviceProperties,
@@ -104,6 +98,44 @@ pub struct Gpu {
     allocator: ManuallyDrop<Mutex<Allocator>>,
     graveyard: Mutex<Vec<(Vec<u64>, Retired)>>,
     pub validation: bool,
+    /// Dropped last (fields drop after `Drop::drop`, which destroys the device first).
+    instance: InstanceParts,
+}
+
+/// A logical device and its timeline semaphores, destroyed on drop unless handed to a [`Gpu`]
+/// (the error paths of [`Gpu::new`] between device creation and the `Gpu`'s construction).
+struct DeviceGuard {
+    device: Option<ash::Device>,
+    semaphores: Vec<vk::Semaphore>,
+}
+
+impl DeviceGuard {
+    fn device(&self) -> &ash::Device {
+        self.device
+            .as_ref()
+            .expect("DeviceGuard holds its device until disarmed")
+    }
+
+    fn disarm(mut self) -> ash::Device {
+        self.semaphores.clear();
+        self.device
+            .take()
+            .expect("DeviceGuard holds its device until disarmed")
+    }
+}
+
+impl Drop for DeviceGuard {
+    fn drop(&mut self) {
+        if let Some(device) = self.device.take() {
+            // SAFETY: nothing else was created from the device; no work was submitted.
+            unsafe {
+                for &s in &self.semaphores {
+                    device.destroy_semaphore(s, None);
+                }
+                device.destroy_device(None);
+            }
+        }
+    }
 }
 
 /// What `ispm info` prints about the device.
@@ -125,22 +157,11 @@ impl Gpu {
     /// `ISPM_VALIDATION=1`.
     pub fn new(options: &GpuOptions) -> anyhow::Result<Arc<Gpu>> {
         let validation = options.validation || super::instance::validation_requested();
+        // Every `?` below drops what was created so far: `parts` tears down the instance,
+        // `guard` the device and its semaphores.
         let parts = create_instance(validation, &[])?;
-        let instance = parts.instance;
-        let (physical, properties) = match choose_device(&instance, options.device_index) {
-            Ok(p) => p,
-            Err(e) => {
-                // SAFETY: nothing was created from the instance except the messenger, which
-                // we destroy first.
-                unsafe {
-                    parts
-                        .debug_utils
-                        .destroy_debug_utils_messenger(parts.messenger, None);
-                    instance.destroy_instance(None);
-                }
-                return Err(e.into());
-            }
-        };
+        let instance = &parts.instance;
+        let (physical, properties) = choose_device(instance, options.device_index)?;
 
         let families = &properties.families;
         let graphics_family = families
@@ -210,7 +231,12 @@ impl Gpu {
         // alive for the call; the requested features were checked in `choose_device`.
         let device = unsafe { instance.create_device(physical, &info, None) }
             .map_err(vk_err("vkCreateDevice"))?;
-        let debug_utils = ash::ext::debug_utils::Device::new(&instance, &device);
+        let mut guard = DeviceGuard {
+            device: Some(device),
+            semaphores: Vec::new(),
+        };
+        let device = guard.device().clone();
+        let debug_utils = ash::ext::debug_utils::Device::new(instance, &device);
 
         let mut queues = Vec::new();
         for &family in &distinct {
@@ -221,6 +247,7 @@ impl Gpu {
             // SAFETY: the device is live; timeline semaphores were enabled above.
             let timeline = unsafe { device.create_semaphore(&sem_info, None) }
                 .map_err(vk_err("vkCreateSemaphore"))?;
+            guard.semaphores.push(timeline);
             // SAFETY: one queue of this family was requested at device creation.
             let raw = unsafe { device.get_device_queue(family, 0) };
             let props = &families[family as usize];
@@ -253,12 +280,8 @@ impl Gpu {
             source,
         })?;
 
+        let device = guard.disarm();
         let gpu = Arc::new(Gpu {
-            _entry: parts.entry,
-            instance,
-            debug_utils_instance: parts.debug_utils,
-            messenger: parts.messenger,
-            validation_log: parts.log,
             debug_utils,
             device,
             properties,
@@ -267,6 +290,7 @@ impl Gpu {
             allocator: ManuallyDrop::new(Mutex::new(allocator)),
             graveyard: Mutex::new(Vec::new()),
             validation,
+            instance: parts,
         });
         for (i, q) in gpu.queues.iter().enumerate() {
             gpu.set_name(
@@ -298,11 +322,11 @@ impl Gpu {
 
     /// Validation messages counted so far (empty when validation is off).
     pub fn validation_messages(&self) -> Vec<String> {
-        self.validation_log.messages()
+        self.instance.log().messages()
     }
 
     pub fn validation_message_count(&self) -> usize {
-        self.validation_log.count()
+        self.instance.log().count()
     }
 
     pub(super) fn allocator(&self) -> MutexGuard<'_, Allocator> {
@@ -392,8 +416,9 @@ impl Gpu {
 
     /// Blocks until the device is idle. Only for shutdown and one-shot tools.
     pub fn wait_idle(&self) -> GpuResult<()> {
-        // SAFETY: the device is live; queues are externally synchronised by their mutexes, which
-        // no one holds across this call in the single-threaded callers that use it.
+        // vkDeviceWaitIdle needs every queue externally synchronised: hold all their locks.
+        let _locks: Vec<_> = self.queues.iter().map(Queue::raw).collect();
+        // SAFETY: the device is live and no queue can be used while the locks are held.
         unsafe { self.device.device_wait_idle() }.map_err(vk_err("vkDeviceWaitIdle"))
     }
 }
@@ -410,16 +435,14 @@ impl Drop for Gpu {
             self.destroy(object);
         }
         // SAFETY: the device is idle and every resource was destroyed above (resources hold
-        // an Arc<Gpu>, so none outlive it). The allocator is dropped before the device.
+        // an Arc<Gpu>, so none outlive it). The allocator is dropped before the device; the
+        // instance (the `instance` field) is destroyed after this body, when fields drop.
         unsafe {
             ManuallyDrop::drop(&mut self.allocator);
             for q in &self.queues {
                 self.device.destroy_semaphore(q.timeline, None);
             }
             self.device.destroy_device(None);
-            self.debug_utils_instance
-                .destroy_debug_utils_messenger(self.messenger, None);
-            self.instance.destroy_instance(None);
         }
     }
 }
@@ -572,12 +595,5 @@ pub fn list_devices() -> anyhow::Result<Vec<(DeviceProperties, Result<(), String
             })
             .collect()
     });
-    // SAFETY: nothing but the messenger was created from this instance.
-    unsafe {
-        parts
-            .debug_utils
-            .destroy_debug_utils_messenger(parts.messenger, None);
-        parts.instance.destroy_instance(None);
-    }
     Ok(out?)
 }

@@ -42,13 +42,46 @@ pub fn validation_requested() -> bool {
     std::env::var("ISPM_VALIDATION").is_ok_and(|v| v != "0" && !v.is_empty())
 }
 
+/// The instance, its persistent debug messenger and the log the messenger writes into.
+/// Dropping it destroys the messenger, then the instance, then frees the log, so every error
+/// path after instance creation cleans up by dropping this.
 pub(super) struct InstanceParts {
-    pub entry: ash::Entry,
+    /// Keeps the Vulkan loader library loaded while the instance lives.
+    _entry: ash::Entry,
     pub instance: ash::Instance,
-    pub debug_utils: ash::ext::debug_utils::Instance,
-    pub messenger: vk::DebugUtilsMessengerEXT,
-    /// Boxed so its address stays fixed: the messenger's user data points at it.
-    pub log: Box<ValidationLog>,
+    debug_utils: ash::ext::debug_utils::Instance,
+    messenger: vk::DebugUtilsMessengerEXT,
+    /// Owned through a raw pointer (from `Box::into_raw`): the messenger's user data aliases it
+    /// for the messenger's whole life, so no `Box` may be moved while it runs.
+    log: *mut ValidationLog,
+}
+
+// SAFETY: the log is only accessed through `&ValidationLog`, whose interior is a Mutex; the
+// Vulkan handles are plain values that the spec allows using from any thread.
+unsafe impl Send for InstanceParts {}
+// SAFETY: as above; nothing in InstanceParts is mutated through a shared reference except the
+// Mutex-protected log.
+unsafe impl Sync for InstanceParts {}
+
+impl InstanceParts {
+    pub fn log(&self) -> &ValidationLog {
+        // SAFETY: `log` came from Box::into_raw in create_instance and is freed only in Drop.
+        unsafe { &*self.log }
+    }
+}
+
+impl Drop for InstanceParts {
+    fn drop(&mut self) {
+        // SAFETY: the owner of this value destroyed every device and object made from the
+        // instance before dropping it (Gpu::drop does so); the messenger is destroyed before
+        // the log it points at is freed.
+        unsafe {
+            self.debug_utils
+                .destroy_debug_utils_messenger(self.messenger, None);
+            self.instance.destroy_instance(None);
+            drop(Box::from_raw(self.log));
+        }
+    }
 }
 
 pub(super) fn create_instance(
@@ -85,8 +118,8 @@ pub(super) fn create_instance(
         extensions.push(ash::ext::validation_features::NAME.as_ptr());
     }
 
-    let log = Box::<ValidationLog>::default();
-    let log_ptr = (&*log as *const ValidationLog).cast_mut().cast::<c_void>();
+    let log = Box::into_raw(Box::<ValidationLog>::default());
+    let log_ptr = log.cast::<c_void>();
     let mut messenger_info = messenger_create_info(log_ptr);
     let enables = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
     let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables);
@@ -101,18 +134,32 @@ pub(super) fn create_instance(
     }
 
     // SAFETY: every pointer in `info` refers to locals that outlive the call; the messenger's user
-    // data points at `log`, which is boxed and kept alive in `InstanceParts` until the instance
-    // is destroyed.
-    let instance =
-        unsafe { entry.create_instance(&info, None) }.map_err(vk_err("vkCreateInstance"))?;
+    // data points at `log`, which lives until InstanceParts is dropped.
+    let instance = match unsafe { entry.create_instance(&info, None) } {
+        Ok(i) => i,
+        Err(e) => {
+            // SAFETY: `log` came from Box::into_raw above and nothing refers to it any more.
+            drop(unsafe { Box::from_raw(log) });
+            return Err(vk_err("vkCreateInstance")(e));
+        }
+    };
     let debug_utils = ash::ext::debug_utils::Instance::new(&entry, &instance);
     let persistent = messenger_create_info(log_ptr);
     // SAFETY: the instance is live and was created with VK_EXT_debug_utils enabled; user data
     // points at the boxed log, which outlives the messenger (destroyed before the instance).
-    let messenger = unsafe { debug_utils.create_debug_utils_messenger(&persistent, None) }
-        .map_err(vk_err("vkCreateDebugUtilsMessengerEXT"))?;
+    let messenger = match unsafe { debug_utils.create_debug_utils_messenger(&persistent, None) } {
+        Ok(m) => m,
+        Err(e) => {
+            // SAFETY: nothing was created from the instance; `log` is referenced by nothing.
+            unsafe {
+                instance.destroy_instance(None);
+                drop(Box::from_raw(log));
+            }
+            return Err(vk_err("vkCreateDebugUtilsMessengerEXT")(e));
+        }
+    };
     Ok(InstanceParts {
-        entry,
+        _entry: entry,
         instance,
         debug_utils,
         messenger,

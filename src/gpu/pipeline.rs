@@ -301,6 +301,8 @@ impl Pipeline {
             desc.push_constant_size,
             push_stages,
         )?;
+        // The layout is retired if anything below fails.
+        let layout_guard = LayoutGuard(gpu, layout);
         let vs = Module::new(gpu, desc.vertex)?;
         let fs = desc.fragment.map(|f| Module::new(gpu, f)).transpose()?;
         let mut stages = vec![vk::PipelineShaderStageCreateInfo::default()
@@ -403,6 +405,7 @@ impl Pipeline {
         }
         .map_err(|(_, e)| vk_err("vkCreateGraphicsPipelines")(e))?[0];
         gpu.set_name(raw, desc.name);
+        std::mem::forget(layout_guard);
         Ok(Pipeline {
             gpu: gpu.clone(),
             raw,
@@ -422,6 +425,7 @@ impl Pipeline {
             desc.push_constant_size,
             push_stages,
         )?;
+        let layout_guard = LayoutGuard(gpu, layout);
         let module = Module::new(gpu, desc.shader)?;
         let stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
@@ -437,6 +441,7 @@ impl Pipeline {
         }
         .map_err(|(_, e)| vk_err("vkCreateComputePipelines")(e))?[0];
         gpu.set_name(raw, desc.name);
+        std::mem::forget(layout_guard);
         Ok(Pipeline {
             gpu: gpu.clone(),
             raw,
@@ -445,6 +450,16 @@ impl Pipeline {
             push_stages,
             push_size: desc.push_constant_size,
         })
+    }
+}
+
+/// Destroys a pipeline layout unless forgotten (the error paths of pipeline creation).
+struct LayoutGuard<'a>(&'a Gpu, vk::PipelineLayout);
+
+impl Drop for LayoutGuard<'_> {
+    fn drop(&mut self) {
+        // SAFETY: the layout was created by this device and no pipeline uses it yet.
+        unsafe { self.0.raw().destroy_pipeline_layout(self.1, None) };
     }
 }
 

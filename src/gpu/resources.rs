@@ -57,8 +57,14 @@ impl Buffer {
                 }
             })?;
         // SAFETY: the allocation was made for this buffer's requirements and is not bound yet.
-        unsafe { device.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) }
-            .map_err(vk_err("vkBindBufferMemory"))?;
+        if let Err(e) =
+            unsafe { device.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) }
+        {
+            let _ = gpu.allocator().free(allocation);
+            // SAFETY: raw is unused and owned here.
+            unsafe { device.destroy_buffer(raw, None) };
+            return Err(vk_err("vkBindBufferMemory")(e));
+        }
         gpu.set_name(raw, name);
         Ok(Buffer {
             gpu: gpu.clone(),
@@ -209,9 +215,30 @@ impl Image {
                 }
             })?;
         // SAFETY: the allocation was made for this image's requirements and is not bound yet.
-        unsafe { device.bind_image_memory(raw, allocation.memory(), allocation.offset()) }
-            .map_err(vk_err("vkBindImageMemory"))?;
+        if let Err(e) =
+            unsafe { device.bind_image_memory(raw, allocation.memory(), allocation.offset()) }
+        {
+            let _ = gpu.allocator().free(allocation);
+            // SAFETY: raw is unused and owned here.
+            unsafe { device.destroy_image(raw, None) };
+            return Err(vk_err("vkBindImageMemory")(e));
+        }
         gpu.set_name(raw, desc.name);
+        // From here on the image is owned by `image`, whose Drop retires it with its views, so
+        // a failed view creation below cleans up everything made so far.
+        let mut image = Image {
+            gpu: gpu.clone(),
+            raw,
+            allocation: Some(allocation),
+            view: vk::ImageView::null(),
+            layer_views: Vec::new(),
+            format: desc.format,
+            width: desc.width.max(1),
+            height: desc.height.max(1),
+            layers: desc.layers.max(1),
+            name: desc.name.into(),
+            access: Mutex::new(Access::Nothing),
+        };
 
         let aspect = aspect_of(desc.format);
         let layers = desc.layers.max(1);
@@ -235,29 +262,16 @@ impl Image {
             ViewKind::D2Array => vk::ImageViewType::TYPE_2D_ARRAY,
             ViewKind::Cube => vk::ImageViewType::CUBE,
         };
-        let view = make_view(full_type, 0, layers)?;
-        gpu.set_name(view, &format!("{}.view", desc.name));
-        let mut layer_views = Vec::new();
+        image.view = make_view(full_type, 0, layers)?;
+        gpu.set_name(image.view, &format!("{}.view", desc.name));
         if layers > 1 {
             for l in 0..layers {
                 let v = make_view(vk::ImageViewType::TYPE_2D, l, 1)?;
                 gpu.set_name(v, &format!("{}.layer[{l}]", desc.name));
-                layer_views.push(v);
+                image.layer_views.push(v);
             }
         }
-        Ok(Image {
-            gpu: gpu.clone(),
-            raw,
-            allocation: Some(allocation),
-            view,
-            layer_views,
-            format: desc.format,
-            width: desc.width.max(1),
-            height: desc.height.max(1),
-            layers,
-            name: desc.name.into(),
-            access: Mutex::new(Access::Nothing),
-        })
+        Ok(image)
     }
 
     /// The view of one layer (the whole image when it has one layer).
@@ -284,7 +298,9 @@ impl Drop for Image {
     fn drop(&mut self) {
         if let Some(a) = self.allocation.take() {
             let mut views = std::mem::take(&mut self.layer_views);
-            views.push(self.view);
+            if self.view != vk::ImageView::null() {
+                views.push(self.view);
+            }
             self.gpu.retire(Retired::Image(self.raw, a, views));
         }
     }
