@@ -402,3 +402,200 @@ fn bounce_map_is_the_cpu_first_bounce_in_distribution_with_a_point_light() {
     let scene = ispm::reference::scenes::cornell(2);
     bounce_map_matches_cpu_first_bounce("cornell(2)", &scene, 30_000, &[1, 2]);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Convergence to the path-traced reference
+// ---------------------------------------------------------------------------------------------
+
+const CONVERGENCE_SIZE: u32 = 64;
+/// Light-path bounces of both renderers (ISPM's `bounces`, the path tracer's `bounces`).
+const CONVERGENCE_BOUNCES: u32 = 8;
+
+/// Path-tracer passes (1 spp each) of the convergence reference.
+const REFERENCE_PASSES: u32 = 256;
+
+/// The path-traced reference: indirect light, the whole image, and the relMSE its own noise
+/// adds to any comparison with it.
+struct Reference {
+    indirect: Vec<f32>,
+    total: Vec<f32>,
+    floor: f64,
+}
+
+/// The path tracer's indirect light at the pixel centres of `scene`'s camera: the mean over
+/// `passes` seeds of `path-trace(bounces) − path-trace(bounces = 0)`. With one sample per
+/// pixel the camera ray is the pixel centre and direct light draws no random numbers, so the
+/// subtraction removes exactly the direct part of the same path. The floor is the per-pixel
+/// variance of the mean in relMSE units: E[relMSE(a, reference)] ≈ relMSE(a, truth) + floor.
+fn path_traced(scene: &Scene, passes: u32) -> Reference {
+    let cancel = std::sync::atomic::AtomicBool::new(false);
+    let reference = |bounces: u32, seed: u32| {
+        let settings = ispm::reference::RefSettings {
+            width: CONVERGENCE_SIZE,
+            height: CONVERGENCE_SIZE,
+            spp: 1,
+            bounces,
+            seed,
+            ..Default::default()
+        };
+        ispm::reference::render(
+            scene,
+            ispm::reference::Method::PathTrace,
+            &settings,
+            None,
+            &cancel,
+        )
+        .expect("path trace")
+        .pixels
+    };
+    let direct = reference(0, 0);
+    let n = direct.len();
+    let mut sum = vec![[0.0f64; 3]; n];
+    let mut sum_sq = vec![[0.0f64; 3]; n];
+    for seed in 0..passes {
+        for (i, p) in reference(CONVERGENCE_BOUNCES, seed).iter().enumerate() {
+            for c in 0..3 {
+                let v = f64::from(p[c] - direct[i][c]);
+                sum[i][c] += v;
+                sum_sq[i][c] += v * v;
+            }
+        }
+    }
+    let k = f64::from(passes);
+    let mut image = Vec::with_capacity(4 * n);
+    let mut total = Vec::with_capacity(4 * n);
+    let mut floor = 0.0;
+    for (i, (s, q)) in sum.iter().zip(&sum_sq).enumerate() {
+        for c in 0..3 {
+            let mean = s[c] / k;
+            total.push(mean as f32 + direct[i][c]);
+            let variance_of_mean = (q[c] / k - mean * mean).max(0.0) / (k - 1.0);
+            floor += variance_of_mean / (mean * mean + common::golden::REL_MSE_EPSILON);
+            image.push(mean as f32);
+        }
+        image.push(1.0);
+        total.push(1.0);
+    }
+    Reference {
+        indirect: image,
+        total,
+        floor: floor / (3 * n) as f64,
+    }
+}
+
+/// relMSE of ISPM's indirect light (and of its whole image, for the record) against the path
+/// tracer, mean over two seeds.
+struct Point {
+    photons: usize,
+    r_max: f32,
+    indirect: f64,
+    total: f64,
+    /// Mean indirect radiance of ISPM over the path tracer's (all pixels and channels).
+    mean_ratio: f64,
+}
+
+fn mean(image: &[f32]) -> f64 {
+    let sum: f64 = image
+        .chunks_exact(4)
+        .flat_map(|p| &p[..3])
+        .map(|&v| f64::from(v))
+        .sum();
+    sum / (image.len() / 4 * 3).max(1) as f64
+}
+
+fn measure(scene: &Scene, reference: &Reference, photons: usize, radius: Option<f32>) -> Point {
+    let mut point = Point {
+        photons,
+        r_max: 0.0,
+        indirect: 0.0,
+        total: 0.0,
+        mean_ratio: 0.0,
+    };
+    let seeds = [1, 2];
+    for seed in seeds {
+        let (renderer, frame) = render(
+            scene,
+            RenderSettings {
+                bounces: CONVERGENCE_BOUNCES,
+                radius,
+                ..settings(CONVERGENCE_SIZE, CONVERGENCE_SIZE, photons, seed)
+            },
+        );
+        let photons = renderer.photons().expect("ispm");
+        point.r_max = photons.kernel().r_max;
+        let indirect = photons.read_indirect().expect("indirect");
+        point.indirect += rel_mse(&indirect, &reference.indirect) / seeds.len() as f64;
+        point.total += rel_mse(&frame.hdr, &reference.total) / seeds.len() as f64;
+        point.mean_ratio += mean(&indirect) / mean(&reference.indirect) / seeds.len() as f64;
+    }
+    point
+}
+
+#[test]
+fn ispm_indirect_light_converges_to_the_path_tracer() {
+    let scene = ispm::reference::scenes::cornell(2);
+    assert!(
+        scene
+            .materials
+            .iter()
+            .all(|m| m.transmission.max_element() == 0.0 && m.glossy.max_element() == 0.0),
+        "the convergence scene must be purely diffuse"
+    );
+    let reference = path_traced(&scene, REFERENCE_PASSES);
+    let counts = [5_000, 20_000, 80_000];
+    let default: Vec<Point> = counts
+        .iter()
+        .map(|&n| measure(&scene, &reference, n, None))
+        .collect();
+    // The consistent schedule: r_max ∝ N^(-1/4) from the default radius at the first count,
+    // so that photons per kernel grow as √N while the kernel shrinks.
+    let r0 = default[0].r_max;
+    let consistent: Vec<Point> = counts
+        .iter()
+        .map(|&n| {
+            let r = r0 * (n as f32 / counts[0] as f32).powf(-0.25);
+            measure(&scene, &reference, n, Some(r))
+        })
+        .collect();
+    let mut table = format!(
+        "cornell(2), {CONVERGENCE_SIZE}², {CONVERGENCE_BOUNCES} bounces, reference: path tracer \
+         {REFERENCE_PASSES} spp at pixel centres, its noise floor {:.4}\n\
+         | photons | kernel | r_max (m) | relMSE indirect | − floor | relMSE total | mean ratio |\n\
+         |---|---|---|---|---|---|---|\n",
+        reference.floor
+    );
+    for (name, curve) in [("default 1/√N", &default), ("N^(-1/4)", &consistent)] {
+        for p in curve.iter() {
+            table += &format!(
+                "| {} | {name} | {:.4} | {:.4} | {:.4} | {:.4} | {:.3} |\n",
+                p.photons,
+                p.r_max,
+                p.indirect,
+                p.indirect - reference.floor,
+                p.total,
+                p.mean_ratio
+            );
+        }
+    }
+    eprintln!("{table}");
+    // Falls monotonically with the consistent schedule (each step by at least 5 %: two
+    // seeds' noise in the relMSE is ~1 %).
+    for w in consistent.windows(2) {
+        assert!(
+            w[1].indirect < 0.95 * w[0].indirect,
+            "relMSE did not fall from {} to {} photons:\n{table}",
+            w[0].photons,
+            w[1].photons
+        );
+    }
+    // The default schedule keeps the photon count per kernel constant: bias falls, noise does
+    // not, and the error must at least not grow.
+    for w in default.windows(2) {
+        assert!(
+            w[1].indirect < 1.1 * w[0].indirect,
+            "relMSE grew from {} to {} photons:\n{table}",
+            w[0].photons,
+            w[1].photons
+        );
+    }
+}
