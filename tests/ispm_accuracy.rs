@@ -599,3 +599,167 @@ fn ispm_indirect_light_converges_to_the_path_tracer() {
         );
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// Caustics: convergence to progressive photon mapping
+// ---------------------------------------------------------------------------------------------
+
+/// Means of `block`×`block` pixel blocks whose pixels are all in `mask` (RGBA): the image at
+/// the scale where a caustic's energy, not its per-pixel noise, is compared.
+fn block_means(image: &[f32], mask: &[bool], size: u32, block: usize) -> Vec<f32> {
+    let size = size as usize;
+    let mut out = Vec::new();
+    for by in 0..size / block {
+        for bx in 0..size / block {
+            let pixels = (0..block * block)
+                .map(|k| (by * block + k / block) * size + bx * block + k % block);
+            if !pixels.clone().all(|i| mask[i]) {
+                continue;
+            }
+            let mut sum = [0.0f32; 3];
+            for i in pixels {
+                for (c, s) in sum.iter_mut().enumerate() {
+                    *s += image[4 * i + c] / (block * block) as f32;
+                }
+            }
+            out.extend([sum[0], sum[1], sum[2], 1.0]);
+        }
+    }
+    out
+}
+
+/// One ISPM render of the caustic scene against the progressive reference.
+struct CausticPoint {
+    photons: usize,
+    r_min: f32,
+    per_pixel: f64,
+    blocks: f64,
+    mean_ratio: f64,
+}
+
+/// ISPM's indirect light on `glass-sphere` against progressive photon mapping's
+/// (`progressive − path-trace(bounces 0)`, both at pixel centres, so the difference is exactly
+/// the gathered part), over the pixels that see a surface without delta lobes (the glass itself
+/// needs the translucent pass).
+fn caustic_curve(counts: &[usize]) -> Vec<CausticPoint> {
+    let scene = bundled("glass-sphere");
+    let size = CONVERGENCE_SIZE;
+    let cancel = std::sync::atomic::AtomicBool::new(false);
+    let reference = |method, iterations| {
+        let settings = ispm::reference::RefSettings {
+            width: size,
+            height: size,
+            spp: 1,
+            photons: 100_000,
+            iterations,
+            bounces: CONVERGENCE_BOUNCES,
+            seed: 5,
+            ..Default::default()
+        };
+        ispm::reference::render(&scene, method, &settings, None, &cancel)
+            .expect("reference")
+            .pixels
+    };
+    let progressive = reference(ispm::reference::Method::Progressive, 16);
+    let direct = reference(ispm::reference::Method::PathTrace, 1);
+    let indirect_ref: Vec<f32> = progressive
+        .iter()
+        .zip(&direct)
+        .flat_map(|(p, d)| [p[0] - d[0], p[1] - d[1], p[2] - d[2], 1.0])
+        .collect();
+    let mut curve = Vec::new();
+    for &photons in counts {
+        let (renderer, _) = render(
+            &scene,
+            RenderSettings {
+                bounces: CONVERGENCE_BOUNCES,
+                ..settings(size, size, photons, 1)
+            },
+        );
+        let material: Vec<u32> =
+            bytemuck::pod_collect_to_vec(&renderer.read_gbuffer("material").expect("material"));
+        let position: Vec<[f32; 4]> =
+            bytemuck::pod_collect_to_vec(&renderer.read_gbuffer("position").expect("position"));
+        let mask: Vec<bool> = material
+            .iter()
+            .zip(&position)
+            .map(|(&m, p)| {
+                let m = &scene.materials[m as usize];
+                p[3] != 0.0 && m.transmission.max_element() == 0.0 && m.exponent.is_finite()
+            })
+            .collect();
+        let ispm = renderer.photons().expect("ispm");
+        let indirect = ispm.read_indirect().expect("indirect");
+        let keep = |img: &[f32]| -> Vec<f32> {
+            img.chunks_exact(4)
+                .zip(&mask)
+                .filter(|(_, &m)| m)
+                .flat_map(|(p, _)| p.iter().copied())
+                .collect()
+        };
+        let (a, r) = (
+            block_means(&indirect, &mask, size, 8),
+            block_means(&indirect_ref, &mask, size, 8),
+        );
+        assert!(a.len() >= 4 * 16, "too few floor blocks: {}", a.len() / 4);
+        curve.push(CausticPoint {
+            photons,
+            r_min: ispm.kernel().r_min,
+            per_pixel: rel_mse(&keep(&indirect), &keep(&indirect_ref)),
+            blocks: rel_mse(&a, &r),
+            mean_ratio: mean(&a) / mean(&r),
+        });
+    }
+    let mut table = String::from(
+        "glass-sphere, 64², reference: progressive 16 × 100k photons, pixel centres\n\
+         | photons | r_min (m) | relMSE per pixel | relMSE 8×8 blocks | mean ratio |\n\
+         |---|---|---|---|---|\n",
+    );
+    for p in &curve {
+        table += &format!(
+            "| {} | {:.4} | {:.4} | {:.4} | {:.3} |\n",
+            p.photons, p.r_min, p.per_pixel, p.blocks, p.mean_ratio
+        );
+    }
+    eprintln!("{table}");
+    curve
+}
+
+/// The caustic's energy lands where progressive photon mapping puts it (8×8-pixel blocks), at
+/// the photon counts where the caustic kernel is not far below a pixel.
+#[test]
+fn ispm_caustic_energy_matches_progressive_photon_mapping_at_block_scale() {
+    for p in caustic_curve(&[10_000, 40_000]) {
+        assert!(
+            p.blocks < 0.01,
+            "{} photons: block relMSE {}",
+            p.photons,
+            p.blocks
+        );
+        assert!(
+            (0.8..1.25).contains(&p.mean_ratio),
+            "{} photons: indirect energy ratio {}",
+            p.photons,
+            p.mean_ratio
+        );
+    }
+}
+
+/// Known to fail (docs/accuracy.md, "Caustics"): with the default kernel, r_min = r_max/50
+/// shrinks as 1/√N far below the pixel footprint (≈ 3 cm here), so caustic photons become
+/// sub-pixel fireflies and the per-pixel error grows with the photon count.
+#[test]
+#[ignore = "fails: caustic kernels shrink below a pixel (docs/accuracy.md, Caustics)"]
+fn ispm_caustic_error_falls_as_photons_grow() {
+    let curve = caustic_curve(&[10_000, 40_000, 160_000, 640_000]);
+    for w in curve.windows(2) {
+        assert!(
+            w[1].per_pixel < w[0].per_pixel,
+            "per-pixel relMSE grew from {} to {} photons: {} → {}",
+            w[0].photons,
+            w[1].photons,
+            w[0].per_pixel,
+            w[1].per_pixel
+        );
+    }
+}
