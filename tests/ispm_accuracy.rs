@@ -10,13 +10,22 @@
 //! `cargo test --test ispm_accuracy -- --nocapture` prints every measured number.
 
 mod common;
+mod ispm_accuracy {
+    pub mod bounce_stats;
+    pub mod references;
+}
 
 use common::golden::{assert_matches_golden, rel_mse};
 use glam::Vec3;
 use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
 use ispm::scene::Scene;
+use ispm_accuracy::bounce_stats::{compare, cpu_bounces, gpu_bounces, histograms, Tally};
+use ispm_accuracy::references::{
+    block_means, mean, path_traced, progressive_indirect, Reference, CONVERGENCE_BOUNCES,
+    CONVERGENCE_SIZE, REFERENCE_PASSES,
+};
 
-fn settings(width: u32, height: u32, photons: usize, seed: u32) -> RenderSettings {
+pub(crate) fn settings(width: u32, height: u32, photons: usize, seed: u32) -> RenderSettings {
     RenderSettings {
         method: Method::Ispm,
         photons,
@@ -28,7 +37,7 @@ fn settings(width: u32, height: u32, photons: usize, seed: u32) -> RenderSetting
     }
 }
 
-fn render(scene: &Scene, settings: RenderSettings) -> (Renderer, FrameImage) {
+pub(crate) fn render(scene: &Scene, settings: RenderSettings) -> (Renderer, FrameImage) {
     let gpu = common::gpu();
     let mut renderer = Renderer::new(&gpu, scene, settings).expect("renderer");
     let frame = renderer.render().expect("render");
@@ -159,182 +168,6 @@ fn cornell_box_bleeds_red_and_green_onto_the_floor() {
 // Bounce map = CPU first bounce, statistically
 // ---------------------------------------------------------------------------------------------
 
-/// One emitted photon after its first bounce: zero power when it missed or was absorbed.
-#[derive(Clone, Copy, Debug)]
-struct Bounced {
-    light: usize,
-    power: Vec3,
-    /// Where it left the surface (meaningful when `power` > 0).
-    position: Vec3,
-    direction: Vec3,
-    rho_p: f32,
-}
-
-/// The GPU bounce map of `scene` (rendered with `photons` and `seed`), one record per texel,
-/// each assigned to its light, with its hit point rebuilt from the light G-buffer depth.
-fn gpu_bounces(scene: &Scene, photons: usize, seed: u32) -> Vec<Bounced> {
-    let (renderer, _) = render(scene, settings(16, 16, photons, seed));
-    let map = renderer.photons().expect("ispm").bounce_map().to_vec();
-    let camera = scene.camera.position().as_dvec3();
-    let bounds = scene.bounds();
-    let plan = ispm::ispm::BouncePlan::new(scene, camera, &bounds, photons);
-    assert_eq!(
-        plan.texels,
-        map.len(),
-        "the plan does not describe this bounce map"
-    );
-    let setup = ispm::lighting::LightSetup::new(&scene.lights, camera, &bounds, 1, 0);
-    let mut out = Vec::with_capacity(map.len());
-    for (light, gpu_light) in setup.lights.iter().enumerate() {
-        let (first, count) = (gpu_light.shadow.y as usize, gpu_light.shadow.z as usize);
-        for view in &plan.views[first..first + count] {
-            let (res, offset) = (view.texels.x as usize, view.texels.y as usize);
-            let records = &map[offset..offset + res * res];
-            // `photon_starts` places every surviving record of this view (and only this view).
-            let mut only_this_view =
-                vec![ispm::photon::types::BounceMapPhoton::default(); map.len()];
-            only_this_view[offset..offset + res * res].copy_from_slice(records);
-            let mut starts = plan.photon_starts(&only_this_view).into_iter();
-            for r in records {
-                let (direction, rho_p) = ispm::photon::types::unpack_direction(r.direction);
-                let alive = r.power.max_element() > 0.0 && direction != Vec3::ZERO;
-                let position = if alive {
-                    starts.next().expect("a start per surviving texel").origin
-                } else {
-                    Vec3::ZERO
-                };
-                out.push(Bounced {
-                    light,
-                    power: if alive { r.power } else { Vec3::ZERO },
-                    position,
-                    direction,
-                    rho_p,
-                });
-            }
-            assert!(starts.next().is_none());
-        }
-    }
-    out
-}
-
-/// The CPU emitter's photons after `photon::trace::first_bounce`.
-fn cpu_bounces(scene: &Scene, photons: usize, seed: u32) -> Vec<Bounced> {
-    let bvh = ispm::photon::bvh::SceneBvh::new(scene);
-    ispm::photon::emit::emit_photons(scene, photons, seed)
-        .iter()
-        .map(|p| {
-            let light = p.light as usize;
-            match ispm::photon::trace::first_bounce(scene, &bvh, p) {
-                Some(s) => Bounced {
-                    light,
-                    power: s.power,
-                    position: s.origin,
-                    direction: s.direction,
-                    rho_p: s.rho_p,
-                },
-                None => Bounced {
-                    light,
-                    power: Vec3::ZERO,
-                    position: Vec3::ZERO,
-                    direction: Vec3::ZERO,
-                    rho_p: 0.0,
-                },
-            }
-        })
-        .collect()
-}
-
-/// A Monte-Carlo sum Σ wⱼ·1[j in bin] over n samples, with its variance estimate
-/// Σ wⱼ²·1 − (Σ wⱼ·1)²/n (independent samples; the GPU's stratified texels vary less, so this
-/// overestimates its variance and the test is conservative).
-#[derive(Clone, Copy, Debug, Default)]
-struct Tally {
-    sum: f64,
-    sum_sq: f64,
-    count: usize,
-}
-
-impl Tally {
-    fn add(&mut self, w: f64) {
-        self.sum += w;
-        self.sum_sq += w * w;
-        self.count += 1;
-    }
-
-    fn variance(&self, n: usize) -> f64 {
-        (self.sum_sq - self.sum * self.sum / n.max(1) as f64).max(0.0)
-    }
-}
-
-/// Two independent estimates of the same histogram compared bin by bin: z = Δ/σ per bin
-/// (bins with fewer than 20 samples on both sides together are skipped), χ² = Σ z².
-struct Comparison {
-    max_z: f64,
-    chi2: f64,
-    bins: usize,
-}
-
-fn compare(gpu: &[Tally], gpu_n: usize, cpu: &[Tally], cpu_n: usize) -> Comparison {
-    let mut c = Comparison {
-        max_z: 0.0,
-        chi2: 0.0,
-        bins: 0,
-    };
-    for (g, k) in gpu.iter().zip(cpu) {
-        if g.count + k.count < 20 {
-            continue;
-        }
-        let sigma = (g.variance(gpu_n) + k.variance(cpu_n)).sqrt();
-        let z = (g.sum - k.sum) / sigma.max(1e-30);
-        c.max_z = c.max_z.max(z.abs());
-        c.chi2 += z * z;
-        c.bins += 1;
-    }
-    c
-}
-
-/// Power-weighted histograms of one light's bounced photons: [position cell (4³ over the scene
-/// bounds), outgoing direction (4 bands of ω.y × 4 azimuth quadrants), lobe (ρp > 0.1: a delta
-/// lobe)] and the per-channel total power.
-fn histograms(
-    samples: &[Bounced],
-    light: usize,
-    scene: &Scene,
-) -> ([Vec<Tally>; 3], [Tally; 3], usize) {
-    let bounds = scene.bounds();
-    let (min, extent) = (bounds.min, bounds.extent().max(Vec3::splat(1e-6)));
-    let mut position = vec![Tally::default(); 64];
-    let mut direction = vec![Tally::default(); 16];
-    let mut lobe = vec![Tally::default(); 2];
-    let mut total = [Tally::default(); 3];
-    let mut n = 0;
-    for s in samples.iter().filter(|s| s.light == light) {
-        n += 1;
-        for (c, t) in total.iter_mut().enumerate() {
-            t.add(f64::from(s.power[c]));
-        }
-        let w = f64::from(s.power.element_sum() / 3.0);
-        if w <= 0.0 {
-            continue;
-        }
-        let cell = ((s.position - min) / extent * 4.0)
-            .floor()
-            .clamp(Vec3::ZERO, Vec3::splat(3.0))
-            .as_uvec3();
-        position[(cell.x + 4 * cell.y + 16 * cell.z) as usize].add(w);
-        let band = (((s.direction.y + 1.0) * 2.0).floor() as usize).min(3);
-        let quadrant = match (s.direction.x >= 0.0, s.direction.z >= 0.0) {
-            (true, true) => 0,
-            (false, true) => 1,
-            (false, false) => 2,
-            (true, false) => 3,
-        };
-        direction[band * 4 + quadrant].add(w);
-        lobe[usize::from(s.rho_p > 0.1)].add(w);
-    }
-    ([position, direction, lobe], total, n)
-}
-
 /// Compares the GPU bounce map with the CPU first bounce on `scene`, light by light, for each
 /// seed; fails on any bin more than 5σ apart.
 fn bounce_map_matches_cpu_first_bounce(name: &str, scene: &Scene, photons: usize, seeds: &[u32]) {
@@ -407,82 +240,6 @@ fn bounce_map_is_the_cpu_first_bounce_in_distribution_with_a_point_light() {
 // Convergence to the path-traced reference
 // ---------------------------------------------------------------------------------------------
 
-const CONVERGENCE_SIZE: u32 = 64;
-/// Light-path bounces of both renderers (ISPM's `bounces`, the path tracer's `bounces`).
-const CONVERGENCE_BOUNCES: u32 = 8;
-
-/// Path-tracer passes (1 spp each) of the convergence reference.
-const REFERENCE_PASSES: u32 = 256;
-
-/// The path-traced reference: indirect light, the whole image, and the relMSE its own noise
-/// adds to any comparison with it.
-struct Reference {
-    indirect: Vec<f32>,
-    total: Vec<f32>,
-    floor: f64,
-}
-
-/// The path tracer's indirect light at the pixel centres of `scene`'s camera: the mean over
-/// `passes` seeds of `path-trace(bounces) − path-trace(bounces = 0)`. With one sample per
-/// pixel the camera ray is the pixel centre and direct light draws no random numbers, so the
-/// subtraction removes exactly the direct part of the same path. The floor is the per-pixel
-/// variance of the mean in relMSE units: E[relMSE(a, reference)] ≈ relMSE(a, truth) + floor.
-fn path_traced(scene: &Scene, passes: u32) -> Reference {
-    let cancel = std::sync::atomic::AtomicBool::new(false);
-    let reference = |bounces: u32, seed: u32| {
-        let settings = ispm::reference::RefSettings {
-            width: CONVERGENCE_SIZE,
-            height: CONVERGENCE_SIZE,
-            spp: 1,
-            bounces,
-            seed,
-            ..Default::default()
-        };
-        ispm::reference::render(
-            scene,
-            ispm::reference::Method::PathTrace,
-            &settings,
-            None,
-            &cancel,
-        )
-        .expect("path trace")
-        .pixels
-    };
-    let direct = reference(0, 0);
-    let n = direct.len();
-    let mut sum = vec![[0.0f64; 3]; n];
-    let mut sum_sq = vec![[0.0f64; 3]; n];
-    for seed in 0..passes {
-        for (i, p) in reference(CONVERGENCE_BOUNCES, seed).iter().enumerate() {
-            for c in 0..3 {
-                let v = f64::from(p[c] - direct[i][c]);
-                sum[i][c] += v;
-                sum_sq[i][c] += v * v;
-            }
-        }
-    }
-    let k = f64::from(passes);
-    let mut image = Vec::with_capacity(4 * n);
-    let mut total = Vec::with_capacity(4 * n);
-    let mut floor = 0.0;
-    for (i, (s, q)) in sum.iter().zip(&sum_sq).enumerate() {
-        for c in 0..3 {
-            let mean = s[c] / k;
-            total.push(mean as f32 + direct[i][c]);
-            let variance_of_mean = (q[c] / k - mean * mean).max(0.0) / (k - 1.0);
-            floor += variance_of_mean / (mean * mean + common::golden::REL_MSE_EPSILON);
-            image.push(mean as f32);
-        }
-        image.push(1.0);
-        total.push(1.0);
-    }
-    Reference {
-        indirect: image,
-        total,
-        floor: floor / (3 * n) as f64,
-    }
-}
-
 /// relMSE of ISPM's indirect light (and of its whole image, for the record) against the path
 /// tracer, mean over two seeds.
 struct Point {
@@ -492,15 +249,6 @@ struct Point {
     total: f64,
     /// Mean indirect radiance of ISPM over the path tracer's (all pixels and channels).
     mean_ratio: f64,
-}
-
-fn mean(image: &[f32]) -> f64 {
-    let sum: f64 = image
-        .chunks_exact(4)
-        .flat_map(|p| &p[..3])
-        .map(|&v| f64::from(v))
-        .sum();
-    sum / (image.len() / 4 * 3).max(1) as f64
 }
 
 fn measure(scene: &Scene, reference: &Reference, photons: usize, radius: Option<f32>) -> Point {
@@ -604,30 +352,6 @@ fn ispm_indirect_light_converges_to_the_path_tracer() {
 // Caustics: convergence to progressive photon mapping
 // ---------------------------------------------------------------------------------------------
 
-/// Means of `block`×`block` pixel blocks whose pixels are all in `mask` (RGBA): the image at
-/// the scale where a caustic's energy, not its per-pixel noise, is compared.
-fn block_means(image: &[f32], mask: &[bool], size: u32, block: usize) -> Vec<f32> {
-    let size = size as usize;
-    let mut out = Vec::new();
-    for by in 0..size / block {
-        for bx in 0..size / block {
-            let pixels = (0..block * block)
-                .map(|k| (by * block + k / block) * size + bx * block + k % block);
-            if !pixels.clone().all(|i| mask[i]) {
-                continue;
-            }
-            let mut sum = [0.0f32; 3];
-            for i in pixels {
-                for (c, s) in sum.iter_mut().enumerate() {
-                    *s += image[4 * i + c] / (block * block) as f32;
-                }
-            }
-            out.extend([sum[0], sum[1], sum[2], 1.0]);
-        }
-    }
-    out
-}
-
 /// One ISPM render of the caustic scene against the progressive reference.
 struct CausticPoint {
     photons: usize,
@@ -644,29 +368,7 @@ struct CausticPoint {
 fn caustic_curve(counts: &[usize]) -> Vec<CausticPoint> {
     let scene = bundled("glass-sphere");
     let size = CONVERGENCE_SIZE;
-    let cancel = std::sync::atomic::AtomicBool::new(false);
-    let reference = |method, iterations| {
-        let settings = ispm::reference::RefSettings {
-            width: size,
-            height: size,
-            spp: 1,
-            photons: 100_000,
-            iterations,
-            bounces: CONVERGENCE_BOUNCES,
-            seed: 5,
-            ..Default::default()
-        };
-        ispm::reference::render(&scene, method, &settings, None, &cancel)
-            .expect("reference")
-            .pixels
-    };
-    let progressive = reference(ispm::reference::Method::Progressive, 16);
-    let direct = reference(ispm::reference::Method::PathTrace, 1);
-    let indirect_ref: Vec<f32> = progressive
-        .iter()
-        .zip(&direct)
-        .flat_map(|(p, d)| [p[0] - d[0], p[1] - d[1], p[2] - d[2], 1.0])
-        .collect();
+    let indirect_ref = progressive_indirect(&scene);
     let mut curve = Vec::new();
     for &photons in counts {
         let (renderer, _) = render(
