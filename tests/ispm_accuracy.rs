@@ -120,6 +120,37 @@ fn golden_glass_sphere() {
     golden("glass-sphere");
 }
 
+#[test]
+fn a_golden_mismatch_fails_and_writes_actual_expected_and_difference_images() {
+    let (w, h) = (8, 8);
+    let expected: Vec<f32> = (0..w * h * 4).map(|i| (i % 7) as f32 * 0.1).collect();
+    let path = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("golden-selftest.exr");
+    ispm::output::write_exr(&path, w, h, &expected).expect("write");
+    let expected = ispm::output::read_exr(&path).expect("read").2;
+    // Equal images pass with relMSE 0 (unless ISPM_BLESS=1, which rewrites the temporary file).
+    let same =
+        common::golden::assert_matches_golden_at(&path, "golden-selftest", w, h, &expected, 1e-6);
+    assert_eq!(same, 0.0);
+    if std::env::var_os("ISPM_BLESS").is_some_and(|v| v == "1") {
+        return;
+    }
+    let brighter: Vec<f32> = expected.iter().map(|v| v * 1.5 + 0.1).collect();
+    let failed = std::panic::catch_unwind(|| {
+        common::golden::assert_matches_golden_at(&path, "golden-selftest", w, h, &brighter, 1e-3)
+    });
+    assert!(failed.is_err(), "a 50 % brighter image passed");
+    let dir = common::image_dir("golden-selftest");
+    for file in [
+        "actual.exr",
+        "actual.png",
+        "expected.exr",
+        "expected.png",
+        "difference.png",
+    ] {
+        assert!(dir.join(file).is_file(), "{file} not written");
+    }
+}
+
 /// Mean indirect radiance over the floor pixels (world y < 1 cm, normal up) with world
 /// `x` in `range`.
 fn floor_indirect(renderer: &Renderer, camera: Vec3, range: std::ops::Range<f32>) -> (Vec3, usize) {

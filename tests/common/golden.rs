@@ -110,14 +110,26 @@ pub fn assert_matches_golden(
     actual: &[f32],
     threshold: f64,
 ) -> f64 {
-    let path = golden_path(name);
+    assert_matches_golden_at(&golden_path(name), name, width, height, actual, threshold)
+}
+
+/// [`assert_matches_golden`] against the golden at `path`; failure images go to
+/// `target/tmp/test-images/<name>/`.
+pub fn assert_matches_golden_at(
+    path: &Path,
+    name: &str,
+    width: u32,
+    height: u32,
+    actual: &[f32],
+    threshold: f64,
+) -> f64 {
     if std::env::var_os("ISPM_BLESS").is_some_and(|v| v == "1") {
         std::fs::create_dir_all(path.parent().expect("goldens dir")).expect("create goldens");
-        ispm::output::write_exr(&path, width, height, actual).expect("write golden");
+        ispm::output::write_exr(path, width, height, actual).expect("write golden");
         eprintln!("blessed {}", path.display());
         return 0.0;
     }
-    let Ok((w, h, expected)) = ispm::output::read_exr(&path) else {
+    let Ok((w, h, expected)) = ispm::output::read_exr(path) else {
         write_failure_images(name, width, height, actual, None);
         panic!(
             "no golden {} (run with ISPM_BLESS=1 to create it)",
