@@ -2,6 +2,8 @@
 //! next to a failing assertion so a person can look at them.
 #![allow(dead_code)]
 
+pub mod golden;
+
 use ispm::gpu::{Gpu, GpuOptions};
 use std::path::PathBuf;
 use std::sync::Arc;

@@ -1,0 +1,498 @@
+//! How accurate ISPM is (issue #4), on lavapipe with validation on:
+//! - the GPU bounce map is statistically the CPU emitter's first bounce (power per light, where
+//!   the photons land, where they go, which lobes they took), over several seeds;
+//! - against the CPU path tracer the indirect light converges as photons grow and kernels
+//!   shrink (the curve is printed and recorded in `docs/accuracy.md`);
+//! - renders are bit-identical frame to frame, and match checked-in goldens
+//!   (`tests/goldens/*.exr`, `ISPM_BLESS=1` rewrites them);
+//! - the Cornell box bleeds colour where it should.
+//!
+//! `cargo test --test ispm_accuracy -- --nocapture` prints every measured number.
+
+mod common;
+mod ispm_accuracy {
+    pub mod bounce_stats;
+    pub mod references;
+}
+
+use common::golden::{assert_matches_golden, rel_mse};
+use glam::Vec3;
+use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
+use ispm::scene::Scene;
+use ispm_accuracy::bounce_stats::{compare, cpu_bounces, gpu_bounces, histograms, Tally};
+use ispm_accuracy::references::{
+    block_means, mean, path_traced, progressive_indirect, Reference, CONVERGENCE_BOUNCES,
+    CONVERGENCE_SIZE, REFERENCE_PASSES,
+};
+
+pub(crate) fn settings(width: u32, height: u32, photons: usize, seed: u32) -> RenderSettings {
+    RenderSettings {
+        method: Method::Ispm,
+        photons,
+        seed,
+        width,
+        height,
+        shadow_resolution: 256,
+        ..Default::default()
+    }
+}
+
+pub(crate) fn render(scene: &Scene, settings: RenderSettings) -> (Renderer, FrameImage) {
+    let gpu = common::gpu();
+    let mut renderer = Renderer::new(&gpu, scene, settings).expect("renderer");
+    let frame = renderer.render().expect("render");
+    common::assert_validation_clean(&gpu);
+    (renderer, frame)
+}
+
+fn bundled(name: &str) -> Scene {
+    ispm::scene::bundled::resolve(Some(name)).expect("bundled scene")
+}
+
+// ---------------------------------------------------------------------------------------------
+// Determinism and goldens
+// ---------------------------------------------------------------------------------------------
+
+const GOLDEN_SIZE: u32 = 96;
+const GOLDEN_PHOTONS: usize = 20_000;
+const GOLDEN_SEED: u32 = 7;
+/// relMSE allowed against a golden. The pipeline is bit-deterministic on one driver (relMSE 0
+/// on lavapipe); this leaves room for another driver's rounding while still catching a changed
+/// estimate: two different seeds already differ by ~10⁻² on these scenes (photon noise).
+const GOLDEN_THRESHOLD: f64 = 2e-3;
+
+#[test]
+fn static_scene_renders_bit_identical_frames() {
+    let scene = bundled("cornell-box");
+    let (mut renderer, first) = render(&scene, settings(48, 48, 8_000, 3));
+    let second = renderer.render().expect("second frame");
+    let (_, fresh) = render(&scene, settings(48, 48, 8_000, 3));
+    let bits = |f: &FrameImage| f.hdr.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    assert!(first.stats.stored_photons > 1_000, "{:?}", first.stats);
+    assert_eq!(first.stats.stored_photons, second.stats.stored_photons);
+    assert!(
+        bits(&first) == bits(&second),
+        "the same renderer drew two different frames"
+    );
+    assert!(
+        bits(&first) == bits(&fresh),
+        "two renderers drew different frames"
+    );
+    assert_eq!(first.ldr, fresh.ldr);
+    // A different seed is a different (equally valid) image: the seed reaches the photons.
+    let (_, other) = render(&scene, settings(48, 48, 8_000, 4));
+    let noise = rel_mse(&other.hdr, &first.hdr);
+    eprintln!("cornell-box 48², 8k photons: relMSE between seeds 3 and 4 = {noise:.3e}");
+    assert!(noise > 0.0, "the seed changes nothing");
+}
+
+fn golden(name: &str) {
+    let scene = bundled(name);
+    let (_, frame) = render(
+        &scene,
+        settings(GOLDEN_SIZE, GOLDEN_SIZE, GOLDEN_PHOTONS, GOLDEN_SEED),
+    );
+    assert!(
+        frame.hdr.iter().all(|v| v.is_finite()),
+        "{name}: non-finite"
+    );
+    assert_matches_golden(
+        &format!("ispm-{name}"),
+        GOLDEN_SIZE,
+        GOLDEN_SIZE,
+        &frame.hdr,
+        GOLDEN_THRESHOLD,
+    );
+}
+
+#[test]
+fn golden_cornell_box() {
+    golden("cornell-box");
+}
+
+#[test]
+fn golden_caustic_ring() {
+    golden("caustic-ring");
+}
+
+#[test]
+fn golden_glass_sphere() {
+    golden("glass-sphere");
+}
+
+#[test]
+fn a_golden_mismatch_fails_and_writes_actual_expected_and_difference_images() {
+    let (w, h) = (8, 8);
+    let expected: Vec<f32> = (0..w * h * 4).map(|i| (i % 7) as f32 * 0.1).collect();
+    let path = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("golden-selftest.exr");
+    ispm::output::write_exr(&path, w, h, &expected).expect("write");
+    let expected = ispm::output::read_exr(&path).expect("read").2;
+    // Equal images pass with relMSE 0 (unless ISPM_BLESS=1, which rewrites the temporary file).
+    let same =
+        common::golden::assert_matches_golden_at(&path, "golden-selftest", w, h, &expected, 1e-6);
+    assert_eq!(same, 0.0);
+    if std::env::var_os("ISPM_BLESS").is_some_and(|v| v == "1") {
+        return;
+    }
+    let brighter: Vec<f32> = expected.iter().map(|v| v * 1.5 + 0.1).collect();
+    let failed = std::panic::catch_unwind(|| {
+        common::golden::assert_matches_golden_at(&path, "golden-selftest", w, h, &brighter, 1e-3)
+    });
+    assert!(failed.is_err(), "a 50 % brighter image passed");
+    let dir = common::image_dir("golden-selftest");
+    for file in [
+        "actual.exr",
+        "actual.png",
+        "expected.exr",
+        "expected.png",
+        "difference.png",
+    ] {
+        assert!(dir.join(file).is_file(), "{file} not written");
+    }
+}
+
+/// Mean indirect radiance over the floor pixels (world y < 1 cm, normal up) with world
+/// `x` in `range`.
+fn floor_indirect(renderer: &Renderer, camera: Vec3, range: std::ops::Range<f32>) -> (Vec3, usize) {
+    let position: Vec<[f32; 4]> =
+        bytemuck::pod_collect_to_vec(&renderer.read_gbuffer("position").expect("position"));
+    let indirect = renderer
+        .photons()
+        .expect("ispm")
+        .read_indirect()
+        .expect("indirect");
+    let mut sum = Vec3::ZERO;
+    let mut n = 0;
+    for (p, l) in position.iter().zip(indirect.chunks_exact(4)) {
+        let world = Vec3::new(p[0], p[1], p[2]) + camera;
+        if p[3] != 0.0 && world.y.abs() < 0.01 && range.contains(&world.x) {
+            sum += Vec3::new(l[0], l[1], l[2]);
+            n += 1;
+        }
+    }
+    (sum / n.max(1) as f32, n)
+}
+
+#[test]
+fn cornell_box_bleeds_red_and_green_onto_the_floor() {
+    let scene = bundled("cornell-box");
+    let (renderer, _) = render(&scene, settings(64, 64, 20_000, 1));
+    let camera = scene.camera.position();
+    let (left, n_left) = floor_indirect(&renderer, camera, -1.0..-0.75);
+    let (right, n_right) = floor_indirect(&renderer, camera, 0.75..1.0);
+    eprintln!("floor indirect near the red wall {left} ({n_left} px), near the green wall {right} ({n_right} px)");
+    assert!(
+        n_left > 20 && n_right > 20,
+        "floor not in view: {n_left}, {n_right}"
+    );
+    assert!(
+        left.x > 1.2 * left.y,
+        "no red bleeding near the red wall: {left}"
+    );
+    assert!(
+        right.y > 1.2 * right.x,
+        "no green bleeding near the green wall: {right}"
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bounce map = CPU first bounce, statistically
+// ---------------------------------------------------------------------------------------------
+
+/// Compares the GPU bounce map with the CPU first bounce on `scene`, light by light, for each
+/// seed; fails on any bin more than 5σ apart.
+fn bounce_map_matches_cpu_first_bounce(name: &str, scene: &Scene, photons: usize, seeds: &[u32]) {
+    for &seed in seeds {
+        let gpu = gpu_bounces(scene, photons, seed);
+        let cpu = cpu_bounces(scene, 2 * photons, seed);
+        for light in 0..scene.lights.len() {
+            let (g_hist, g_total, g_n) = histograms(&gpu, light, scene);
+            let (c_hist, c_total, c_n) = histograms(&cpu, light, scene);
+            assert!(g_n > 0 && c_n > 0, "{name}: light {light} emitted nothing");
+            let mut report =
+                format!("{name} seed {seed} light {light} ({g_n} texels, {c_n} CPU photons):");
+            let mut worst = 0.0f64;
+            for c in 0..3 {
+                let sigma = (g_total[c].variance(g_n) + c_total[c].variance(c_n)).sqrt();
+                let z = (g_total[c].sum - c_total[c].sum) / sigma.max(1e-30);
+                report += &format!(
+                    " power[{c}] {:.4} vs {:.4} ({z:+.2}σ);",
+                    g_total[c].sum, c_total[c].sum
+                );
+                worst = worst.max(z.abs());
+            }
+            for (what, (g, k)) in ["position", "direction", "lobe"]
+                .iter()
+                .zip(g_hist.iter().zip(&c_hist))
+            {
+                let cmp = compare(g, g_n, k, c_n);
+                report += &format!(
+                    " {what}: χ² {:.1}/{} bins, max |z| {:.2};",
+                    cmp.chi2, cmp.bins, cmp.max_z
+                );
+                assert!(cmp.bins > 0, "{report}");
+                // χ² with `bins` degrees of freedom: mean bins, σ √(2·bins).
+                let bins = cmp.bins as f64;
+                assert!(
+                    cmp.chi2 < bins + 5.0 * (2.0 * bins).sqrt(),
+                    "{what} histograms differ: {report}"
+                );
+                worst = worst.max(cmp.max_z);
+            }
+            // The delta-lobe share, for the record.
+            let share = |h: &[Tally]| h[1].sum / (h[0].sum + h[1].sum).max(1e-30);
+            report += &format!(
+                " delta-lobe power share {:.4} vs {:.4}",
+                share(&g_hist[2]),
+                share(&c_hist[2])
+            );
+            eprintln!("{report}");
+            assert!(
+                worst < 5.0,
+                "GPU bounce map differs from the CPU first bounce by {worst:.2}σ: {report}"
+            );
+        }
+    }
+}
+
+#[test]
+fn bounce_map_is_the_cpu_first_bounce_in_distribution_with_spot_lights_glass_and_gloss() {
+    let scene = bundled("cornell-box");
+    bounce_map_matches_cpu_first_bounce("cornell-box", &scene, 40_000, &[1, 2, 3]);
+}
+
+#[test]
+fn bounce_map_is_the_cpu_first_bounce_in_distribution_with_a_point_light() {
+    let scene = ispm::reference::scenes::cornell(2);
+    bounce_map_matches_cpu_first_bounce("cornell(2)", &scene, 30_000, &[1, 2]);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Convergence to the path-traced reference
+// ---------------------------------------------------------------------------------------------
+
+/// relMSE of ISPM's indirect light (and of its whole image, for the record) against the path
+/// tracer, mean over two seeds.
+struct Point {
+    photons: usize,
+    r_max: f32,
+    indirect: f64,
+    total: f64,
+    /// Mean indirect radiance of ISPM over the path tracer's (all pixels and channels).
+    mean_ratio: f64,
+}
+
+fn measure(scene: &Scene, reference: &Reference, photons: usize, radius: Option<f32>) -> Point {
+    let mut point = Point {
+        photons,
+        r_max: 0.0,
+        indirect: 0.0,
+        total: 0.0,
+        mean_ratio: 0.0,
+    };
+    let seeds = [1, 2];
+    for seed in seeds {
+        let (renderer, frame) = render(
+            scene,
+            RenderSettings {
+                bounces: CONVERGENCE_BOUNCES,
+                radius,
+                ..settings(CONVERGENCE_SIZE, CONVERGENCE_SIZE, photons, seed)
+            },
+        );
+        let photons = renderer.photons().expect("ispm");
+        point.r_max = photons.kernel().r_max;
+        let indirect = photons.read_indirect().expect("indirect");
+        point.indirect += rel_mse(&indirect, &reference.indirect) / seeds.len() as f64;
+        point.total += rel_mse(&frame.hdr, &reference.total) / seeds.len() as f64;
+        point.mean_ratio += mean(&indirect) / mean(&reference.indirect) / seeds.len() as f64;
+    }
+    point
+}
+
+#[test]
+fn ispm_indirect_light_converges_to_the_path_tracer() {
+    let scene = ispm::reference::scenes::cornell(2);
+    assert!(
+        scene
+            .materials
+            .iter()
+            .all(|m| m.transmission.max_element() == 0.0 && m.glossy.max_element() == 0.0),
+        "the convergence scene must be purely diffuse"
+    );
+    let reference = path_traced(&scene, REFERENCE_PASSES);
+    let counts = [5_000, 20_000, 80_000];
+    let default: Vec<Point> = counts
+        .iter()
+        .map(|&n| measure(&scene, &reference, n, None))
+        .collect();
+    // The consistent schedule: r_max ∝ N^(-1/4) from the default radius at the first count,
+    // so that photons per kernel grow as √N while the kernel shrinks.
+    let r0 = default[0].r_max;
+    let consistent: Vec<Point> = counts
+        .iter()
+        .map(|&n| {
+            let r = r0 * (n as f32 / counts[0] as f32).powf(-0.25);
+            measure(&scene, &reference, n, Some(r))
+        })
+        .collect();
+    let mut table = format!(
+        "cornell(2), {CONVERGENCE_SIZE}², {CONVERGENCE_BOUNCES} bounces, reference: path tracer \
+         {REFERENCE_PASSES} spp at pixel centres, its noise floor {:.4}\n\
+         | photons | kernel | r_max (m) | relMSE indirect | − floor | relMSE total | mean ratio |\n\
+         |---|---|---|---|---|---|---|\n",
+        reference.floor
+    );
+    for (name, curve) in [("default 1/√N", &default), ("N^(-1/4)", &consistent)] {
+        for p in curve.iter() {
+            table += &format!(
+                "| {} | {name} | {:.4} | {:.4} | {:.4} | {:.4} | {:.3} |\n",
+                p.photons,
+                p.r_max,
+                p.indirect,
+                p.indirect - reference.floor,
+                p.total,
+                p.mean_ratio
+            );
+        }
+    }
+    eprintln!("{table}");
+    // Falls monotonically with the consistent schedule (each step by at least 5 %: two
+    // seeds' noise in the relMSE is ~1 %).
+    for w in consistent.windows(2) {
+        assert!(
+            w[1].indirect < 0.95 * w[0].indirect,
+            "relMSE did not fall from {} to {} photons:\n{table}",
+            w[0].photons,
+            w[1].photons
+        );
+    }
+    // The default schedule keeps the photon count per kernel constant: bias falls, noise does
+    // not, and the error must at least not grow.
+    for w in default.windows(2) {
+        assert!(
+            w[1].indirect < 1.1 * w[0].indirect,
+            "relMSE grew from {} to {} photons:\n{table}",
+            w[0].photons,
+            w[1].photons
+        );
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Caustics: convergence to progressive photon mapping
+// ---------------------------------------------------------------------------------------------
+
+/// One ISPM render of the caustic scene against the progressive reference.
+struct CausticPoint {
+    photons: usize,
+    r_min: f32,
+    per_pixel: f64,
+    blocks: f64,
+    mean_ratio: f64,
+}
+
+/// ISPM's indirect light on `glass-sphere` against progressive photon mapping's
+/// (`progressive − path-trace(bounces 0)`, both at pixel centres, so the difference is exactly
+/// the gathered part), over the pixels that see a surface without delta lobes (the glass itself
+/// needs the translucent pass).
+fn caustic_curve(counts: &[usize]) -> Vec<CausticPoint> {
+    let scene = bundled("glass-sphere");
+    let size = CONVERGENCE_SIZE;
+    let indirect_ref = progressive_indirect(&scene);
+    let mut curve = Vec::new();
+    for &photons in counts {
+        let (renderer, _) = render(
+            &scene,
+            RenderSettings {
+                bounces: CONVERGENCE_BOUNCES,
+                ..settings(size, size, photons, 1)
+            },
+        );
+        let material: Vec<u32> =
+            bytemuck::pod_collect_to_vec(&renderer.read_gbuffer("material").expect("material"));
+        let position: Vec<[f32; 4]> =
+            bytemuck::pod_collect_to_vec(&renderer.read_gbuffer("position").expect("position"));
+        let mask: Vec<bool> = material
+            .iter()
+            .zip(&position)
+            .map(|(&m, p)| {
+                let m = &scene.materials[m as usize];
+                p[3] != 0.0 && m.transmission.max_element() == 0.0 && m.exponent.is_finite()
+            })
+            .collect();
+        let ispm = renderer.photons().expect("ispm");
+        let indirect = ispm.read_indirect().expect("indirect");
+        let keep = |img: &[f32]| -> Vec<f32> {
+            img.chunks_exact(4)
+                .zip(&mask)
+                .filter(|(_, &m)| m)
+                .flat_map(|(p, _)| p.iter().copied())
+                .collect()
+        };
+        let (a, r) = (
+            block_means(&indirect, &mask, size, 8),
+            block_means(&indirect_ref, &mask, size, 8),
+        );
+        assert!(a.len() >= 4 * 16, "too few floor blocks: {}", a.len() / 4);
+        curve.push(CausticPoint {
+            photons,
+            r_min: ispm.kernel().r_min,
+            per_pixel: rel_mse(&keep(&indirect), &keep(&indirect_ref)),
+            blocks: rel_mse(&a, &r),
+            mean_ratio: mean(&a) / mean(&r),
+        });
+    }
+    let mut table = String::from(
+        "glass-sphere, 64², reference: progressive 16 × 100k photons, pixel centres\n\
+         | photons | r_min (m) | relMSE per pixel | relMSE 8×8 blocks | mean ratio |\n\
+         |---|---|---|---|---|\n",
+    );
+    for p in &curve {
+        table += &format!(
+            "| {} | {:.4} | {:.4} | {:.4} | {:.3} |\n",
+            p.photons, p.r_min, p.per_pixel, p.blocks, p.mean_ratio
+        );
+    }
+    eprintln!("{table}");
+    curve
+}
+
+/// The caustic's energy lands where progressive photon mapping puts it (8×8-pixel blocks), at
+/// the photon counts where the caustic kernel is not far below a pixel.
+#[test]
+fn ispm_caustic_energy_matches_progressive_photon_mapping_at_block_scale() {
+    for p in caustic_curve(&[10_000, 40_000]) {
+        assert!(
+            p.blocks < 0.01,
+            "{} photons: block relMSE {}",
+            p.photons,
+            p.blocks
+        );
+        assert!(
+            (0.8..1.25).contains(&p.mean_ratio),
+            "{} photons: indirect energy ratio {}",
+            p.photons,
+            p.mean_ratio
+        );
+    }
+}
+
+/// Known to fail (docs/accuracy.md, "Caustics"): with the default kernel, r_min = r_max/50
+/// shrinks as 1/√N far below the pixel footprint (≈ 3 cm here), so caustic photons become
+/// sub-pixel fireflies and the per-pixel error grows with the photon count.
+#[test]
+#[ignore = "fails: caustic kernels shrink below a pixel (docs/accuracy.md, Caustics)"]
+fn ispm_caustic_error_falls_as_photons_grow() {
+    let curve = caustic_curve(&[10_000, 40_000, 160_000, 640_000]);
+    for w in curve.windows(2) {
+        assert!(
+            w[1].per_pixel < w[0].per_pixel,
+            "per-pixel relMSE grew from {} to {} photons: {} → {}",
+            w[0].photons,
+            w[1].photons,
+            w[0].per_pixel,
+            w[1].per_pixel
+        );
+    }
+}
