@@ -54,7 +54,7 @@ pub fn frame_json(
         "attrition": s.attrition,
         "width": frame.width,
         "height": frame.height,
-        "subsample": 1,
+        "subsample": s.subsample,
         "ms": ms,
         "passes_run": s.passes_run,
         "validation_messages": validation_messages,
