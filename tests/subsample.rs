@@ -222,3 +222,52 @@ fn subsample_larger_than_the_image_renders_one_low_resolution_pixel() {
     assert!(r.frame.hdr.iter().all(|v| v.is_finite()));
     assert!(r.indirect.iter().all(|v| v.is_finite()));
 }
+
+#[test]
+fn cli_rejects_subsample_0_and_reports_the_clamped_factor() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let png = dir.path().join("out.png");
+    let stats = dir.path().join("stats.json");
+    let ispm = |n: &str| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_ispm"))
+            .args([
+                "render",
+                "--size",
+                "64x48",
+                "--photons",
+                "5000",
+                "--subsample",
+                n,
+            ])
+            .args([
+                "-o",
+                png.to_str().unwrap(),
+                "--stats",
+                stats.to_str().unwrap(),
+            ])
+            .env("ISPM_VALIDATION", "1")
+            .output()
+            .expect("run ispm")
+    };
+    let zero = ispm("0");
+    let stderr = String::from_utf8_lossy(&zero.stderr);
+    assert!(!zero.status.success(), "--subsample 0 was accepted");
+    assert!(
+        stderr.contains("--subsample") && !stderr.contains("panicked"),
+        "{stderr}"
+    );
+    assert!(!png.exists());
+
+    let big = ispm("300");
+    let stderr = String::from_utf8_lossy(&big.stderr);
+    assert!(big.status.success(), "{stderr}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    assert_eq!(json["subsample"], 64);
+    assert_eq!(json["validation_messages"], 0);
+    assert!(json["passes_run"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|p| p == "upsample"));
+}
