@@ -16,7 +16,7 @@ layout(push_constant) uniform Push {
     float r_min;
     float r_max;
     uint count;
-    uint pad;
+    uint subsample;
 } push;
 
 layout(location = 0) flat out uint v_photon;

@@ -60,6 +60,8 @@ pub struct RenderSettings {
     pub tonemap: Tonemap,
     /// Exposure in stops: the radiance is multiplied by 2^EV before tonemapping.
     pub exposure_ev: f32,
+    /// Photon volumes at 1/N resolution, upsampled (1: full resolution, no upsampling).
+    pub subsample: u32,
 }
 
 impl Default for RenderSettings {
@@ -75,6 +77,7 @@ impl Default for RenderSettings {
             shadow_resolution: 1024,
             tonemap: Tonemap::default(),
             exposure_ev: 0.0,
+            subsample: 1,
         }
     }
 }
@@ -104,6 +107,8 @@ pub struct FrameStats {
     pub attrition: Vec<u64>,
     pub cpu_trace_ms: f64,
     pub passes_run: Vec<String>,
+    /// The subsample factor the frame used (after clamping to the image size).
+    pub subsample: u32,
 }
 
 /// Renders frames of one scene at one size.
@@ -363,6 +368,7 @@ impl Renderer {
         let gpu_spans = self.timestamps.read()?;
         stats.passes_run = gpu_spans.iter().map(|s| s.name.clone()).collect();
         stats.passes_run.dedup();
+        stats.subsample = crate::photon_frame::subsample_factor(&self.settings);
         let hdr_bytes = gpu.read_image(&self.radiance)?;
         let ldr = gpu.read_image(&self.display)?;
         let hdr: Vec<f32> = bytemuck::pod_collect_to_vec(&hdr_bytes);

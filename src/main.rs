@@ -88,6 +88,10 @@ struct RenderArgs {
     /// Shadow-map resolution per light view.
     #[arg(long, default_value_t = 1024)]
     shadow_resolution: u32,
+    /// Estimate indirect light at 1/N resolution and upsample it with a joint bilateral filter
+    /// (N is clamped to the image size; 1: full resolution).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    subsample: u32,
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -168,6 +172,7 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
         shadow_resolution: args.shadow_resolution.clamp(16, 8192),
         tonemap: args.tonemap,
         exposure_ev: args.exposure,
+        subsample: args.subsample,
     };
     let (frame, triangles) = {
         let mut renderer = Renderer::new(&gpu, &scene, settings)?;

@@ -1,6 +1,6 @@
 //! The photon part of an ISPM frame: light G-buffers → bounce map → readback → CPU trace →
-//! upload → photon volumes → composite. Owns the buffers and passes those steps use;
-//! `frame.rs` calls its three steps in order.
+//! upload → photon volumes (→ upsample at `--subsample N > 1`) → composite. Owns the buffers
+//! and passes those steps use; `frame.rs` calls its three steps in order.
 
 use crate::frame::{FrameStats, RenderSettings};
 use crate::gpu::{
@@ -13,6 +13,7 @@ use crate::passes::composite::CompositePass;
 use crate::passes::eye_gbuffer::GBuffer;
 use crate::passes::light_gbuffer::LightGBufferPass;
 use crate::passes::photon_volumes::{self, PhotonVolumeInputs, PhotonVolumesPass};
+use crate::passes::upsample::{self, UpsampleInputs, UpsamplePass};
 use crate::photon::bvh::SceneBvh;
 use crate::photon::kernel::KernelSettings;
 use crate::photon::trace::{trace_photons, TraceSettings};
@@ -39,11 +40,26 @@ pub struct PhotonFrame {
     count: u32,
     rebind: bool,
     photon_pass: PhotonVolumesPass,
+    /// `--subsample N > 1`: the low-resolution targets and the pass that upsamples them.
+    subsampled: Option<Subsampled>,
     indirect: Image,
     composite: CompositePass,
     /// The last frame's bounce map and photon map (camera-relative positions), as drawn.
     last_bounce_map: Vec<BounceMapPhoton>,
     last_photons: Vec<Photon>,
+}
+
+struct Subsampled {
+    low: [Image; 2],
+    upsample: UpsamplePass,
+}
+
+/// The subsample factor a frame uses: at least 1, at most the image's larger side (beyond it
+/// the low-resolution image stays 1×1).
+pub fn subsample_factor(settings: &RenderSettings) -> u32 {
+    settings
+        .subsample
+        .clamp(1, settings.width.max(settings.height).max(1))
 }
 
 fn photon_buffers(gpu: &Arc<Gpu>, capacity: usize) -> anyhow::Result<(Buffer, Buffer)> {
@@ -120,6 +136,7 @@ impl PhotonFrame {
             },
         )?;
         let (staging, photons) = photon_buffers(gpu, 1)?;
+        let subsample = subsample_factor(settings);
         let photon_pass = PhotonVolumesPass::new(
             gpu,
             &PhotonVolumeInputs {
@@ -128,8 +145,23 @@ impl PhotonFrame {
                 materials: &gpu_scene.materials,
                 gbuffer,
             },
+            subsample,
         )?;
-        let indirect = photon_volumes::target(gpu, radiance.width, radiance.height)?;
+        let (indirect, subsampled) = if subsample == 1 {
+            let indirect = photon_volumes::target(gpu, radiance.width, radiance.height)?;
+            (indirect, None)
+        } else {
+            let indirect = upsample::output(gpu, radiance.width, radiance.height)?;
+            let (w, h) = upsample::low_size(radiance.width, radiance.height, subsample);
+            let low = photon_volumes::low_targets(gpu, w, h)?;
+            let inputs = UpsampleInputs {
+                materials: &gpu_scene.materials,
+                gbuffer,
+                low: &low,
+            };
+            let upsample = UpsamplePass::new(gpu, &inputs, &indirect, subsample)?;
+            (indirect, Some(Subsampled { low, upsample }))
+        };
         let composite = CompositePass::new(gpu, &indirect, radiance)?;
         Ok(Self {
             gpu: gpu.clone(),
@@ -156,6 +188,7 @@ impl PhotonFrame {
             count: 0,
             rebind: false,
             photon_pass,
+            subsampled,
             indirect,
             composite,
             last_bounce_map: Vec::new(),
@@ -263,7 +296,8 @@ impl PhotonFrame {
         cmd.copy_buffer(&self.staging, &self.photons);
     }
 
-    /// Photon volumes into the indirect buffer, then radiance += indirect.
+    /// Photon volumes into the indirect buffer (at 1/N resolution and upsampled, at
+    /// `--subsample N > 1`), then radiance += indirect.
     pub fn record_estimate(
         &mut self,
         cmd: &Cmd,
@@ -282,13 +316,26 @@ impl PhotonFrame {
             self.photon_pass.rebind(&inputs);
             self.rebind = false;
         }
-        self.photon_pass.record(
-            cmd,
-            &inputs,
-            self.count,
-            (self.kernel.r_min, self.kernel.r_max),
-            &mut self.indirect,
-        );
+        let radius = (self.kernel.r_min, self.kernel.r_max);
+        match &mut self.subsampled {
+            None => self.photon_pass.record(
+                cmd,
+                &inputs,
+                self.count,
+                radius,
+                std::slice::from_mut(&mut self.indirect),
+            ),
+            Some(sub) => {
+                self.photon_pass
+                    .record(cmd, &inputs, self.count, radius, &mut sub.low);
+                let inputs = UpsampleInputs {
+                    materials,
+                    gbuffer,
+                    low: &sub.low,
+                };
+                sub.upsample.record(cmd, &inputs, &mut self.indirect);
+            }
+        }
         self.composite.record(cmd, &self.indirect, radiance);
     }
 

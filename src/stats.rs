@@ -30,12 +30,12 @@ pub fn frame_json(
 ) -> Value {
     let mut ms = Map::new();
     for stage in STAGES {
-        let gpu: f64 = frame
+        // A fold from +0.0: `Sum` of no f64 is -0.0, which the JSON would print.
+        let gpu = frame
             .gpu_spans
             .iter()
             .filter(|s| s.name == *stage)
-            .map(|s| s.ms())
-            .sum();
+            .fold(0.0, |sum, s| sum + s.ms());
         let value = if *stage == "cpu_trace" {
             frame.stats.cpu_trace_ms
         } else {
@@ -54,7 +54,7 @@ pub fn frame_json(
         "attrition": s.attrition,
         "width": frame.width,
         "height": frame.height,
-        "subsample": 1,
+        "subsample": s.subsample,
         "ms": ms,
         "passes_run": s.passes_run,
         "validation_messages": validation_messages,

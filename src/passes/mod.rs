@@ -10,6 +10,7 @@
 //! | [`eye_gbuffer`] | graphics | scene geometry, materials, textures | eye G-buffer |
 //! | [`direct`] | graphics (compute) | G-buffer, lights, shadow atlas | HDR radiance |
 //! | [`photon_volumes`] | graphics | photon map, eye G-buffer | HDR indirect radiance |
+//! | [`upsample`] | graphics (compute) | 1/N indirect, eye G-buffer, materials | HDR indirect |
 //! | [`composite`] | graphics (compute) | indirect | HDR radiance (+= indirect) |
 //! | [`tonemap`] | graphics (compute) | HDR radiance | 8-bit display image |
 
@@ -21,6 +22,7 @@ pub mod light_gbuffer;
 pub mod photon_volumes;
 pub mod shadow_map;
 pub mod tonemap;
+pub mod upsample;
 
 /// The vertex layout every raster pass reads (see [`crate::layout::Vertex`]).
 pub(crate) fn vertex_attributes() -> [crate::gpu::VertexAttribute; 3] {

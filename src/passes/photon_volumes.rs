@@ -9,6 +9,12 @@
 //! plane, its back faces are still there, so no dark blotch appears as the viewer approaches a
 //! surface. The cost: no early rejection of volumes in front of the surface (the kernel test
 //! discards them in the fragment shader).
+//!
+//! At `--subsample N > 1` the same volumes are drawn at 1/N resolution with
+//! `photon_volumes_subsampled.frag` into two low-resolution targets (irradiance-like Σ Φκ and
+//! glossy radiance) for [`super::upsample`], without a depth attachment: the eye depth is full
+//! resolution and a target's attachments must share its size, so the kernel test alone culls
+//! (see `upsample.rs` for the trade-off and `docs/performance.md` for its cost).
 
 use super::eye_gbuffer::{GBuffer, DEPTH};
 use crate::gpu::{
@@ -57,7 +63,7 @@ struct Push {
     r_min: f32,
     r_max: f32,
     count: u32,
-    pad: u32,
+    subsample: u32,
 }
 
 /// The indirect-radiance target (alpha: number of volumes that touched the pixel).
@@ -78,6 +84,28 @@ pub fn target(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<Image> 
     )?)
 }
 
+/// The two low-resolution targets of `--subsample N > 1`: `[irradiance, glossy]`.
+pub fn low_targets(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<[Image; 2]> {
+    let image = |name: &str| {
+        Image::new(
+            gpu,
+            &ImageDesc {
+                name,
+                format: FORMAT,
+                width,
+                height,
+                layers: 1,
+                usage: vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
+                view: ViewKind::D2,
+            },
+        )
+    };
+    Ok([
+        image("indirect.low_irradiance")?,
+        image("indirect.low_glossy")?,
+    ])
+}
+
 /// What the photon volumes read.
 pub struct PhotonVolumeInputs<'a> {
     pub frame: &'a Buffer,
@@ -93,10 +121,16 @@ pub struct PhotonVolumesPass {
     sampler: Sampler,
     vertices: Buffer,
     indices: Buffer,
+    subsample: u32,
 }
 
 impl PhotonVolumesPass {
-    pub fn new(gpu: &Arc<Gpu>, inputs: &PhotonVolumeInputs) -> anyhow::Result<Self> {
+    /// The full-resolution pass at `subsample` 1, else the 1/`subsample` one.
+    pub fn new(
+        gpu: &Arc<Gpu>,
+        inputs: &PhotonVolumeInputs,
+        subsample: u32,
+    ) -> anyhow::Result<Self> {
         let graphics = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         let kinds = [
             BindingKind::UniformBuffer,
@@ -132,21 +166,12 @@ impl PhotonVolumesPass {
             bytemuck::cast_slice(&indices),
             Access::IndexInput,
         )?;
-        let pipeline = Pipeline::graphics(
-            gpu,
-            &GraphicsDesc {
-                name: "photon_volumes",
-                vertex: &crate::gpu::shader_table::PHOTON_VOLUMES_VERT,
-                fragment: Some(&crate::gpu::shader_table::PHOTON_VOLUMES_FRAG),
-                vertex_stride: 12,
-                vertex_attributes: &[VertexAttribute {
-                    location: 0,
-                    format: vk::Format::R32G32B32_SFLOAT,
-                    offset: 0,
-                }],
-                color_formats: &[FORMAT],
-                blend: Blend::Additive,
-                depth: Some(Depth {
+        let subsample = subsample.max(1);
+        let (fragment, color_formats, depth) = if subsample == 1 {
+            (
+                &crate::gpu::shader_table::PHOTON_VOLUMES_FRAG,
+                &[FORMAT][..],
+                Some(Depth {
                     format: DEPTH,
                     test: true,
                     write: false,
@@ -154,6 +179,29 @@ impl PhotonVolumesPass {
                     compare: vk::CompareOp::LESS_OR_EQUAL,
                     bias: None,
                 }),
+            )
+        } else {
+            (
+                &crate::gpu::shader_table::PHOTON_VOLUMES_SUBSAMPLED_FRAG,
+                &[FORMAT, FORMAT][..],
+                None,
+            )
+        };
+        let pipeline = Pipeline::graphics(
+            gpu,
+            &GraphicsDesc {
+                name: "photon_volumes",
+                vertex: &crate::gpu::shader_table::PHOTON_VOLUMES_VERT,
+                fragment: Some(fragment),
+                vertex_stride: 12,
+                vertex_attributes: &[VertexAttribute {
+                    location: 0,
+                    format: vk::Format::R32G32B32_SFLOAT,
+                    offset: 0,
+                }],
+                color_formats,
+                blend: Blend::Additive,
+                depth,
                 cull: vk::CullModeFlags::FRONT,
                 set_layouts: &[&layout],
                 push_constant_size: size_of::<Push>() as u32,
@@ -166,6 +214,7 @@ impl PhotonVolumesPass {
             sampler,
             vertices,
             indices,
+            subsample,
         })
     }
 
@@ -190,14 +239,15 @@ impl PhotonVolumesPass {
             .update(self.set, &Self::writes(inputs, &self.sampler));
     }
 
-    /// Draws `count` photon volumes with kernel radii clamped to [`r_min`, `r_max`].
+    /// Draws `count` photon volumes with kernel radii clamped to [`r_min`, `r_max`] into
+    /// `targets`: `[indirect]` at subsample 1, else the two [`low_targets`].
     pub fn record(
         &self,
         cmd: &Cmd,
         inputs: &PhotonVolumeInputs,
         count: u32,
         radius: (f32, f32),
-        indirect: &mut Image,
+        targets: &mut [Image],
     ) {
         let _scope = cmd.scope("photon_volumes");
         let g = inputs.gbuffer;
@@ -205,18 +255,20 @@ impl PhotonVolumesPass {
             cmd.transition(image, Access::FragmentSampledRead);
         }
         cmd.transition_buffer(inputs.photons, Access::GraphicsStorageRead);
-        cmd.begin_rendering(
-            &[Attachment {
-                image: indirect,
+        let colors: Vec<Attachment> = targets
+            .iter()
+            .map(|image| Attachment {
+                image,
                 layer: 0,
                 load: Load::Clear([0.0; 4]),
-            }],
-            Some(&Attachment {
-                image: &g.depth,
-                layer: 0,
-                load: Load::Keep,
-            }),
-        );
+            })
+            .collect();
+        let depth = Attachment {
+            image: &g.depth,
+            layer: 0,
+            load: Load::Keep,
+        };
+        cmd.begin_rendering(&colors, (self.subsample == 1).then_some(&depth));
         if count > 0 {
             cmd.bind_pipeline(&self.pipeline);
             cmd.bind_sets(&self.pipeline, 0, &[self.set]);
@@ -228,7 +280,7 @@ impl PhotonVolumesPass {
                     r_min: radius.0,
                     r_max: radius.1,
                     count,
-                    pad: 0,
+                    subsample: self.subsample,
                 },
             );
             cmd.draw_indexed_instanced(60, count);

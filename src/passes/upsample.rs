@@ -1,0 +1,200 @@
+//! Upsample (compute, graphics queue): the second half of `--subsample N` (DESIGN.md §2 step 7,
+//! paper §5.2). At N > 1 the photon volumes run at ⌈W/N⌉×⌈H/N⌉ and shade, per low-resolution
+//! pixel, the surface the full-resolution eye G-buffer holds at the centre of its N×N block
+//! (`i·N + N/2`, clamped to the image). They write two low-resolution images:
+//!
+//! ```text
+//!   indirect.low_irradiance  RGBA32F  Σ Φ·κ over front-side photons (a = volumes per pixel)
+//!   indirect.low_glossy      RGBA32F  Σ f_glossy·Φ·κ: the non-Lambertian lobes, as radiance
+//! ```
+//!
+//! This pass writes the full-resolution `indirect` that `composite` adds to the radiance: for
+//! each pixel, the 2×2 nearest low-resolution samples weighted by
+//! `bilinear × max(0, n·n_s)^NORMAL_POWER × exp(−|n·(p_s − p)| / (DEPTH_SIGMA·|p|))`
+//! (the depth term is the sample's distance from the pixel's tangent plane, relative to the
+//! pixel's distance from the camera, so a plane seen at a grazing angle keeps full weight),
+//! normalised; when every weight vanishes the geometrically most similar sample is taken alone.
+//! The interpolated irradiance is multiplied by the pixel's own Lambertian BSDF `c_L/π` (its
+//! albedo texture and Fresnel factor at full resolution); the glossy part is interpolated as
+//! radiance.
+//!
+//! What is not consistent (the price of the fill rate): the glossy lobes are evaluated with the
+//! low-resolution sample's material, normal and view direction, not the pixel's; the
+//! front-side test uses the sample's normal; edges between samples are filtered, so detail
+//! smaller than N pixels in the indirect light is lost; and there is no hardware depth test at
+//! low resolution (no depth attachment of that size): the kernel test alone culls surfaces
+//! outside a volume, which is exact but shades the occluded fragments the depth test would
+//! have rejected. At `--subsample 1` none of this runs.
+//!
+//! Reads: materials, eye G-buffer, the two low-resolution images (`ComputeSampledRead`).
+//! Writes: `indirect` (`ComputeStorageWrite`).
+
+use super::eye_gbuffer::GBuffer;
+use crate::gpu::{
+    vk, Access, Binding, BindingKind, Buffer, Cmd, ComputeDesc, DescriptorLayout, DescriptorSet,
+    Filter, Gpu, Image, ImageDesc, Pipeline, Sampler, ViewKind, Write,
+};
+use std::sync::Arc;
+
+/// Exponent of the normal-similarity weight.
+pub const NORMAL_POWER: f32 = 8.0;
+/// Tangent-plane distance, relative to the distance from the camera, at which the depth
+/// weight falls to 1/e.
+pub const DEPTH_SIGMA: f32 = 0.02;
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Push {
+    size: [u32; 2],
+    low_size: [u32; 2],
+    subsample: u32,
+    normal_power: f32,
+    depth_sigma: f32,
+    pad: u32,
+}
+
+/// Low-resolution size of a `width`×`height` image at subsample `n` (at least 1×1).
+pub fn low_size(width: u32, height: u32, n: u32) -> (u32, u32) {
+    let n = n.max(1);
+    (width.div_ceil(n), height.div_ceil(n))
+}
+
+/// The full-resolution indirect radiance this pass writes (alpha: volumes per low-res sample).
+pub fn output(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<Image> {
+    Ok(Image::new(
+        gpu,
+        &ImageDesc {
+            name: "indirect",
+            format: vk::Format::R32G32B32A32_SFLOAT,
+            width,
+            height,
+            layers: 1,
+            usage: vk::ImageUsageFlags::STORAGE
+                | vk::ImageUsageFlags::SAMPLED
+                | vk::ImageUsageFlags::TRANSFER_SRC,
+            view: ViewKind::D2,
+        },
+    )?)
+}
+
+/// What the upsample reads.
+pub struct UpsampleInputs<'a> {
+    pub materials: &'a Buffer,
+    pub gbuffer: &'a GBuffer,
+    /// `[low_irradiance, low_glossy]` from the subsampled photon volumes.
+    pub low: &'a [Image; 2],
+}
+
+pub struct UpsamplePass {
+    pipeline: Pipeline,
+    _layout: DescriptorLayout,
+    set: DescriptorSet,
+    _sampler: Sampler,
+    subsample: u32,
+}
+
+impl UpsamplePass {
+    pub fn new(
+        gpu: &Arc<Gpu>,
+        inputs: &UpsampleInputs,
+        indirect: &Image,
+        subsample: u32,
+    ) -> anyhow::Result<Self> {
+        let kinds = [
+            BindingKind::StorageBuffer,
+            BindingKind::SampledImage,
+            BindingKind::SampledImage,
+            BindingKind::SampledImage,
+            BindingKind::SampledImage,
+            BindingKind::SampledImage,
+            BindingKind::SampledImage,
+            BindingKind::StorageImage,
+        ];
+        let bindings: Vec<Binding> = kinds
+            .iter()
+            .enumerate()
+            .map(|(i, &kind)| Binding {
+                binding: i as u32,
+                kind,
+                stages: vk::ShaderStageFlags::COMPUTE,
+            })
+            .collect();
+        let layout = DescriptorLayout::new(gpu, "upsample", &bindings, 1)?;
+        let sampler = Sampler::new(gpu, "upsample.nearest", Filter::Nearest, false)?;
+        let g = inputs.gbuffer;
+        let image = |image| Write::Image {
+            image,
+            sampler: &sampler,
+        };
+        let set = layout.allocate(&[
+            Write::Buffer(inputs.materials),
+            image(&g.position),
+            image(&g.normal),
+            image(&g.albedo),
+            image(&g.material),
+            image(&inputs.low[0]),
+            image(&inputs.low[1]),
+            Write::StorageImage(indirect),
+        ])?;
+        let pipeline = Pipeline::compute(
+            gpu,
+            &ComputeDesc {
+                name: "upsample",
+                shader: &crate::gpu::shader_table::UPSAMPLE_COMP,
+                set_layouts: &[&layout],
+                push_constant_size: size_of::<Push>() as u32,
+            },
+        )?;
+        Ok(Self {
+            pipeline,
+            _layout: layout,
+            set,
+            _sampler: sampler,
+            subsample,
+        })
+    }
+
+    pub fn record(&self, cmd: &Cmd, inputs: &UpsampleInputs, indirect: &mut Image) {
+        let _scope = cmd.scope("upsample");
+        let g = inputs.gbuffer;
+        for image in [&g.position, &g.normal, &g.albedo, &g.material] {
+            cmd.transition(image, Access::ComputeSampledRead);
+        }
+        for image in inputs.low {
+            cmd.transition(image, Access::ComputeSampledRead);
+        }
+        cmd.transition(indirect, Access::ComputeStorageWrite);
+        cmd.bind_pipeline(&self.pipeline);
+        cmd.bind_sets(&self.pipeline, 0, &[self.set]);
+        cmd.push_constants(
+            &self.pipeline,
+            &Push {
+                size: [indirect.width, indirect.height],
+                low_size: [inputs.low[0].width, inputs.low[0].height],
+                subsample: self.subsample,
+                normal_power: NORMAL_POWER,
+                depth_sigma: DEPTH_SIGMA,
+                pad: 0,
+            },
+        );
+        cmd.dispatch(
+            super::groups(indirect.width),
+            super::groups(indirect.height),
+            1,
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::low_size;
+
+    #[test]
+    fn low_size_covers_the_image_and_is_never_empty() {
+        assert_eq!(low_size(128, 128, 1), (128, 128));
+        assert_eq!(low_size(128, 96, 4), (32, 24));
+        assert_eq!(low_size(130, 97, 4), (33, 25));
+        assert_eq!(low_size(64, 64, 64), (1, 1));
+        assert_eq!(low_size(64, 48, 64), (1, 1));
+    }
+}
