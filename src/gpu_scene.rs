@@ -47,6 +47,9 @@ pub struct GpuScene {
     pub texture_sampler: Sampler,
     /// Texture of each material (index into `textures`), if any.
     pub material_textures: Vec<Option<usize>>,
+    /// Whether each material has a delta lobe (perfect mirror or refraction): such surfaces
+    /// are drawn by the translucent pass, not into the eye G-buffer.
+    pub material_delta: Vec<bool>,
     pub bounds: Aabb,
     pub triangles: usize,
 }
@@ -158,6 +161,11 @@ impl GpuScene {
             .iter()
             .map(|m| m.lambertian_texture.filter(|&t| t < textures.len()))
             .collect();
+        let material_delta = scene
+            .materials
+            .iter()
+            .map(Material::has_delta_lobe)
+            .collect();
         let instances = scene
             .instances
             .iter()
@@ -177,9 +185,31 @@ impl GpuScene {
             white,
             texture_sampler,
             material_textures,
+            material_delta,
             bounds: scene.bounds(),
             triangles: scene.triangle_count(),
         })
+    }
+
+    /// Whether `draw` is of a delta material (see [`GpuScene::material_delta`]).
+    pub fn is_delta(&self, draw: &Draw) -> bool {
+        self.material_delta
+            .get(draw.push.material.x as usize)
+            .copied()
+            .unwrap_or(false)
+    }
+
+    /// World-space bounds of the instances of delta materials (empty when there are none).
+    pub fn delta_bounds(&self, scene: &Scene) -> Aabb {
+        let mut b = Aabb::EMPTY;
+        for (inst, gpu) in scene.instances.iter().zip(&self.instances) {
+            if self.material_delta.get(gpu.material as usize) == Some(&true) {
+                for &p in &scene.meshes[inst.mesh].positions {
+                    b.grow(inst.transform.transform_point3(p));
+                }
+            }
+        }
+        b
     }
 
     /// Every instance's draw with `clip_from_world` applied, where `origin` is subtracted

@@ -19,6 +19,13 @@ struct FrameUniforms {
                          // towards a viewer at infinity (orthographic light views)
 };
 
+// Where the environment cube map was rendered from, for its lookups (uniform buffer, std140).
+struct EnvironmentUniforms {
+    vec4 centre;      // xyz: camera-relative centre of the cube map; w: unused
+    vec4 bounds_min;  // xyz: camera-relative scene bounds, the box lookups are projected onto
+    vec4 bounds_max;
+};
+
 // An über-BSDF material (storage buffer, std430).
 struct GpuMaterial {
     vec4 lambertian;    // rgb: rho_L; a: unused
