@@ -3,7 +3,8 @@
 //   non-delta lobes: shadowed direct light, as the direct pass would give them
 //   mirror lobe:     the environment cube map in the reflected direction
 //   refraction lobe: the environment cube map in the refracted direction (Snell, eta of the
-//                    side the viewer is on; total internal reflection reflects)
+//                    side the viewer is on; total internal reflection reflects); a ray that
+//                    enters an object leaves it again through its bounding sphere
 // The lobe weights are the über-BSDF's own (bsdf_lobe_reflectances: Fresnel-weighted when the
 // material asks for it), so what the eye sees matches what photons do at the surface.
 // Lookups are projected onto the scene's bounding box from the cube's centre (parallax
@@ -43,6 +44,28 @@ vec3 environment(vec3 p, vec3 dir) {
     return texture(environment_map, lookup).rgb;
 }
 
+// Radiance arriving at `p` along `t`, a direction refracted into a closed object: the ray
+// leaves through the object's bounding sphere (exact for spheres, an approximation otherwise)
+// and refracts out there; total internal reflection at the exit continues along the reflected
+// direction from the exit point.
+vec3 through_object(vec3 p, vec3 t, float ior) {
+    vec3 c = vec3(draw.normal0.w, draw.normal1.w, draw.normal2.w);
+    float r = uintBitsToFloat(draw.material.y);
+    vec3 o = p - c;
+    float b = dot(o, t);
+    float disc = b * b - (dot(o, o) - r * r);
+    if (!(r > 0.0) || !(disc >= 0.0)) {
+        return environment(p, t);
+    }
+    vec3 exit = p + max(-b + sqrt(disc), 0.0) * t;
+    vec3 n_out = normalize(exit - c);
+    vec3 out_dir = refract(t, -n_out, ior);
+    if (dot(out_dir, out_dir) == 0.0) {
+        out_dir = reflect(t, -n_out);
+    }
+    return environment(exit, out_dir);
+}
+
 void main() {
     GpuMaterial m = materials[draw.material.x];
     vec3 p = v_position;
@@ -62,11 +85,16 @@ void main() {
         bsdf_lobe_reflectances(bsdf, o, c);
         vec3 wi;
         float eta;
-        for (uint lobe = LOBE_MIRROR; lobe <= LOBE_REFRACTION; ++lobe) {
-            if (any(greaterThan(c[lobe], vec3(0.0)))
-                && bsdf_sample_direction(bsdf, lobe, o, vec2(0.0), wi, eta)) {
-                radiance += c[lobe] * environment(p, wi);
-            }
+        if (any(greaterThan(c[LOBE_MIRROR], vec3(0.0)))
+            && bsdf_sample_direction(bsdf, LOBE_MIRROR, o, vec2(0.0), wi, eta)) {
+            radiance += c[LOBE_MIRROR] * environment(p, wi);
+        }
+        if (any(greaterThan(c[LOBE_REFRACTION], vec3(0.0)))
+            && bsdf_sample_direction(bsdf, LOBE_REFRACTION, o, vec2(0.0), wi, eta)) {
+            // Entering (eta = ior > 1 seen from outside): leave through the far side too.
+            bool entered = eta != 1.0 && dot(wi, n_mesh) < 0.0 && side > 0.0;
+            radiance += c[LOBE_REFRACTION]
+                * (entered ? through_object(p, wi, bsdf.ior) : environment(p, wi));
         }
     }
     out_radiance = vec4(max(radiance, vec3(0.0)), 1.0);

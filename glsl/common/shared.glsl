@@ -63,10 +63,10 @@ struct BounceView {
 // Per-draw push constants of the raster passes (128 bytes: the guaranteed minimum).
 struct DrawPush {
     mat4 model;       // object -> camera-relative world (eye) or object -> light clip (shadow)
-    vec4 normal0;     // columns of the object -> world normal matrix (inverse transpose)
-    vec4 normal1;
-    vec4 normal2;
-    uvec4 material;   // x: material index
+    vec4 normal0;     // xyz: columns of the object -> world normal matrix (inverse transpose);
+    vec4 normal1;     // w of the three: the instance's bounding-sphere centre relative to the
+    vec4 normal2;     // origin the draws were made for (the camera)
+    uvec4 material;   // x: material index; y: bounding-sphere radius (float bits)
 };
 
 const uint MATERIAL_FRESNEL = 1u;
