@@ -246,3 +246,59 @@ impl EnvironmentPass {
         self.dirty = false;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The Vulkan spec's cube-map face selection: face index and (s, t) in [0, 1] of `d`.
+    fn spec_lookup(d: Vec3) -> (usize, f32, f32) {
+        let a = d.abs();
+        let (face, sc, tc, ma) = if a.x >= a.y && a.x >= a.z {
+            if d.x > 0.0 {
+                (0, -d.z, -d.y, a.x)
+            } else {
+                (1, d.z, -d.y, a.x)
+            }
+        } else if a.y >= a.z {
+            if d.y > 0.0 {
+                (2, d.x, d.z, a.y)
+            } else {
+                (3, d.x, -d.z, a.y)
+            }
+        } else if d.z > 0.0 {
+            (4, d.x, -d.y, a.z)
+        } else {
+            (5, -d.x, -d.y, a.z)
+        };
+        (face, 0.5 * (sc / ma + 1.0), 0.5 * (tc / ma + 1.0))
+    }
+
+    #[test]
+    fn faces_render_where_a_cube_lookup_reads() {
+        let centre = Vec3::new(0.3, -1.0, 2.0);
+        let near = 0.01;
+        let mut seed = 1u32;
+        let mut next = || {
+            seed = seed.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
+            (seed >> 8) as f32 / (1u32 << 24) as f32 * 2.0 - 1.0
+        };
+        for _ in 0..1000 {
+            let d = Vec3::new(next(), next(), next());
+            if d.length() < 1e-3 {
+                continue;
+            }
+            let (face, s, t) = spec_lookup(d);
+            let clip = face_view_proj(face, centre, near) * (centre + 3.0 * d).extend(1.0);
+            assert!(clip.w > 0.0, "{d} is behind face {face}");
+            // Framebuffer x grows with s, y (rows, top first) with t.
+            let (x, y) = (0.5 * (clip.x / clip.w + 1.0), 0.5 * (clip.y / clip.w + 1.0));
+            assert!(
+                (x - s).abs() < 1e-4 && (y - t).abs() < 1e-4,
+                "{d}: face {face} at ({x}, {y}), lookup reads ({s}, {t})"
+            );
+            let depth = clip.z / clip.w;
+            assert!(depth > 0.0 && depth < 1.0, "reversed-Z depth {depth}");
+        }
+    }
+}
