@@ -19,40 +19,7 @@ layout(set = 0, binding = 7) uniform usampler2D g_material;
 layout(set = 0, binding = 8) uniform sampler2DArrayShadow shadow_atlas;
 layout(set = 0, binding = 9, rgba32f) uniform writeonly image2D out_radiance;
 
-float shadow_visibility(GpuLight light, vec3 p, vec3 n, vec3 wi) {
-    // Normal offset: push the lookup point off the surface by about one shadow texel,
-    // measured at the point's distance from the light (perspective) or absolutely (ortho).
-    ShadowView first = shadow_views[light.shadow.y];
-    float dist = first.params.y > 0.5 ? 1.0 : length(light.position.xyz - p);
-    float texel = first.params.x * dist;
-    float cos_t = clamp(dot(n, wi), 0.0, 1.0);
-    float sin_t = sqrt(max(0.0, 1.0 - cos_t * cos_t));
-    vec3 q = p + n * (1.5 * texel * max(sin_t, 0.2));
-    // The face is chosen for the point actually looked up (cube faces overlap by a margin
-    // that covers the offset and the PCF footprint, see lighting.rs).
-    uint vi = shadow_view_index(light, q);
-    ShadowView view = shadow_views[vi];
-    vec4 clip = view.view_proj * vec4(q, 1.0);
-    if (clip.w <= 0.0) {
-        return 1.0;
-    }
-    vec3 ndc = clip.xyz / clip.w;
-    vec2 uv = ndc.xy * 0.5 + 0.5;
-    if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))) || ndc.z > 1.0) {
-        // Outside the light's view: spot cones and fitted directional frusta cover every
-        // point the light reaches, so a point outside is not lit through this view.
-        return light.shadow.x == LIGHT_SPOT ? 0.0 : 1.0;
-    }
-    float step_uv = frame.params.x;
-    float sum = 0.0;
-    for (int y = -1; y <= 1; ++y) {
-        for (int x = -1; x <= 1; ++x) {
-            vec2 o = vec2(x, y) * step_uv;
-            sum += texture(shadow_atlas, vec4(uv + o, float(vi), ndc.z));
-        }
-    }
-    return sum / 9.0;
-}
+#include "shadows.glsl"
 
 void main() {
     ivec2 px = ivec2(gl_GlobalInvocationID.xy);
@@ -75,20 +42,6 @@ void main() {
     Bsdf bsdf = material_bsdf(m, albedo);
     vec3 wo = normalize(-p);
 
-    vec3 radiance = m.emission.rgb;
-    for (uint i = 0u; i < frame.counts.x; ++i) {
-        GpuLight light = lights[i];
-        LightSample s = sample_light(light, p);
-        float cos_i = dot(n, s.wi);
-        if (cos_i <= 0.0 || all(equal(s.irradiance, vec3(0.0)))) {
-            continue;
-        }
-        float vis = light.shadow.z > 0u ? shadow_visibility(light, p, n, s.wi) : 1.0;
-        if (vis <= 0.0) {
-            continue;
-        }
-        vec3 f = bsdf_eval(bsdf, wo, s.wi, n_mesh, n_mesh);
-        radiance += f * s.irradiance * cos_i * vis;
-    }
+    vec3 radiance = m.emission.rgb + direct_light(bsdf, p, n, n_mesh, wo);
     imageStore(out_radiance, px, vec4(radiance, 1.0));
 }

@@ -4,8 +4,10 @@
 //!  photons (--method ispm):
 //!   light_gbuffers ──► bounce_map ──► readback ══► cpu_trace (all cores) ══► upload
 //!  every method:
-//!   shadow_maps ──► eye_gbuffer ──► direct ──► photon_volumes ──► composite ──► tonemap
-//!                                             (ispm only)        (ispm only)
+//!   shadow_maps ──► eye_gbuffer ──► direct ──► photon_volumes ──► composite ──►
+//!                   (opaque only)              (ispm only)        (ispm only)
+//!     environment ──► translucent ──► tonemap
+//!     (cached cube)   (glass, mirrors; scenes with delta materials only)
 //! ```
 //!
 //! The photon steps are one command buffer; the host waits for it, traces, and the rest of the
@@ -24,6 +26,7 @@ use crate::passes::shadow_map::{self, ShadowMapPass};
 use crate::passes::tonemap::{self, Tonemap, TonemapPass};
 use crate::photon_frame::PhotonFrame;
 use crate::scene::{Camera, Light, Scene};
+use crate::translucent_frame::{TranslucentFrame, TranslucentResources};
 use glam::{DMat4, UVec4, Vec4};
 use std::sync::Arc;
 
@@ -130,6 +133,8 @@ pub struct Renderer {
     direct: DirectPass,
     tonemap: TonemapPass,
     photons: Option<PhotonFrame>,
+    /// Glass and mirrors (scenes with delta materials only).
+    translucent: Option<TranslucentFrame>,
     timestamps: Arc<Timestamps>,
 }
 
@@ -200,7 +205,10 @@ impl Renderer {
                 width: settings.width,
                 height: settings.height,
                 layers: 1,
+                // Written by imageStore (direct, composite), then drawn over by the
+                // translucent pass as a colour attachment.
                 usage: vk::ImageUsageFlags::STORAGE
+                    | vk::ImageUsageFlags::COLOR_ATTACHMENT
                     | vk::ImageUsageFlags::SAMPLED
                     | vk::ImageUsageFlags::TRANSFER_SRC,
                 view: ViewKind::D2,
@@ -235,6 +243,19 @@ impl Renderer {
             )?),
             Method::Direct => None,
         };
+        let translucent = TranslucentFrame::new(
+            gpu,
+            scene,
+            &gpu_scene,
+            &TranslucentResources {
+                frame: &frame_uniforms,
+                lights: &light_buffer,
+                shadow_views: &view_buffer,
+                shadow_atlas: &shadow_atlas,
+            },
+            gbuffer.depth.format,
+            radiance.format,
+        )?;
         let timestamps = Timestamps::new(gpu, "frame.timestamps", 64)?;
         Ok(Self {
             gpu: gpu.clone(),
@@ -254,6 +275,7 @@ impl Renderer {
             direct,
             tonemap,
             photons,
+            translucent,
             timestamps,
         })
     }
@@ -307,13 +329,22 @@ impl Renderer {
             .write(0, bytemuck::cast_slice(&setup.lights))?;
         self.view_buffer
             .write(0, bytemuck::cast_slice(&setup.views))?;
+        if let Some(translucent) = &self.translucent {
+            translucent.update(&uniforms, camera_pos)?;
+        }
 
         let shadow_draws: Vec<_> = setup
             .view_matrices
             .iter()
             .map(|&m| self.scene.draws(camera_pos, Some(m)))
             .collect();
-        let eye_draws = self.scene.draws(camera_pos, None);
+        // Delta-material instances (glass, mirrors) are drawn by the translucent pass, so the
+        // eye G-buffer holds what is behind them.
+        let (delta_draws, eye_draws): (Vec<_>, Vec<_>) = self
+            .scene
+            .draws(camera_pos, None)
+            .into_iter()
+            .partition(|d| self.scene.is_delta(d));
 
         self.timestamps.reset();
         let mut stats = FrameStats::default();
@@ -352,6 +383,16 @@ impl Renderer {
                     &self.frame_uniforms,
                     &self.scene.materials,
                     &self.gbuffer,
+                    &mut self.radiance,
+                );
+            }
+            if let Some(translucent) = &mut self.translucent {
+                translucent.record(
+                    &cmd,
+                    &self.scene,
+                    (&eye_draws, &delta_draws),
+                    &self.shadow_atlas,
+                    &mut self.gbuffer.depth,
                     &mut self.radiance,
                 );
             }

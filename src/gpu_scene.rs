@@ -26,6 +26,25 @@ pub struct InstanceDraw {
     pub material: u32,
     /// World-from-object, in double precision.
     pub transform: DMat4,
+    /// World-space bounding sphere (centre of the bounds, farthest vertex): the translucent
+    /// pass treats a refracting object as this sphere where the ray leaves it.
+    pub sphere: (DVec3, f32),
+}
+
+/// The bounding sphere of `points`: the centre of their bounds and the farthest of them.
+fn bounding_sphere(points: &[DVec3]) -> (DVec3, f32) {
+    let Some(first) = points.first() else {
+        return (DVec3::ZERO, 0.0);
+    };
+    let (lo, hi) = points
+        .iter()
+        .fold((*first, *first), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+    let centre = 0.5 * (lo + hi);
+    let radius = points
+        .iter()
+        .map(|p| p.distance(centre))
+        .fold(0.0, f64::max);
+    (centre, radius as f32)
 }
 
 /// What a raster pass needs to draw one instance.
@@ -47,6 +66,9 @@ pub struct GpuScene {
     pub texture_sampler: Sampler,
     /// Texture of each material (index into `textures`), if any.
     pub material_textures: Vec<Option<usize>>,
+    /// Whether each material has a delta lobe (perfect mirror or refraction): such surfaces
+    /// are drawn by the translucent pass, not into the eye G-buffer.
+    pub material_delta: Vec<bool>,
     pub bounds: Aabb,
     pub triangles: usize,
 }
@@ -158,13 +180,27 @@ impl GpuScene {
             .iter()
             .map(|m| m.lambertian_texture.filter(|&t| t < textures.len()))
             .collect();
+        let material_delta = scene
+            .materials
+            .iter()
+            .map(Material::has_delta_lobe)
+            .collect();
         let instances = scene
             .instances
             .iter()
-            .map(|i| InstanceDraw {
-                mesh: i.mesh,
-                material: scene.meshes[i.mesh].material as u32,
-                transform: i.transform.as_dmat4(),
+            .map(|i| {
+                let transform = i.transform.as_dmat4();
+                let world: Vec<DVec3> = scene.meshes[i.mesh]
+                    .positions
+                    .iter()
+                    .map(|p| transform.transform_point3(p.as_dvec3()))
+                    .collect();
+                InstanceDraw {
+                    mesh: i.mesh,
+                    material: scene.meshes[i.mesh].material as u32,
+                    transform,
+                    sphere: bounding_sphere(&world),
+                }
             })
             .collect();
         Ok(GpuScene {
@@ -177,9 +213,31 @@ impl GpuScene {
             white,
             texture_sampler,
             material_textures,
+            material_delta,
             bounds: scene.bounds(),
             triangles: scene.triangle_count(),
         })
+    }
+
+    /// Whether `draw` is of a delta material (see [`GpuScene::material_delta`]).
+    pub fn is_delta(&self, draw: &Draw) -> bool {
+        self.material_delta
+            .get(draw.push.material.x as usize)
+            .copied()
+            .unwrap_or(false)
+    }
+
+    /// World-space bounds of the instances of delta materials (empty when there are none).
+    pub fn delta_bounds(&self, scene: &Scene) -> Aabb {
+        let mut b = Aabb::EMPTY;
+        for (inst, gpu) in scene.instances.iter().zip(&self.instances) {
+            if self.material_delta.get(gpu.material as usize) == Some(&true) {
+                for &p in &scene.meshes[inst.mesh].positions {
+                    b.grow(inst.transform.transform_point3(p));
+                }
+            }
+        }
+        b
     }
 
     /// Every instance's draw with `clip_from_world` applied, where `origin` is subtracted
@@ -200,14 +258,15 @@ impl GpuScene {
                     .inverse()
                     .transpose()
                     .as_mat3();
+                let centre = (inst.sphere.0 - origin).as_vec3();
                 Draw {
                     range: self.meshes[inst.mesh],
                     push: DrawPush {
                         model: model.as_mat4(),
-                        normal0: normal.x_axis.extend(0.0),
-                        normal1: normal.y_axis.extend(0.0),
-                        normal2: normal.z_axis.extend(0.0),
-                        material: UVec4::new(inst.material, 0, 0, 0),
+                        normal0: normal.x_axis.extend(centre.x),
+                        normal1: normal.y_axis.extend(centre.y),
+                        normal2: normal.z_axis.extend(centre.z),
+                        material: UVec4::new(inst.material, inst.sphere.1.to_bits(), 0, 0),
                     },
                 }
             })

@@ -82,6 +82,18 @@ pub struct ShadowView {
 const _: () = assert!(size_of::<ShadowView>() == 80);
 const _: () = assert!(offset_of!(ShadowView, params) == 64);
 
+/// `EnvironmentUniforms` (uniform buffer, std140).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct EnvironmentUniforms {
+    pub centre: Vec4,
+    pub bounds_min: Vec4,
+    pub bounds_max: Vec4,
+}
+const _: () = assert!(size_of::<EnvironmentUniforms>() == 48);
+const _: () = assert!(offset_of!(EnvironmentUniforms, bounds_min) == 16);
+const _: () = assert!(offset_of!(EnvironmentUniforms, bounds_max) == 32);
+
 /// `DrawPush` (push constants of the raster passes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
@@ -167,6 +179,11 @@ pub const SHARED_LAYOUTS: &[LayoutDescription] = &[
         shadow
     }),
     describe!(ShadowView { view_proj, params }),
+    describe!(EnvironmentUniforms {
+        centre,
+        bounds_min,
+        bounds_max
+    }),
     describe!(DrawPush {
         model,
         normal0,

@@ -22,6 +22,7 @@ pub mod photon_frame;
 pub mod reference;
 pub mod scene;
 pub mod stats;
+pub mod translucent_frame;
 
 /// Constants shared with GLSL (generated into `shared_constants.glsl` by `build.rs`).
 pub mod shared_constants {

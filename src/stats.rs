@@ -16,6 +16,7 @@ pub const STAGES: &[&str] = &[
     "direct",
     "photon_volumes",
     "upsample",
+    "environment",
     "translucent",
     "frame",
 ];

@@ -395,14 +395,36 @@ struct CausticPoint {
     mean_ratio: f64,
 }
 
+/// Whether the camera ray through each pixel centre first meets a material with a delta lobe
+/// (glass, mirror): those pixels are the translucent pass's, and ISPM's G-buffer sees past them.
+fn delta_pixels(scene: &Scene, size: u32) -> Vec<bool> {
+    let bvh = ispm::photon::bvh::SceneBvh::new(scene);
+    let cam = &scene.camera;
+    let t = (cam.yfov * 0.5).tan();
+    let origin = cam.position();
+    (0..size * size)
+        .map(|i| {
+            let (x, y) = (i % size, i / size);
+            let ndc_x = (x as f32 + 0.5) / size as f32 * 2.0 - 1.0;
+            let ndc_y = 1.0 - (y as f32 + 0.5) / size as f32 * 2.0;
+            let dir = cam
+                .transform
+                .transform_vector3(Vec3::new(ndc_x * t, ndc_y * t, -1.0));
+            bvh.intersect(&ispm::photon::ray::Ray::new(origin, dir))
+                .is_some_and(|h| scene.materials[h.material].has_delta_lobe())
+        })
+        .collect()
+}
+
 /// ISPM's indirect light on `glass-sphere` against progressive photon mapping's
 /// (`progressive − path-trace(bounces 0)`, both at pixel centres, so the difference is exactly
-/// the gathered part), over the pixels that see a surface without delta lobes (the glass itself
-/// needs the translucent pass).
+/// the gathered part), over the pixels that see a surface without delta lobes from the camera
+/// (the glass is the translucent pass's; the G-buffer sees the floor behind it).
 fn caustic_curve(counts: &[usize]) -> Vec<CausticPoint> {
     let scene = bundled("glass-sphere");
     let size = CONVERGENCE_SIZE;
     let indirect_ref = progressive_indirect(&scene);
+    let behind_glass = delta_pixels(&scene, size);
     let mut curve = Vec::new();
     for &photons in counts {
         let (renderer, _) = render(
@@ -419,9 +441,13 @@ fn caustic_curve(counts: &[usize]) -> Vec<CausticPoint> {
         let mask: Vec<bool> = material
             .iter()
             .zip(&position)
-            .map(|(&m, p)| {
+            .zip(&behind_glass)
+            .map(|((&m, p), &glass)| {
                 let m = &scene.materials[m as usize];
-                p[3] != 0.0 && m.transmission.max_element() == 0.0 && m.exponent.is_finite()
+                !glass
+                    && p[3] != 0.0
+                    && m.transmission.max_element() == 0.0
+                    && m.exponent.is_finite()
             })
             .collect();
         let ispm = renderer.photons().expect("ispm");

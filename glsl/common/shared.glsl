@@ -19,6 +19,13 @@ struct FrameUniforms {
                          // towards a viewer at infinity (orthographic light views)
 };
 
+// Where the environment cube map was rendered from, for its lookups (uniform buffer, std140).
+struct EnvironmentUniforms {
+    vec4 centre;      // xyz: camera-relative centre of the cube map; w: unused
+    vec4 bounds_min;  // xyz: camera-relative scene bounds, the box lookups are projected onto
+    vec4 bounds_max;
+};
+
 // An über-BSDF material (storage buffer, std430).
 struct GpuMaterial {
     vec4 lambertian;    // rgb: rho_L; a: unused
@@ -56,10 +63,10 @@ struct BounceView {
 // Per-draw push constants of the raster passes (128 bytes: the guaranteed minimum).
 struct DrawPush {
     mat4 model;       // object -> camera-relative world (eye) or object -> light clip (shadow)
-    vec4 normal0;     // columns of the object -> world normal matrix (inverse transpose)
-    vec4 normal1;
-    vec4 normal2;
-    uvec4 material;   // x: material index
+    vec4 normal0;     // xyz: columns of the object -> world normal matrix (inverse transpose);
+    vec4 normal1;     // w of the three: the instance's bounding-sphere centre relative to the
+    vec4 normal2;     // origin the draws were made for (the camera)
+    uvec4 material;   // x: material index; y: bounding-sphere radius (float bits)
 };
 
 const uint MATERIAL_FRESNEL = 1u;

@@ -132,35 +132,11 @@ impl GBufferPass {
             ],
             frames.len().max(1) as u32,
         )?;
-        let sets = scene.material_textures.len().max(1) as u32;
-        let texture_layout = DescriptorLayout::new(
-            gpu,
-            "eye_gbuffer.texture",
-            &[Binding {
-                binding: 0,
-                kind: BindingKind::SampledImage,
-                stages: vk::ShaderStageFlags::FRAGMENT,
-            }],
-            sets,
-        )?;
+        let (texture_layout, material_sets) = material_texture_sets(gpu, "eye_gbuffer", scene)?;
         let frame_sets = frames
             .iter()
             .map(|f| frame_layout.allocate(&[Write::Buffer(f), Write::Buffer(&scene.materials)]))
             .collect::<Result<Vec<_>, _>>()?;
-        let mut material_sets = Vec::new();
-        for t in &scene.material_textures {
-            let image = t.map_or(&scene.white, |i| &scene.textures[i]);
-            material_sets.push(texture_layout.allocate(&[Write::Image {
-                image,
-                sampler: &scene.texture_sampler,
-            }])?);
-        }
-        if material_sets.is_empty() {
-            material_sets.push(texture_layout.allocate(&[Write::Image {
-                image: &scene.white,
-                sampler: &scene.texture_sampler,
-            }])?);
-        }
         let attributes = super::vertex_attributes();
         let pipeline = Pipeline::graphics(
             gpu,
@@ -225,21 +201,67 @@ impl GBufferPass {
         cmd.set_viewport(view.extent.0, view.extent.1);
         cmd.bind_pipeline(&self.pipeline);
         cmd.bind_sets(&self.pipeline, 0, &[self.frame_sets[view.index]]);
-        cmd.bind_vertex_buffer(&scene.vertices);
-        cmd.bind_index_buffer(&scene.indices);
-        for d in view.draws {
-            let set = self
-                .material_sets
-                .get(d.push.material.x as usize)
-                .unwrap_or(&self.material_sets[0]);
-            cmd.bind_sets(&self.pipeline, 1, &[*set]);
-            cmd.push_constants(&self.pipeline, &d.push);
-            cmd.draw_indexed(
-                d.range.index_count,
-                d.range.first_index,
-                d.range.vertex_offset,
-            );
-        }
+        draw_instances(cmd, &self.pipeline, scene, view.draws, &self.material_sets);
         cmd.end_rendering();
+    }
+}
+
+/// The per-material descriptor sets of a raster pass that textures its surfaces: a layout with
+/// one sampled image (set 1, binding 0 of the raster shaders) and one set per material holding
+/// its base-colour texture, or white.
+pub(crate) fn material_texture_sets(
+    gpu: &Arc<Gpu>,
+    name: &str,
+    scene: &GpuScene,
+) -> anyhow::Result<(DescriptorLayout, Vec<DescriptorSet>)> {
+    let layout = DescriptorLayout::new(
+        gpu,
+        &format!("{name}.texture"),
+        &[Binding {
+            binding: 0,
+            kind: BindingKind::SampledImage,
+            stages: vk::ShaderStageFlags::FRAGMENT,
+        }],
+        scene.material_textures.len().max(1) as u32,
+    )?;
+    let mut sets = Vec::new();
+    for t in &scene.material_textures {
+        let image = t.map_or(&scene.white, |i| &scene.textures[i]);
+        sets.push(layout.allocate(&[Write::Image {
+            image,
+            sampler: &scene.texture_sampler,
+        }])?);
+    }
+    if sets.is_empty() {
+        sets.push(layout.allocate(&[Write::Image {
+            image: &scene.white,
+            sampler: &scene.texture_sampler,
+        }])?);
+    }
+    Ok((layout, sets))
+}
+
+/// Draws `draws` with `pipeline` (bound, inside a rendering scope), binding each draw's
+/// material texture set (from [`material_texture_sets`]) as set 1.
+pub(crate) fn draw_instances(
+    cmd: &Cmd,
+    pipeline: &Pipeline,
+    scene: &GpuScene,
+    draws: &[Draw],
+    material_sets: &[DescriptorSet],
+) {
+    cmd.bind_vertex_buffer(&scene.vertices);
+    cmd.bind_index_buffer(&scene.indices);
+    for d in draws {
+        let set = material_sets
+            .get(d.push.material.x as usize)
+            .unwrap_or(&material_sets[0]);
+        cmd.bind_sets(pipeline, 1, &[*set]);
+        cmd.push_constants(pipeline, &d.push);
+        cmd.draw_indexed(
+            d.range.index_count,
+            d.range.first_index,
+            d.range.vertex_offset,
+        );
     }
 }

@@ -12,16 +12,20 @@
 //! | [`photon_volumes`] | graphics | photon map, eye G-buffer | HDR indirect radiance |
 //! | [`upsample`] | graphics (compute) | 1/N indirect, eye G-buffer, materials | HDR indirect |
 //! | [`composite`] | graphics (compute) | indirect | HDR radiance (+= indirect) |
+//! | [`environment`] | graphics | scene geometry (opaque), lights, shadow atlas | environment cube map (cached) |
+//! | [`translucent`] | graphics | delta instances, lights, shadow atlas, cube map, eye depth | HDR radiance (over) |
 //! | [`tonemap`] | graphics (compute) | HDR radiance | 8-bit display image |
 
 pub mod bounce_map;
 pub mod composite;
 pub mod direct;
+pub mod environment;
 pub mod eye_gbuffer;
 pub mod light_gbuffer;
 pub mod photon_volumes;
 pub mod shadow_map;
 pub mod tonemap;
+pub mod translucent;
 pub mod upsample;
 
 /// The vertex layout every raster pass reads (see [`crate::layout::Vertex`]).

@@ -1,0 +1,67 @@
+// Shadowed direct light: shadow-atlas visibility of a light (3x3 bilinear PCF) and the sum over
+// lights of BSDF * irradiance * cos * visibility. Include after declaring `frame`
+// (FrameUniforms), `lights` (GpuLight[]), `shadow_views` (ShadowView[]) and `shadow_atlas`
+// (sampler2DArrayShadow): the direct pass, the environment map and the translucent pass share it.
+#ifndef SHADOWS_GLSL
+#define SHADOWS_GLSL
+#include "lights.glsl"
+#include "material.glsl"
+
+float shadow_visibility(GpuLight light, vec3 p, vec3 n, vec3 wi) {
+    // Normal offset: push the lookup point off the surface by about one shadow texel,
+    // measured at the point's distance from the light (perspective) or absolutely (ortho).
+    ShadowView first = shadow_views[light.shadow.y];
+    float dist = first.params.y > 0.5 ? 1.0 : length(light.position.xyz - p);
+    float texel = first.params.x * dist;
+    float cos_t = clamp(dot(n, wi), 0.0, 1.0);
+    float sin_t = sqrt(max(0.0, 1.0 - cos_t * cos_t));
+    vec3 q = p + n * (1.5 * texel * max(sin_t, 0.2));
+    // The face is chosen for the point actually looked up (cube faces overlap by a margin
+    // that covers the offset and the PCF footprint, see lighting.rs).
+    uint vi = shadow_view_index(light, q);
+    ShadowView view = shadow_views[vi];
+    vec4 clip = view.view_proj * vec4(q, 1.0);
+    if (clip.w <= 0.0) {
+        return 1.0;
+    }
+    vec3 ndc = clip.xyz / clip.w;
+    vec2 uv = ndc.xy * 0.5 + 0.5;
+    if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))) || ndc.z > 1.0) {
+        // Outside the light's view: spot cones and fitted directional frusta cover every
+        // point the light reaches, so a point outside is not lit through this view.
+        return light.shadow.x == LIGHT_SPOT ? 0.0 : 1.0;
+    }
+    float step_uv = frame.params.x;
+    float sum = 0.0;
+    for (int y = -1; y <= 1; ++y) {
+        for (int x = -1; x <= 1; ++x) {
+            vec2 o = vec2(x, y) * step_uv;
+            sum += texture(shadow_atlas, vec4(uv + o, float(vi), ndc.z));
+        }
+    }
+    return sum / 9.0;
+}
+
+// Direct light leaving camera-relative point `p` towards `wo`: `n` is the shading normal on
+// the viewer's side, `n_mesh` the same normal on the mesh's own side (it decides whether a
+// dielectric is entered or left). Delta lobes contribute nothing (a point light is never
+// exactly in the mirror direction).
+vec3 direct_light(Bsdf bsdf, vec3 p, vec3 n, vec3 n_mesh, vec3 wo) {
+    vec3 radiance = vec3(0.0);
+    for (uint i = 0u; i < frame.counts.x; ++i) {
+        GpuLight light = lights[i];
+        LightSample s = sample_light(light, p);
+        float cos_i = dot(n, s.wi);
+        if (cos_i <= 0.0 || all(equal(s.irradiance, vec3(0.0)))) {
+            continue;
+        }
+        float vis = light.shadow.z > 0u ? shadow_visibility(light, p, n, s.wi) : 1.0;
+        if (vis <= 0.0) {
+            continue;
+        }
+        vec3 f = bsdf_eval(bsdf, wo, s.wi, n_mesh, n_mesh);
+        radiance += f * s.irradiance * cos_i * vis;
+    }
+    return radiance;
+}
+#endif

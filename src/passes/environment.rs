@@ -1,0 +1,304 @@
+//! Environment cube map (graphics): the opaque scene rendered into the six faces of a cube from
+//! one point, shaded forward with shadowed direct light plus emission (`environment.frag`). The
+//! translucent pass reflects and refracts it.
+//!
+//! * One cube per scene, centred on the bounds of the delta-material instances (a single mirror
+//!   or glass object sees itself from its own centre; several share one viewpoint). Delta
+//!   instances are not drawn into it.
+//! * Cached: rendered on the first frame and again only after [`EnvironmentPass::invalidate`]
+//!   (nothing moves in a `Renderer` today, and the cube holds radiance by world direction, so
+//!   camera motion does not invalidate it).
+//! * Direct light only: the cube misses indirect light and caustics.
+//!
+//! ```text
+//!   cube   RGBA16F, 6 layers (+X, −X, +Y, −Y, +Z, −Z), sampled as a cube
+//!   depth  D32F, 6 layers, reversed-Z
+//! ```
+
+use super::eye_gbuffer::{draw_instances, material_texture_sets};
+use crate::gpu::{
+    vk, Access, Attachment, Binding, BindingKind, Blend, Buffer, Cmd, Depth, DescriptorLayout,
+    DescriptorSet, Filter, Gpu, GraphicsDesc, Image, ImageDesc, Load, MemoryLocation, Pipeline,
+    Sampler, ViewKind, Write,
+};
+use crate::gpu_scene::{Draw, GpuScene};
+use crate::layout::{DrawPush, FrameUniforms, Vertex};
+use glam::{Mat4, Vec3, Vec4};
+use std::sync::Arc;
+
+/// Texels per side of a cube face.
+pub const FACE_SIZE: u32 = 128;
+pub const FORMAT: vk::Format = vk::Format::R16G16B16A16_SFLOAT;
+const DEPTH: vk::Format = vk::Format::D32_SFLOAT;
+
+/// The lighting the environment shader reads (all but the per-face uniforms).
+pub struct EnvironmentInputs<'a> {
+    pub materials: &'a Buffer,
+    pub lights: &'a Buffer,
+    pub shadow_views: &'a Buffer,
+    pub shadow_atlas: &'a Image,
+}
+
+pub struct EnvironmentPass {
+    pipeline: Pipeline,
+    _frame_layout: DescriptorLayout,
+    _texture_layout: DescriptorLayout,
+    /// One `FrameUniforms` per face.
+    faces: Vec<Buffer>,
+    face_sets: Vec<DescriptorSet>,
+    material_sets: Vec<DescriptorSet>,
+    _shadow: Sampler,
+    pub cube: Image,
+    depth: Image,
+    dirty: bool,
+}
+
+/// Camera-relative world → clip of cube face `face` seen from camera-relative `centre`, with an
+/// infinite reversed-Z projection (depth `near / distance along the face axis`). The rows follow
+/// the cube-map face selection table of the Vulkan spec (major axis, s_c, t_c), so that the
+/// texel a direction lands in when rendered is the texel a `samplerCube` lookup reads.
+pub fn face_view_proj(face: usize, centre: Vec3, near: f32) -> Mat4 {
+    let (major, s, t) = match face {
+        0 => (Vec3::X, Vec3::NEG_Z, Vec3::NEG_Y),
+        1 => (Vec3::NEG_X, Vec3::Z, Vec3::NEG_Y),
+        2 => (Vec3::Y, Vec3::X, Vec3::Z),
+        3 => (Vec3::NEG_Y, Vec3::X, Vec3::NEG_Z),
+        4 => (Vec3::Z, Vec3::X, Vec3::NEG_Y),
+        _ => (Vec3::NEG_Z, Vec3::NEG_X, Vec3::NEG_Y),
+    };
+    let row = |a: Vec3| a.extend(-a.dot(centre));
+    Mat4::from_cols(row(s), row(t), Vec4::new(0.0, 0.0, 0.0, near), row(major)).transpose()
+}
+
+impl EnvironmentPass {
+    pub fn new(
+        gpu: &Arc<Gpu>,
+        scene: &GpuScene,
+        inputs: &EnvironmentInputs,
+    ) -> anyhow::Result<Self> {
+        let graphics = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+        let kinds = [
+            BindingKind::UniformBuffer,
+            BindingKind::StorageBuffer,
+            BindingKind::StorageBuffer,
+            BindingKind::StorageBuffer,
+            BindingKind::SampledImage,
+        ];
+        let bindings: Vec<Binding> = kinds
+            .iter()
+            .enumerate()
+            .map(|(i, &kind)| Binding {
+                binding: i as u32,
+                kind,
+                stages: graphics,
+            })
+            .collect();
+        let frame_layout = DescriptorLayout::new(gpu, "environment.frame", &bindings, 6)?;
+        let (texture_layout, material_sets) = material_texture_sets(gpu, "environment", scene)?;
+        let shadow = Sampler::new(
+            gpu,
+            "environment.shadow_compare",
+            Filter::LinearCompare,
+            false,
+        )?;
+        let mut faces = Vec::new();
+        let mut face_sets = Vec::new();
+        for face in 0..6 {
+            let buffer = Buffer::new(
+                gpu,
+                &format!("environment.face[{face}]"),
+                size_of::<FrameUniforms>() as u64,
+                vk::BufferUsageFlags::UNIFORM_BUFFER,
+                MemoryLocation::CpuToGpu,
+            )?;
+            face_sets.push(frame_layout.allocate(&[
+                Write::Buffer(&buffer),
+                Write::Buffer(inputs.materials),
+                Write::Buffer(inputs.lights),
+                Write::Buffer(inputs.shadow_views),
+                Write::Image {
+                    image: inputs.shadow_atlas,
+                    sampler: &shadow,
+                },
+            ])?);
+            faces.push(buffer);
+        }
+        let image = |name, format, usage, view| {
+            Image::new(
+                gpu,
+                &ImageDesc {
+                    name,
+                    format,
+                    width: FACE_SIZE,
+                    height: FACE_SIZE,
+                    layers: 6,
+                    usage,
+                    view,
+                },
+            )
+        };
+        let cube = image(
+            "environment.cube",
+            FORMAT,
+            vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
+            ViewKind::Cube,
+        )?;
+        let depth = image(
+            "environment.depth",
+            DEPTH,
+            vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+            ViewKind::D2Array,
+        )?;
+        let attributes = super::vertex_attributes();
+        let pipeline = Pipeline::graphics(
+            gpu,
+            &GraphicsDesc {
+                name: "environment",
+                vertex: &crate::gpu::shader_table::EYE_GBUFFER_VERT,
+                fragment: Some(&crate::gpu::shader_table::ENVIRONMENT_FRAG),
+                vertex_stride: size_of::<Vertex>() as u32,
+                vertex_attributes: &attributes,
+                color_formats: &[FORMAT],
+                blend: Blend::Off,
+                depth: Some(Depth {
+                    format: DEPTH,
+                    test: true,
+                    write: true,
+                    compare: vk::CompareOp::GREATER,
+                    bias: None,
+                }),
+                cull: vk::CullModeFlags::NONE,
+                set_layouts: &[&frame_layout, &texture_layout],
+                push_constant_size: size_of::<DrawPush>() as u32,
+            },
+        )?;
+        Ok(Self {
+            pipeline,
+            _frame_layout: frame_layout,
+            _texture_layout: texture_layout,
+            faces,
+            face_sets,
+            material_sets,
+            _shadow: shadow,
+            cube,
+            depth,
+            dirty: true,
+        })
+    }
+
+    /// Whether the next [`EnvironmentPass::record`] renders the cube.
+    pub fn is_dirty(&self) -> bool {
+        self.dirty
+    }
+
+    /// Makes the next frame render the cube again (after something in the scene moved).
+    pub fn invalidate(&mut self) {
+        self.dirty = true;
+    }
+
+    /// Writes the face uniforms: the eye's `frame` with each face's projection and the cube's
+    /// camera-relative `centre` as the viewer. A clean cube needs nothing, so nothing is written.
+    pub fn update(&self, frame: &FrameUniforms, centre: Vec3, near: f32) -> anyhow::Result<()> {
+        if !self.dirty {
+            return Ok(());
+        }
+        for (face, buffer) in self.faces.iter().enumerate() {
+            let view_proj = face_view_proj(face, centre, near);
+            let uniforms = FrameUniforms {
+                view_proj,
+                inv_view_proj: view_proj.inverse(),
+                counts: frame.counts.with_z(FACE_SIZE).with_w(FACE_SIZE),
+                viewer: centre.extend(1.0),
+                ..*frame
+            };
+            buffer.write(0, bytemuck::bytes_of(&uniforms))?;
+        }
+        Ok(())
+    }
+
+    /// Renders the six faces from `draws` (camera-relative, opaque instances only) if dirty;
+    /// `shadow_atlas` is the one the pass was created with, already rendered this frame.
+    pub fn record(&mut self, cmd: &Cmd, scene: &GpuScene, draws: &[Draw], shadow_atlas: &Image) {
+        if !self.dirty {
+            return;
+        }
+        let _scope = cmd.scope("environment");
+        cmd.transition(shadow_atlas, Access::FragmentSampledRead);
+        for (face, set) in self.face_sets.iter().enumerate() {
+            cmd.begin_rendering(
+                &[Attachment {
+                    image: &self.cube,
+                    layer: face as u32,
+                    load: Load::Clear([0.0, 0.0, 0.0, 1.0]),
+                }],
+                Some(&Attachment {
+                    image: &self.depth,
+                    layer: face as u32,
+                    load: Load::Clear([0.0; 4]),
+                }),
+            );
+            cmd.bind_pipeline(&self.pipeline);
+            cmd.bind_sets(&self.pipeline, 0, &[*set]);
+            draw_instances(cmd, &self.pipeline, scene, draws, &self.material_sets);
+            cmd.end_rendering();
+        }
+        cmd.transition(&self.cube, Access::FragmentSampledRead);
+        self.dirty = false;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The Vulkan spec's cube-map face selection: face index and (s, t) in [0, 1] of `d`.
+    fn spec_lookup(d: Vec3) -> (usize, f32, f32) {
+        let a = d.abs();
+        let (face, sc, tc, ma) = if a.x >= a.y && a.x >= a.z {
+            if d.x > 0.0 {
+                (0, -d.z, -d.y, a.x)
+            } else {
+                (1, d.z, -d.y, a.x)
+            }
+        } else if a.y >= a.z {
+            if d.y > 0.0 {
+                (2, d.x, d.z, a.y)
+            } else {
+                (3, d.x, -d.z, a.y)
+            }
+        } else if d.z > 0.0 {
+            (4, d.x, -d.y, a.z)
+        } else {
+            (5, -d.x, -d.y, a.z)
+        };
+        (face, 0.5 * (sc / ma + 1.0), 0.5 * (tc / ma + 1.0))
+    }
+
+    #[test]
+    fn faces_render_where_a_cube_lookup_reads() {
+        let centre = Vec3::new(0.3, -1.0, 2.0);
+        let near = 0.01;
+        let mut seed = 1u32;
+        let mut next = || {
+            seed = seed.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
+            (seed >> 8) as f32 / (1u32 << 24) as f32 * 2.0 - 1.0
+        };
+        for _ in 0..1000 {
+            let d = Vec3::new(next(), next(), next());
+            if d.length() < 1e-3 {
+                continue;
+            }
+            let (face, s, t) = spec_lookup(d);
+            let clip = face_view_proj(face, centre, near) * (centre + 3.0 * d).extend(1.0);
+            assert!(clip.w > 0.0, "{d} is behind face {face}");
+            // Framebuffer x grows with s, y (rows, top first) with t.
+            let (x, y) = (0.5 * (clip.x / clip.w + 1.0), 0.5 * (clip.y / clip.w + 1.0));
+            assert!(
+                (x - s).abs() < 1e-4 && (y - t).abs() < 1e-4,
+                "{d}: face {face} at ({x}, {y}), lookup reads ({s}, {t})"
+            );
+            let depth = clip.z / clip.w;
+            assert!(depth > 0.0 && depth < 1.0, "reversed-Z depth {depth}");
+        }
+    }
+}

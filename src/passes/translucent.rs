@@ -1,0 +1,158 @@
+//! Translucent and mirror surfaces (graphics): the delta-material instances (glass, perfect
+//! mirrors), which the eye G-buffer leaves out, drawn forward over the finished opaque radiance
+//! with the eye depth test. Each fragment is its material's shadowed direct light (non-delta
+//! lobes) plus the environment cube map in the mirror and refracted directions, weighted by the
+//! über-BSDF's own (Fresnel) lobe reflectances (`translucent.frag`). The nearest delta surface
+//! wins (depth writes), and it replaces what is behind it: refraction reads the cube map, not
+//! the screen, so opaque surfaces seen through glass appear as the cube map saw them (direct
+//! light only, one refraction, from the cube's centre).
+
+use super::eye_gbuffer::{draw_instances, material_texture_sets};
+use crate::gpu::{
+    vk, Access, Attachment, Binding, BindingKind, Blend, Buffer, Cmd, Depth, DescriptorLayout,
+    DescriptorSet, Filter, Gpu, GraphicsDesc, Image, Load, Pipeline, Sampler, Write,
+};
+use crate::gpu_scene::{Draw, GpuScene};
+use crate::layout::{DrawPush, Vertex};
+use std::sync::Arc;
+
+/// What the translucent shader reads.
+pub struct TranslucentInputs<'a> {
+    pub frame: &'a Buffer,
+    pub materials: &'a Buffer,
+    pub lights: &'a Buffer,
+    pub shadow_views: &'a Buffer,
+    pub shadow_atlas: &'a Image,
+    /// `EnvironmentUniforms`.
+    pub environment: &'a Buffer,
+    pub environment_map: &'a Image,
+}
+
+pub struct TranslucentPass {
+    pipeline: Pipeline,
+    _layout: DescriptorLayout,
+    _texture_layout: DescriptorLayout,
+    set: DescriptorSet,
+    material_sets: Vec<DescriptorSet>,
+    _shadow: Sampler,
+    _linear: Sampler,
+}
+
+impl TranslucentPass {
+    pub fn new(
+        gpu: &Arc<Gpu>,
+        scene: &GpuScene,
+        inputs: &TranslucentInputs,
+        radiance_format: vk::Format,
+        depth_format: vk::Format,
+    ) -> anyhow::Result<Self> {
+        let graphics = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+        let kinds = [
+            BindingKind::UniformBuffer,
+            BindingKind::StorageBuffer,
+            BindingKind::StorageBuffer,
+            BindingKind::StorageBuffer,
+            BindingKind::SampledImage,
+            BindingKind::UniformBuffer,
+            BindingKind::SampledImage,
+        ];
+        let bindings: Vec<Binding> = kinds
+            .iter()
+            .enumerate()
+            .map(|(i, &kind)| Binding {
+                binding: i as u32,
+                kind,
+                stages: graphics,
+            })
+            .collect();
+        let layout = DescriptorLayout::new(gpu, "translucent", &bindings, 1)?;
+        let (texture_layout, material_sets) = material_texture_sets(gpu, "translucent", scene)?;
+        let shadow = Sampler::new(
+            gpu,
+            "translucent.shadow_compare",
+            Filter::LinearCompare,
+            false,
+        )?;
+        let linear = Sampler::new(gpu, "translucent.environment", Filter::Linear, false)?;
+        let set = layout.allocate(&[
+            Write::Buffer(inputs.frame),
+            Write::Buffer(inputs.materials),
+            Write::Buffer(inputs.lights),
+            Write::Buffer(inputs.shadow_views),
+            Write::Image {
+                image: inputs.shadow_atlas,
+                sampler: &shadow,
+            },
+            Write::Buffer(inputs.environment),
+            Write::Image {
+                image: inputs.environment_map,
+                sampler: &linear,
+            },
+        ])?;
+        let attributes = super::vertex_attributes();
+        let pipeline = Pipeline::graphics(
+            gpu,
+            &GraphicsDesc {
+                name: "translucent",
+                vertex: &crate::gpu::shader_table::EYE_GBUFFER_VERT,
+                fragment: Some(&crate::gpu::shader_table::TRANSLUCENT_FRAG),
+                vertex_stride: size_of::<Vertex>() as u32,
+                vertex_attributes: &attributes,
+                color_formats: &[radiance_format],
+                blend: Blend::Off,
+                depth: Some(Depth {
+                    format: depth_format,
+                    test: true,
+                    write: true,
+                    compare: vk::CompareOp::GREATER,
+                    bias: None,
+                }),
+                cull: vk::CullModeFlags::NONE,
+                set_layouts: &[&layout, &texture_layout],
+                push_constant_size: size_of::<DrawPush>() as u32,
+            },
+        )?;
+        Ok(Self {
+            pipeline,
+            _layout: layout,
+            _texture_layout: texture_layout,
+            set,
+            material_sets,
+            _shadow: shadow,
+            _linear: linear,
+        })
+    }
+
+    /// Draws `draws` (camera-relative, delta instances only) over `radiance`, depth-tested
+    /// against (and writing) the eye G-buffer's `depth`. `shadow_atlas` and `environment_map`
+    /// are the images the pass was created with.
+    pub fn record(
+        &self,
+        cmd: &Cmd,
+        scene: &GpuScene,
+        draws: &[Draw],
+        (shadow_atlas, environment_map): (&Image, &Image),
+        depth: &mut Image,
+        radiance: &mut Image,
+    ) {
+        let _scope = cmd.scope("translucent");
+        cmd.transition(shadow_atlas, Access::FragmentSampledRead);
+        cmd.transition(environment_map, Access::FragmentSampledRead);
+        cmd.begin_rendering(
+            &[Attachment {
+                image: radiance,
+                layer: 0,
+                load: Load::Keep,
+            }],
+            Some(&Attachment {
+                image: depth,
+                layer: 0,
+                load: Load::Keep,
+            }),
+        );
+        cmd.bind_pipeline(&self.pipeline);
+        cmd.bind_sets(&self.pipeline, 0, &[self.set]);
+        draw_instances(cmd, &self.pipeline, scene, draws, &self.material_sets);
+        cmd.end_rendering();
+    }
+}

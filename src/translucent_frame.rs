@@ -1,0 +1,133 @@
+//! The translucent part of a frame: the environment cube map (cached) and the forward pass
+//! that draws glass and mirrors over the opaque radiance. Exists only for scenes with at least
+//! one delta-material instance; `frame.rs` calls [`TranslucentFrame::update`] with the frame's
+//! uniforms and [`TranslucentFrame::record`] after the composite.
+
+use crate::gpu::{vk, Buffer, Gpu, Image, MemoryLocation};
+use crate::gpu_scene::{Draw, GpuScene};
+use crate::layout::{EnvironmentUniforms, FrameUniforms};
+use crate::passes::environment::{EnvironmentInputs, EnvironmentPass};
+use crate::passes::translucent::{TranslucentInputs, TranslucentPass};
+use crate::scene::{Aabb, Scene};
+use glam::DVec3;
+use std::sync::Arc;
+
+/// The buffers and images of the frame the translucent passes read.
+pub struct TranslucentResources<'a> {
+    pub frame: &'a Buffer,
+    pub lights: &'a Buffer,
+    pub shadow_views: &'a Buffer,
+    pub shadow_atlas: &'a Image,
+}
+
+pub struct TranslucentFrame {
+    environment: EnvironmentPass,
+    pass: TranslucentPass,
+    /// `EnvironmentUniforms`, camera-relative, rewritten every frame.
+    uniforms: Buffer,
+    /// World-space centre of the cube map: the centre of the delta instances' bounds.
+    centre: DVec3,
+    /// World-space scene bounds, the box environment lookups are projected onto.
+    bounds: Aabb,
+    /// Near plane of the cube faces (metres).
+    near: f32,
+}
+
+impl TranslucentFrame {
+    /// `None` when no instance has a delta material: the pass does not run and no cube map is
+    /// allocated.
+    pub fn new(
+        gpu: &Arc<Gpu>,
+        scene: &Scene,
+        gpu_scene: &GpuScene,
+        resources: &TranslucentResources,
+        depth_format: vk::Format,
+        radiance_format: vk::Format,
+    ) -> anyhow::Result<Option<Self>> {
+        let delta = gpu_scene.delta_bounds(scene);
+        if delta.is_empty() {
+            return Ok(None);
+        }
+        let uniforms = Buffer::new(
+            gpu,
+            "environment.uniforms",
+            size_of::<EnvironmentUniforms>() as u64,
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            MemoryLocation::CpuToGpu,
+        )?;
+        let environment = EnvironmentPass::new(
+            gpu,
+            gpu_scene,
+            &EnvironmentInputs {
+                materials: &gpu_scene.materials,
+                lights: resources.lights,
+                shadow_views: resources.shadow_views,
+                shadow_atlas: resources.shadow_atlas,
+            },
+        )?;
+        let pass = TranslucentPass::new(
+            gpu,
+            gpu_scene,
+            &TranslucentInputs {
+                frame: resources.frame,
+                materials: &gpu_scene.materials,
+                lights: resources.lights,
+                shadow_views: resources.shadow_views,
+                shadow_atlas: resources.shadow_atlas,
+                environment: &uniforms,
+                environment_map: &environment.cube,
+            },
+            radiance_format,
+            depth_format,
+        )?;
+        let bounds = gpu_scene.bounds;
+        Ok(Some(Self {
+            environment,
+            pass,
+            uniforms,
+            centre: delta.center().as_dvec3(),
+            bounds,
+            near: (1e-3 * bounds.extent().length()).max(1e-4),
+        }))
+    }
+
+    /// Writes this frame's camera-relative uniforms (and the cube faces' while it is dirty).
+    pub fn update(&self, frame: &FrameUniforms, camera: DVec3) -> anyhow::Result<()> {
+        let relative = |p: glam::Vec3| (p.as_dvec3() - camera).as_vec3().extend(1.0);
+        let centre = (self.centre - camera).as_vec3();
+        let uniforms = EnvironmentUniforms {
+            centre: centre.extend(1.0),
+            bounds_min: relative(self.bounds.min),
+            bounds_max: relative(self.bounds.max),
+        };
+        self.uniforms.write(0, bytemuck::bytes_of(&uniforms))?;
+        self.environment.update(frame, centre, self.near)
+    }
+
+    /// The environment cube map (if dirty) from the `opaque` draws, then the `delta` draws over
+    /// `radiance`, depth-tested against the eye G-buffer's `depth`.
+    pub fn record(
+        &mut self,
+        cmd: &crate::gpu::Cmd,
+        scene: &GpuScene,
+        (opaque, delta): (&[Draw], &[Draw]),
+        shadow_atlas: &Image,
+        depth: &mut Image,
+        radiance: &mut Image,
+    ) {
+        self.environment.record(cmd, scene, opaque, shadow_atlas);
+        self.pass.record(
+            cmd,
+            scene,
+            delta,
+            (shadow_atlas, &self.environment.cube),
+            depth,
+            radiance,
+        );
+    }
+
+    /// Makes the next frame render the environment cube map again.
+    pub fn invalidate(&mut self) {
+        self.environment.invalidate();
+    }
+}
