@@ -7,7 +7,6 @@
 //! - [`reference`]: CPU reference renderers; no Vulkan.
 //! - [`gpu`]: the only place raw `ash` lives.
 //! - [`passes`]: one explicit GPU pass per file.
-#![deny(unsafe_op_in_unsafe_fn)]
 
 pub mod frame;
 pub mod gpu;
