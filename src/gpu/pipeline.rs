@@ -38,6 +38,22 @@ pub struct Binding {
     pub stages: vk::ShaderStageFlags,
 }
 
+impl Binding {
+    /// Bindings 0, 1, 2… of `kinds`, in order, all visible to `stages`: the layout of every
+    /// pass whose shader numbers its bindings in declaration order.
+    pub fn sequence(kinds: &[BindingKind], stages: vk::ShaderStageFlags) -> Vec<Binding> {
+        kinds
+            .iter()
+            .enumerate()
+            .map(|(i, &kind)| Binding {
+                binding: i as u32,
+                kind,
+                stages,
+            })
+            .collect()
+    }
+}
+
 /// A descriptor set layout plus a pool sized for `max_sets` sets of it.
 pub struct DescriptorLayout {
     gpu: Arc<Gpu>,

@@ -43,15 +43,7 @@ impl BounceMapPass {
             BindingKind::SampledImage,
             BindingKind::StorageBuffer,
         ];
-        let bindings: Vec<Binding> = kinds
-            .iter()
-            .enumerate()
-            .map(|(i, &kind)| Binding {
-                binding: i as u32,
-                kind,
-                stages: vk::ShaderStageFlags::COMPUTE,
-            })
-            .collect();
+        let bindings = Binding::sequence(&kinds, vk::ShaderStageFlags::COMPUTE);
         let layout = DescriptorLayout::new(gpu, "bounce_map", &bindings, 1)?;
         let sampler = Sampler::new(gpu, "bounce_map.nearest", Filter::Nearest, false)?;
         let g = io.light_gbuffer;

@@ -42,15 +42,7 @@ impl DirectPass {
             BindingKind::SampledImage,
             BindingKind::StorageImage,
         ];
-        let bindings: Vec<Binding> = kinds
-            .iter()
-            .enumerate()
-            .map(|(i, &kind)| Binding {
-                binding: i as u32,
-                kind,
-                stages: c,
-            })
-            .collect();
+        let bindings = Binding::sequence(&kinds, c);
         let layout = DescriptorLayout::new(gpu, "direct", &bindings, 1)?;
         let nearest = Sampler::new(gpu, "direct.nearest", Filter::Nearest, false)?;
         let shadow = Sampler::new(gpu, "direct.shadow_compare", Filter::LinearCompare, false)?;

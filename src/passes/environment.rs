@@ -84,15 +84,7 @@ impl EnvironmentPass {
             BindingKind::StorageBuffer,
             BindingKind::SampledImage,
         ];
-        let bindings: Vec<Binding> = kinds
-            .iter()
-            .enumerate()
-            .map(|(i, &kind)| Binding {
-                binding: i as u32,
-                kind,
-                stages: graphics,
-            })
-            .collect();
+        let bindings = Binding::sequence(&kinds, graphics);
         let frame_layout = DescriptorLayout::new(gpu, "environment.frame", &bindings, 6)?;
         let (texture_layout, material_sets) = material_texture_sets(gpu, "environment", scene)?;
         let shadow = Sampler::new(

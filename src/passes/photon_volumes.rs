@@ -141,15 +141,7 @@ impl PhotonVolumesPass {
             BindingKind::SampledImage,
             BindingKind::SampledImage,
         ];
-        let bindings: Vec<Binding> = kinds
-            .iter()
-            .enumerate()
-            .map(|(i, &kind)| Binding {
-                binding: i as u32,
-                kind,
-                stages: graphics,
-            })
-            .collect();
+        let bindings = Binding::sequence(&kinds, graphics);
         let layout = DescriptorLayout::new(gpu, "photon_volumes", &bindings, 1)?;
         let sampler = Sampler::new(gpu, "photon_volumes.nearest", Filter::Nearest, false)?;
         let set = layout.allocate(&Self::writes(inputs, &sampler))?;

@@ -56,15 +56,7 @@ impl TranslucentPass {
             BindingKind::UniformBuffer,
             BindingKind::SampledImage,
         ];
-        let bindings: Vec<Binding> = kinds
-            .iter()
-            .enumerate()
-            .map(|(i, &kind)| Binding {
-                binding: i as u32,
-                kind,
-                stages: graphics,
-            })
-            .collect();
+        let bindings = Binding::sequence(&kinds, graphics);
         let layout = DescriptorLayout::new(gpu, "translucent", &bindings, 1)?;
         let (texture_layout, material_sets) = material_texture_sets(gpu, "translucent", scene)?;
         let shadow = Sampler::new(

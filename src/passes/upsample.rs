@@ -110,15 +110,7 @@ impl UpsamplePass {
             BindingKind::SampledImage,
             BindingKind::StorageImage,
         ];
-        let bindings: Vec<Binding> = kinds
-            .iter()
-            .enumerate()
-            .map(|(i, &kind)| Binding {
-                binding: i as u32,
-                kind,
-                stages: vk::ShaderStageFlags::COMPUTE,
-            })
-            .collect();
+        let bindings = Binding::sequence(&kinds, vk::ShaderStageFlags::COMPUTE);
         let layout = DescriptorLayout::new(gpu, "upsample", &bindings, 1)?;
         let sampler = Sampler::new(gpu, "upsample.nearest", Filter::Nearest, false)?;
         let g = inputs.gbuffer;
