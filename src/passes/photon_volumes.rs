@@ -31,30 +31,13 @@ const ICOSAHEDRON_INRADIUS: f32 = 0.794_654_5;
 
 /// The icosahedron's vertices (scaled so that its inscribed sphere has radius 1) and its 20
 /// faces, counter-clockwise seen from outside.
-pub fn icosahedron() -> ([[f32; 3]; 12], [u32; 60]) {
-    let t = (1.0 + 5f32.sqrt()) / 2.0;
-    let raw = [
-        [-1.0, t, 0.0],
-        [1.0, t, 0.0],
-        [-1.0, -t, 0.0],
-        [1.0, -t, 0.0],
-        [0.0, -1.0, t],
-        [0.0, 1.0, t],
-        [0.0, -1.0, -t],
-        [0.0, 1.0, -t],
-        [t, 0.0, -1.0],
-        [t, 0.0, 1.0],
-        [-t, 0.0, -1.0],
-        [-t, 0.0, 1.0],
-    ];
-    let scale = 1.0 / ((1.0 + t * t).sqrt() * ICOSAHEDRON_INRADIUS);
-    let vertices = raw.map(|v: [f32; 3]| v.map(|c| c * scale));
-    let faces = [
-        0, 11, 5, 0, 5, 1, 0, 1, 7, 0, 7, 10, 0, 10, 11, 1, 5, 9, 5, 11, 4, 11, 10, 2, 10, 7, 6, 7,
-        1, 8, 3, 9, 4, 3, 4, 2, 3, 2, 6, 3, 6, 8, 3, 8, 9, 4, 9, 5, 2, 4, 11, 6, 2, 10, 8, 6, 7, 9,
-        8, 1,
-    ];
-    (vertices, faces)
+pub fn icosahedron() -> (Vec<[f32; 3]>, Vec<u32>) {
+    let (vertices, faces) = crate::scene::authoring::unit_icosphere(0);
+    let vertices = vertices
+        .iter()
+        .map(|v| (*v / ICOSAHEDRON_INRADIUS).to_array())
+        .collect();
+    (vertices, faces.into_iter().flatten().collect())
 }
 
 #[repr(C)]

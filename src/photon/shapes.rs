@@ -1,8 +1,6 @@
 //! Procedural meshes for tests and benchmarks: a closed icosphere with shared vertices, a
 //! grid, and a one-instance-per-mesh [`Scene`] around them.
 
-use std::collections::HashMap;
-
 use glam::{Mat4, Vec2, Vec3};
 
 use crate::scene::{Instance, Material, Mesh, Scene};
@@ -11,78 +9,12 @@ use crate::scene::{Instance, Material, Mesh, Scene};
 /// times, with vertices shared between faces (so every edge belongs to exactly two triangles)
 /// and projected onto the sphere. Counter-clockwise seen from outside; normals point out.
 pub fn icosphere(subdivisions: u32) -> Mesh {
-    let phi = (1.0 + 5f32.sqrt()) / 2.0;
-    let mut positions: Vec<Vec3> = [
-        (-1.0, phi, 0.0),
-        (1.0, phi, 0.0),
-        (-1.0, -phi, 0.0),
-        (1.0, -phi, 0.0),
-        (0.0, -1.0, phi),
-        (0.0, 1.0, phi),
-        (0.0, -1.0, -phi),
-        (0.0, 1.0, -phi),
-        (phi, 0.0, -1.0),
-        (phi, 0.0, 1.0),
-        (-phi, 0.0, -1.0),
-        (-phi, 0.0, 1.0),
-    ]
-    .iter()
-    .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
-    .collect();
-    let mut triangles: Vec<[u32; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..subdivisions {
-        let mut midpoints: HashMap<(u32, u32), u32> = HashMap::new();
-        let mut midpoint = |a: u32, b: u32, positions: &mut Vec<Vec3>| {
-            *midpoints.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                let m = (positions[a as usize] + positions[b as usize]).normalize();
-                positions.push(m);
-                positions.len() as u32 - 1
-            })
-        };
-        let mut next = Vec::with_capacity(triangles.len() * 4);
-        for [a, b, c] in triangles {
-            let ab = midpoint(a, b, &mut positions);
-            let bc = midpoint(b, c, &mut positions);
-            let ca = midpoint(c, a, &mut positions);
-            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-        }
-        triangles = next;
-    }
-    let uvs = positions
-        .iter()
-        .map(|p| {
-            Vec2::new(
-                0.5 + p.z.atan2(p.x) / std::f32::consts::TAU,
-                0.5 - p.y.asin() / std::f32::consts::PI,
-            )
-        })
-        .collect();
+    let (positions, triangles) = crate::scene::authoring::unit_icosphere(subdivisions);
     Mesh {
         name: format!("icosphere{subdivisions}"),
         normals: positions.clone(),
+        uvs: crate::scene::authoring::sphere_uvs(&positions),
         positions,
-        uvs,
         triangles,
         material: 0,
     }
@@ -139,6 +71,7 @@ pub fn scene_of(meshes: Vec<(Mesh, Mat4)>) -> Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::collections::HashMap;
 
     #[test]
     fn icosphere_is_closed_with_every_edge_shared_by_two_triangles() {

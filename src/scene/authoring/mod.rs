@@ -8,7 +8,9 @@
 mod shapes;
 mod writer;
 
-pub use shapes::{cuboid, icosphere, look_rotation, quad, ring, Geometry};
+pub use shapes::{
+    cuboid, icosphere, look_rotation, quad, ring, sphere_uvs, unit_icosphere, Geometry,
+};
 pub use writer::{GltfWriter, MaterialSpec};
 
 use glam::{Quat, Vec3};

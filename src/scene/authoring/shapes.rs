@@ -63,8 +63,11 @@ pub fn cuboid(half: Vec3) -> Geometry {
     g
 }
 
-/// An icosphere of `radius` centred at the origin, subdivided `levels` times.
-pub fn icosphere(radius: f32, levels: u32) -> Geometry {
+/// The unit icosphere: the icosahedron's 20 faces split into four `levels` times, vertices
+/// shared between faces and projected onto the unit sphere, counter-clockwise seen from
+/// outside. The one icosphere of the project: the bundled scenes, the tests' closed meshes
+/// (`photon::shapes`) and the photon volumes (`levels = 0`) are all built from it.
+pub fn unit_icosphere(levels: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
     let t = (1.0 + 5f32.sqrt()) / 2.0;
     let mut pos: Vec<Vec3> = [
         (-1.0, t, 0.0),
@@ -122,6 +125,25 @@ pub fn icosphere(radius: f32, levels: u32) -> Geometry {
         }
         tris = next;
     }
+    (pos, tris)
+}
+
+/// Spherical UVs of unit-sphere points (longitude, latitude).
+pub fn sphere_uvs(points: &[Vec3]) -> Vec<Vec2> {
+    points
+        .iter()
+        .map(|p| {
+            Vec2::new(
+                0.5 + p.z.atan2(p.x) / std::f32::consts::TAU,
+                0.5 - p.y.asin() / std::f32::consts::PI,
+            )
+        })
+        .collect()
+}
+
+/// An icosphere of `radius` centred at the origin, subdivided `levels` times.
+pub fn icosphere(radius: f32, levels: u32) -> Geometry {
+    let (pos, tris) = unit_icosphere(levels);
     let mut indices = Vec::with_capacity(tris.len() * 3);
     for [a, b, c] in tris {
         let (pa, pb, pc) = (pos[a as usize], pos[b as usize], pos[c as usize]);
@@ -129,15 +151,7 @@ pub fn icosphere(radius: f32, levels: u32) -> Geometry {
         indices.extend(if outward { [a, b, c] } else { [a, c, b] });
     }
     Geometry {
-        uvs: pos
-            .iter()
-            .map(|p| {
-                Vec2::new(
-                    0.5 + p.z.atan2(p.x) / std::f32::consts::TAU,
-                    0.5 - p.y.asin() / std::f32::consts::PI,
-                )
-            })
-            .collect(),
+        uvs: sphere_uvs(&pos),
         normals: pos.clone(),
         positions: pos.iter().map(|p| *p * radius).collect(),
         indices,
