@@ -3,10 +3,8 @@
 //! is then copied to a host-visible buffer for the CPU trace.
 
 use super::eye_gbuffer::GBuffer;
-use crate::gpu::{
-    vk, Access, Binding, BindingKind, Buffer, Cmd, ComputeDesc, DescriptorLayout, DescriptorSet,
-    Filter, Gpu, Pipeline, Sampler, Write,
-};
+use super::ComputeKernel;
+use crate::gpu::{Access, BindingKind, Buffer, Cmd, Filter, Gpu, Sampler, Write};
 use std::sync::Arc;
 
 #[repr(C)]
@@ -17,9 +15,7 @@ struct Push {
 }
 
 pub struct BounceMapPass {
-    pipeline: Pipeline,
-    _layout: DescriptorLayout,
-    set: DescriptorSet,
+    kernel: ComputeKernel,
     _sampler: Sampler,
 }
 
@@ -43,36 +39,30 @@ impl BounceMapPass {
             BindingKind::SampledImage,
             BindingKind::StorageBuffer,
         ];
-        let bindings = Binding::sequence(&kinds, vk::ShaderStageFlags::COMPUTE);
-        let layout = DescriptorLayout::new(gpu, "bounce_map", &bindings, 1)?;
         let sampler = Sampler::new(gpu, "bounce_map.nearest", Filter::Nearest, false)?;
         let g = io.light_gbuffer;
         let image = |image| Write::Image {
             image,
             sampler: &sampler,
         };
-        let set = layout.allocate(&[
-            Write::Buffer(io.materials),
-            Write::Buffer(io.views),
-            image(&g.position),
-            image(&g.normal),
-            image(&g.albedo),
-            image(&g.material),
-            Write::Buffer(io.bounce_map),
-        ])?;
-        let pipeline = Pipeline::compute(
+        let kernel = ComputeKernel::new(
             gpu,
-            &ComputeDesc {
-                name: "bounce_map",
-                shader: &crate::gpu::shader_table::BOUNCE_MAP_COMP,
-                set_layouts: &[&layout],
-                push_constant_size: size_of::<Push>() as u32,
-            },
+            "bounce_map",
+            &crate::gpu::shader_table::BOUNCE_MAP_COMP,
+            &kinds,
+            size_of::<Push>() as u32,
+            &[
+                Write::Buffer(io.materials),
+                Write::Buffer(io.views),
+                image(&g.position),
+                image(&g.normal),
+                image(&g.albedo),
+                image(&g.material),
+                Write::Buffer(io.bounce_map),
+            ],
         )?;
         Ok(Self {
-            pipeline,
-            _layout: layout,
-            set,
+            kernel,
             _sampler: sampler,
         })
     }
@@ -85,9 +75,8 @@ impl BounceMapPass {
             cmd.transition(image, Access::ComputeSampledRead);
         }
         cmd.transition_buffer(io.bounce_map, Access::ComputeStorageWrite);
-        cmd.bind_pipeline(&self.pipeline);
-        cmd.bind_sets(&self.pipeline, 0, &[self.set]);
-        cmd.push_constants(&self.pipeline, &Push { seed, pad: [0; 3] });
-        cmd.dispatch(super::groups(resolution), super::groups(resolution), views);
+        let groups = [super::groups(resolution), super::groups(resolution), views];
+        self.kernel
+            .dispatch_with(cmd, &Push { seed, pad: [0; 3] }, groups);
     }
 }

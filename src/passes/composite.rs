@@ -1,10 +1,8 @@
 //! Composite (compute): radiance += indirect, so the tonemapper and the EXR see direct plus
 //! photon-mapped indirect light.
 
-use crate::gpu::{
-    vk, Access, Binding, BindingKind, Cmd, ComputeDesc, DescriptorLayout, DescriptorSet, Filter,
-    Gpu, Image, Pipeline, Sampler, Write,
-};
+use super::ComputeKernel;
+use crate::gpu::{Access, BindingKind, Cmd, Filter, Gpu, Image, Sampler, Write};
 use std::sync::Arc;
 
 #[repr(C)]
@@ -15,53 +13,29 @@ struct Push {
 }
 
 pub struct CompositePass {
-    pipeline: Pipeline,
-    _layout: DescriptorLayout,
-    set: DescriptorSet,
+    kernel: ComputeKernel,
     _sampler: Sampler,
 }
 
 impl CompositePass {
     pub fn new(gpu: &Arc<Gpu>, indirect: &Image, radiance: &Image) -> anyhow::Result<Self> {
-        let c = vk::ShaderStageFlags::COMPUTE;
-        let layout = DescriptorLayout::new(
+        let sampler = Sampler::new(gpu, "composite.nearest", Filter::Nearest, false)?;
+        let kernel = ComputeKernel::new(
             gpu,
             "composite",
+            &crate::gpu::shader_table::COMPOSITE_COMP,
+            &[BindingKind::SampledImage, BindingKind::StorageImage],
+            size_of::<Push>() as u32,
             &[
-                Binding {
-                    binding: 0,
-                    kind: BindingKind::SampledImage,
-                    stages: c,
+                Write::Image {
+                    image: indirect,
+                    sampler: &sampler,
                 },
-                Binding {
-                    binding: 1,
-                    kind: BindingKind::StorageImage,
-                    stages: c,
-                },
+                Write::StorageImage(radiance),
             ],
-            1,
-        )?;
-        let sampler = Sampler::new(gpu, "composite.nearest", Filter::Nearest, false)?;
-        let set = layout.allocate(&[
-            Write::Image {
-                image: indirect,
-                sampler: &sampler,
-            },
-            Write::StorageImage(radiance),
-        ])?;
-        let pipeline = Pipeline::compute(
-            gpu,
-            &ComputeDesc {
-                name: "composite",
-                shader: &crate::gpu::shader_table::COMPOSITE_COMP,
-                set_layouts: &[&layout],
-                push_constant_size: size_of::<Push>() as u32,
-            },
         )?;
         Ok(Self {
-            pipeline,
-            _layout: layout,
-            set,
+            kernel,
             _sampler: sampler,
         })
     }
@@ -70,19 +44,14 @@ impl CompositePass {
         let _scope = cmd.scope("composite");
         cmd.transition(indirect, Access::ComputeSampledRead);
         cmd.transition(radiance, Access::ComputeStorageWrite);
-        cmd.bind_pipeline(&self.pipeline);
-        cmd.bind_sets(&self.pipeline, 0, &[self.set]);
-        cmd.push_constants(
-            &self.pipeline,
-            &Push {
-                width: radiance.width,
-                height: radiance.height,
-            },
-        );
-        cmd.dispatch(
-            super::groups(radiance.width),
-            super::groups(radiance.height),
-            1,
+        let push = Push {
+            width: radiance.width,
+            height: radiance.height,
+        };
+        self.kernel.dispatch_with(
+            cmd,
+            &push,
+            super::image_groups(radiance.width, radiance.height),
         );
     }
 }

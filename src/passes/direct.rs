@@ -3,10 +3,8 @@
 //! plus emission, into the HDR radiance image.
 
 use super::eye_gbuffer::GBuffer;
-use crate::gpu::{
-    vk, Access, Binding, BindingKind, Buffer, Cmd, ComputeDesc, DescriptorLayout, DescriptorSet,
-    Filter, Gpu, Image, Pipeline, Sampler, Write,
-};
+use super::ComputeKernel;
+use crate::gpu::{Access, BindingKind, Buffer, Cmd, Filter, Gpu, Image, Sampler, Write};
 use std::sync::Arc;
 
 /// The buffers the direct pass reads.
@@ -20,16 +18,13 @@ pub struct DirectInputs<'a> {
 }
 
 pub struct DirectPass {
-    pipeline: Pipeline,
-    _layout: DescriptorLayout,
-    set: DescriptorSet,
+    kernel: ComputeKernel,
     _nearest: Sampler,
     _shadow: Sampler,
 }
 
 impl DirectPass {
     pub fn new(gpu: &Arc<Gpu>, inputs: &DirectInputs, radiance: &Image) -> anyhow::Result<Self> {
-        let c = vk::ShaderStageFlags::COMPUTE;
         let kinds = [
             BindingKind::UniformBuffer,
             BindingKind::StorageBuffer,
@@ -42,12 +37,10 @@ impl DirectPass {
             BindingKind::SampledImage,
             BindingKind::StorageImage,
         ];
-        let bindings = Binding::sequence(&kinds, c);
-        let layout = DescriptorLayout::new(gpu, "direct", &bindings, 1)?;
         let nearest = Sampler::new(gpu, "direct.nearest", Filter::Nearest, false)?;
         let shadow = Sampler::new(gpu, "direct.shadow_compare", Filter::LinearCompare, false)?;
         let g = inputs.gbuffer;
-        let set = layout.allocate(&[
+        let writes = [
             Write::Buffer(inputs.frame),
             Write::Buffer(inputs.materials),
             Write::Buffer(inputs.lights),
@@ -73,20 +66,17 @@ impl DirectPass {
                 sampler: &shadow,
             },
             Write::StorageImage(radiance),
-        ])?;
-        let pipeline = Pipeline::compute(
+        ];
+        let kernel = ComputeKernel::new(
             gpu,
-            &ComputeDesc {
-                name: "direct",
-                shader: &crate::gpu::shader_table::DIRECT_COMP,
-                set_layouts: &[&layout],
-                push_constant_size: 0,
-            },
+            "direct",
+            &crate::gpu::shader_table::DIRECT_COMP,
+            &kinds,
+            0,
+            &writes,
         )?;
         Ok(Self {
-            pipeline,
-            _layout: layout,
-            set,
+            kernel,
             _nearest: nearest,
             _shadow: shadow,
         })
@@ -105,12 +95,7 @@ impl DirectPass {
             cmd.transition(image, Access::ComputeSampledRead);
         }
         cmd.transition(radiance, Access::ComputeStorageWrite);
-        cmd.bind_pipeline(&self.pipeline);
-        cmd.bind_sets(&self.pipeline, 0, &[self.set]);
-        cmd.dispatch(
-            super::groups(radiance.width),
-            super::groups(radiance.height),
-            1,
-        );
+        self.kernel
+            .dispatch(cmd, super::image_groups(radiance.width, radiance.height));
     }
 }

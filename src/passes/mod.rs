@@ -50,6 +50,70 @@ pub(crate) fn vertex_attributes() -> [crate::gpu::VertexAttribute; 3] {
     ]
 }
 
+/// What every compute pass owns: its pipeline and its one descriptor set, whose bindings are
+/// 0, 1, 2… in the order of `kinds` (the order the shader declares them in). The pass keeps its
+/// samplers itself, since the writes borrow them.
+pub(crate) struct ComputeKernel {
+    pipeline: crate::gpu::Pipeline,
+    _layout: crate::gpu::DescriptorLayout,
+    set: crate::gpu::DescriptorSet,
+}
+
+impl ComputeKernel {
+    pub(crate) fn new(
+        gpu: &std::sync::Arc<crate::gpu::Gpu>,
+        name: &str,
+        shader: &crate::gpu::Shader,
+        kinds: &[crate::gpu::BindingKind],
+        push_constant_size: u32,
+        writes: &[crate::gpu::Write],
+    ) -> anyhow::Result<Self> {
+        use crate::gpu::{vk, Binding, ComputeDesc, DescriptorLayout, Pipeline};
+        let bindings = Binding::sequence(kinds, vk::ShaderStageFlags::COMPUTE);
+        let layout = DescriptorLayout::new(gpu, name, &bindings, 1)?;
+        let set = layout.allocate(writes)?;
+        let pipeline = Pipeline::compute(
+            gpu,
+            &ComputeDesc {
+                name,
+                shader,
+                set_layouts: &[&layout],
+                push_constant_size,
+            },
+        )?;
+        Ok(Self {
+            pipeline,
+            _layout: layout,
+            set,
+        })
+    }
+
+    /// Binds the kernel and dispatches `groups` workgroups.
+    pub(crate) fn dispatch(&self, cmd: &crate::gpu::Cmd, groups: [u32; 3]) {
+        cmd.bind_pipeline(&self.pipeline);
+        cmd.bind_sets(&self.pipeline, 0, &[self.set]);
+        cmd.dispatch(groups[0], groups[1], groups[2]);
+    }
+
+    /// [`ComputeKernel::dispatch`] with `push` as the push constants.
+    pub(crate) fn dispatch_with<T: bytemuck::Pod>(
+        &self,
+        cmd: &crate::gpu::Cmd,
+        push: &T,
+        groups: [u32; 3],
+    ) {
+        cmd.bind_pipeline(&self.pipeline);
+        cmd.bind_sets(&self.pipeline, 0, &[self.set]);
+        cmd.push_constants(&self.pipeline, push);
+        cmd.dispatch(groups[0], groups[1], groups[2]);
+    }
+}
+
+/// Workgroups covering a `width`×`height` image, one layer.
+pub(crate) fn image_groups(width: u32, height: u32) -> [u32; 3] {
+    [groups(width), groups(height), 1]
+}
+
 /// Workgroup size (x and y) of the per-pixel compute passes; matches `local_size` in GLSL.
 pub(crate) const TILE: u32 = 8;
 

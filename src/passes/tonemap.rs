@@ -1,8 +1,8 @@
 //! Tonemapping (compute): HDR radiance × 2^EV → operator → sRGB, into an 8-bit image.
 
+use super::ComputeKernel;
 use crate::gpu::{
-    vk, Access, Binding, BindingKind, Cmd, ComputeDesc, DescriptorLayout, DescriptorSet, Filter,
-    Gpu, Image, ImageDesc, Pipeline, Sampler, ViewKind, Write,
+    vk, Access, BindingKind, Cmd, Filter, Gpu, Image, ImageDesc, Sampler, ViewKind, Write,
 };
 use crate::shared_constants::{TONEMAP_ACES, TONEMAP_LINEAR, TONEMAP_PBR_NEUTRAL};
 use std::sync::Arc;
@@ -42,9 +42,7 @@ struct Push {
 }
 
 pub struct TonemapPass {
-    pipeline: Pipeline,
-    _layout: DescriptorLayout,
-    set: DescriptorSet,
+    kernel: ComputeKernel,
     _sampler: Sampler,
 }
 
@@ -66,45 +64,23 @@ pub fn output(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<Image> 
 
 impl TonemapPass {
     pub fn new(gpu: &Arc<Gpu>, hdr: &Image, ldr: &Image) -> anyhow::Result<Self> {
-        let c = vk::ShaderStageFlags::COMPUTE;
-        let layout = DescriptorLayout::new(
+        let sampler = Sampler::new(gpu, "tonemap.nearest", Filter::Nearest, false)?;
+        let kernel = ComputeKernel::new(
             gpu,
             "tonemap",
+            &crate::gpu::shader_table::TONEMAP_COMP,
+            &[BindingKind::SampledImage, BindingKind::StorageImage],
+            size_of::<Push>() as u32,
             &[
-                Binding {
-                    binding: 0,
-                    kind: BindingKind::SampledImage,
-                    stages: c,
+                Write::Image {
+                    image: hdr,
+                    sampler: &sampler,
                 },
-                Binding {
-                    binding: 1,
-                    kind: BindingKind::StorageImage,
-                    stages: c,
-                },
+                Write::StorageImage(ldr),
             ],
-            1,
-        )?;
-        let sampler = Sampler::new(gpu, "tonemap.nearest", Filter::Nearest, false)?;
-        let set = layout.allocate(&[
-            Write::Image {
-                image: hdr,
-                sampler: &sampler,
-            },
-            Write::StorageImage(ldr),
-        ])?;
-        let pipeline = Pipeline::compute(
-            gpu,
-            &ComputeDesc {
-                name: "tonemap",
-                shader: &crate::gpu::shader_table::TONEMAP_COMP,
-                set_layouts: &[&layout],
-                push_constant_size: size_of::<Push>() as u32,
-            },
         )?;
         Ok(Self {
-            pipeline,
-            _layout: layout,
-            set,
+            kernel,
             _sampler: sampler,
         })
     }
@@ -120,17 +96,13 @@ impl TonemapPass {
         let _scope = cmd.scope("tonemap");
         cmd.transition(hdr, Access::ComputeSampledRead);
         cmd.transition(ldr, Access::ComputeStorageWrite);
-        cmd.bind_pipeline(&self.pipeline);
-        cmd.bind_sets(&self.pipeline, 0, &[self.set]);
-        cmd.push_constants(
-            &self.pipeline,
-            &Push {
-                exposure: exposure_ev.exp2(),
-                op: tonemap.id(),
-                width: ldr.width,
-                height: ldr.height,
-            },
-        );
-        cmd.dispatch(super::groups(ldr.width), super::groups(ldr.height), 1);
+        let push = Push {
+            exposure: exposure_ev.exp2(),
+            op: tonemap.id(),
+            width: ldr.width,
+            height: ldr.height,
+        };
+        self.kernel
+            .dispatch_with(cmd, &push, super::image_groups(ldr.width, ldr.height));
     }
 }

@@ -30,9 +30,9 @@
 //! Writes: `indirect` (`ComputeStorageWrite`).
 
 use super::eye_gbuffer::GBuffer;
+use super::ComputeKernel;
 use crate::gpu::{
-    vk, Access, Binding, BindingKind, Buffer, Cmd, ComputeDesc, DescriptorLayout, DescriptorSet,
-    Filter, Gpu, Image, ImageDesc, Pipeline, Sampler, ViewKind, Write,
+    vk, Access, BindingKind, Buffer, Cmd, Filter, Gpu, Image, ImageDesc, Sampler, ViewKind, Write,
 };
 use std::sync::Arc;
 
@@ -86,9 +86,7 @@ pub struct UpsampleInputs<'a> {
 }
 
 pub struct UpsamplePass {
-    pipeline: Pipeline,
-    _layout: DescriptorLayout,
-    set: DescriptorSet,
+    kernel: ComputeKernel,
     _sampler: Sampler,
     subsample: u32,
 }
@@ -110,37 +108,31 @@ impl UpsamplePass {
             BindingKind::SampledImage,
             BindingKind::StorageImage,
         ];
-        let bindings = Binding::sequence(&kinds, vk::ShaderStageFlags::COMPUTE);
-        let layout = DescriptorLayout::new(gpu, "upsample", &bindings, 1)?;
         let sampler = Sampler::new(gpu, "upsample.nearest", Filter::Nearest, false)?;
         let g = inputs.gbuffer;
         let image = |image| Write::Image {
             image,
             sampler: &sampler,
         };
-        let set = layout.allocate(&[
-            Write::Buffer(inputs.materials),
-            image(&g.position),
-            image(&g.normal),
-            image(&g.albedo),
-            image(&g.material),
-            image(&inputs.low[0]),
-            image(&inputs.low[1]),
-            Write::StorageImage(indirect),
-        ])?;
-        let pipeline = Pipeline::compute(
+        let kernel = ComputeKernel::new(
             gpu,
-            &ComputeDesc {
-                name: "upsample",
-                shader: &crate::gpu::shader_table::UPSAMPLE_COMP,
-                set_layouts: &[&layout],
-                push_constant_size: size_of::<Push>() as u32,
-            },
+            "upsample",
+            &crate::gpu::shader_table::UPSAMPLE_COMP,
+            &kinds,
+            size_of::<Push>() as u32,
+            &[
+                Write::Buffer(inputs.materials),
+                image(&g.position),
+                image(&g.normal),
+                image(&g.albedo),
+                image(&g.material),
+                image(&inputs.low[0]),
+                image(&inputs.low[1]),
+                Write::StorageImage(indirect),
+            ],
         )?;
         Ok(Self {
-            pipeline,
-            _layout: layout,
-            set,
+            kernel,
             _sampler: sampler,
             subsample,
         })
@@ -156,10 +148,8 @@ impl UpsamplePass {
             cmd.transition(image, Access::ComputeSampledRead);
         }
         cmd.transition(indirect, Access::ComputeStorageWrite);
-        cmd.bind_pipeline(&self.pipeline);
-        cmd.bind_sets(&self.pipeline, 0, &[self.set]);
-        cmd.push_constants(
-            &self.pipeline,
+        self.kernel.dispatch_with(
+            cmd,
             &Push {
                 size: [indirect.width, indirect.height],
                 low_size: [inputs.low[0].width, inputs.low[0].height],
@@ -168,11 +158,7 @@ impl UpsamplePass {
                 depth_sigma: DEPTH_SIGMA,
                 pad: 0,
             },
-        );
-        cmd.dispatch(
-            super::groups(indirect.width),
-            super::groups(indirect.height),
-            1,
+            super::image_groups(indirect.width, indirect.height),
         );
     }
 }
