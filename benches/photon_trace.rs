@@ -1,6 +1,7 @@
 //! CPU photon tracing throughput: photon bounces (rays cast by the tracer, each followed by a
 //! BSDF evaluation and Russian roulette) per second, against the raw incoherent ray-cast rate
-//! of the same `SceneBvh` on the same scene, with 1 and 2 rayon threads.
+//! of bare `obvhs` (its CWBVH and Möller–Trumbore triangles) and of our `SceneBvh` on the same
+//! scene, in the same run, with 1 and 2 rayon threads.
 //! `cargo bench --bench photon_trace`; results in `docs/performance.md`.
 //!
 //! Scene: the Cornell-like closed box of `reference::scenes::cornell` (walls of albedo 0.7,
@@ -8,10 +9,11 @@
 //! light below the ceiling; 8192 photons per iteration, up to 16 bounces.
 
 use std::sync::LazyLock;
+use std::time::Duration;
 
 use divan::counter::ItemsCount;
 use divan::Bencher;
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 use ispm::photon::bvh::SceneBvh;
 use ispm::photon::emit::{emit_photons, EmittedPhoton};
 use ispm::photon::ray::Ray;
@@ -19,6 +21,10 @@ use ispm::photon::rng::Rng;
 use ispm::photon::trace::{trace_from_lights, TraceSettings};
 use ispm::reference::scenes::cornell;
 use ispm::scene::Scene;
+use obvhs::cwbvh::{builder::build_cwbvh_from_tris, CwBvh};
+use obvhs::ray::RayHit;
+use obvhs::triangle::Triangle;
+use obvhs::BvhBuildParams;
 use rayon::prelude::*;
 
 const PHOTONS: usize = 8192;
@@ -83,6 +89,54 @@ fn incoherent_rays_scene_bvh(bencher: Bencher, threads: usize) {
             RAY_BATCH
                 .par_chunks(256)
                 .map(|c| c.iter().filter(|r| BVH.intersect(r).is_some()).count())
+                .sum::<usize>()
+        })
+    });
+}
+
+/// Bare obvhs over the same world triangles (its CWBVH, same build preset as `SceneBvh`),
+/// triangles in leaf order: the raw ray-cast rate the tracer's cost is measured against.
+static RAW: LazyLock<(CwBvh, Vec<Triangle>)> = LazyLock::new(|| {
+    let tris: Vec<Triangle> = SCENE
+        .world_triangles()
+        .into_iter()
+        .map(|([a, b, c], _)| Triangle {
+            v0: a.into(),
+            v1: b.into(),
+            v2: c.into(),
+        })
+        .collect();
+    let bvh = build_cwbvh_from_tris(
+        &tris,
+        BvhBuildParams::medium_build(),
+        &mut Duration::default(),
+    );
+    let ordered = bvh
+        .primitive_indices
+        .iter()
+        .map(|&i| tris[i as usize])
+        .collect();
+    (bvh, ordered)
+});
+
+#[divan::bench(args = [1, 2])]
+fn incoherent_rays_raw_obvhs(bencher: Bencher, threads: usize) {
+    let pool = pool(threads);
+    let (bvh, tris) = &*RAW;
+    bencher.counter(ItemsCount::new(RAYS)).bench(|| {
+        pool.install(|| {
+            RAY_BATCH
+                .par_chunks(256)
+                .map(|c| {
+                    c.iter()
+                        .filter(|r| {
+                            let ray =
+                                obvhs::ray::Ray::new_inf(Vec3A::from(r.origin), Vec3A::from(r.dir));
+                            let mut hit = RayHit::none();
+                            bvh.ray_traverse(ray, &mut hit, |r, id| tris[id].intersect(r))
+                        })
+                        .count()
+                })
                 .sum::<usize>()
         })
     });
