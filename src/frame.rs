@@ -25,6 +25,7 @@ use crate::passes::eye_gbuffer::{EyeGBufferPass, GBuffer, View};
 use crate::passes::shadow_map::{self, ShadowMapPass};
 use crate::passes::tonemap::{self, Tonemap, TonemapPass};
 use crate::photon_frame::PhotonFrame;
+use crate::plan::Effects;
 use crate::scene::{Camera, Light, Scene};
 use crate::translucent_frame::{TranslucentFrame, TranslucentResources};
 use glam::{DMat4, UVec4, Vec4};
@@ -65,6 +66,9 @@ pub struct RenderSettings {
     pub exposure_ev: f32,
     /// Photon volumes at 1/N resolution, upsampled (1: full resolution, no upsampling).
     pub subsample: u32,
+    /// `Auto`: the effects plan (`plan::EffectsPlan`) may skip what the scene does not need;
+    /// `All`: every pass and shader variant runs (`--effects all`, for comparison).
+    pub effects: Effects,
 }
 
 impl Default for RenderSettings {
@@ -81,6 +85,7 @@ impl Default for RenderSettings {
             tonemap: Tonemap::default(),
             exposure_ev: 0.0,
             subsample: 1,
+            effects: Effects::Auto,
         }
     }
 }

@@ -7,6 +7,8 @@
 //! - [`reference`]: CPU reference renderers; no Vulkan.
 //! - [`gpu`]: the only place raw `ash` lives.
 //! - [`passes`]: one explicit GPU pass per file.
+//! - [`plan`]: scene analysis → which effects, passes, lights and shader variants a frame
+//!   needs; no Vulkan.
 
 pub mod frame;
 pub mod gpu;
@@ -18,6 +20,7 @@ pub mod output;
 pub mod passes;
 pub mod photon;
 pub mod photon_frame;
+pub mod plan;
 pub mod reference;
 pub mod scene;
 pub mod stats;
