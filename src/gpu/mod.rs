@@ -36,7 +36,7 @@ pub use error::{GpuError, GpuResult};
 pub use instance::validation_requested;
 pub use pipeline::{
     Binding, BindingKind, Blend, ComputeDesc, Depth, DescriptorLayout, DescriptorSet, GraphicsDesc,
-    Pipeline, VertexAttribute, Write,
+    Pipeline, SpecConstant, VertexAttribute, Write,
 };
 pub use resources::{Buffer, Filter, Image, ImageDesc, MemoryLocation, Sampler, ViewKind};
 pub use shaders::{table as shader_table, Shader, Stage};
