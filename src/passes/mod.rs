@@ -1,6 +1,8 @@
 //! One explicit GPU pass per file. Each pass is a struct with `new` (pipelines and descriptor
 //! sets) and `record` (its commands, inside a scope named after the pass, which is both its
-//! debug label and its timestamp scope). Inputs are taken by `&`, outputs by `&mut`.
+//! debug label and its timestamp scope). Inputs are taken by `&`, outputs by `&mut`. Passes
+//! whose shaders evaluate the über-BSDF take a [`crate::photon::bsdf::BsdfVariant`] in `new`:
+//! the lobes compiled in (specialisation constants, `docs/effects.md`).
 //!
 //! | pass | queue | reads | writes |
 //! |---|---|---|---|
