@@ -171,10 +171,16 @@ impl PhotonFrame {
                 max_bounces: settings.bounces.max(1),
                 seed: settings.seed,
             },
+            // The footprint floor of the image the estimate is made at (the low one when
+            // subsampling).
             kernel: KernelSettings::scene_relative(
                 &gpu_scene.bounds,
                 settings.photons,
                 settings.radius,
+            )
+            .for_view(
+                scene.camera.yfov,
+                upsample::low_size(radiance.width, radiance.height, subsample).1,
             ),
             plan,
             light_gbuffer,
@@ -316,18 +322,17 @@ impl PhotonFrame {
             self.photon_pass.rebind(&inputs);
             self.rebind = false;
         }
-        let radius = (self.kernel.r_min, self.kernel.r_max);
         match &mut self.subsampled {
             None => self.photon_pass.record(
                 cmd,
                 &inputs,
                 self.count,
-                radius,
+                &self.kernel,
                 std::slice::from_mut(&mut self.indirect),
             ),
             Some(sub) => {
                 self.photon_pass
-                    .record(cmd, &inputs, self.count, radius, &mut sub.low);
+                    .record(cmd, &inputs, self.count, &self.kernel, &mut sub.low);
                 let inputs = UpsampleInputs {
                     materials,
                     gbuffer,
