@@ -17,6 +17,7 @@ layout(push_constant) uniform Push {
     float r_max;
     uint count;
     uint subsample;
+    float footprint;
 } push;
 
 layout(location = 0) flat out uint v_photon;
@@ -26,7 +27,8 @@ void main() {
     Photon photon = photon_load(photons[gl_InstanceIndex]);
     float rho_p;
     unpack_direction(photon.direction, rho_p);
-    vec2 r = kernel_radius(rho_p, push.r_min, push.r_max);
+    // Photon positions are camera-relative: the eye is at the origin.
+    vec2 r = kernel_radius(rho_p, push.r_min, push.r_max, push.footprint, length(photon.position));
     vec3 n = normalize(photon.normal);
     vec3 t;
     vec3 b;

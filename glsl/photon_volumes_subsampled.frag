@@ -25,6 +25,7 @@ layout(push_constant) uniform Push {
     float r_max;
     uint count;
     uint subsample;
+    float footprint;
 } push;
 
 layout(location = 0) flat in uint v_photon;

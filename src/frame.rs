@@ -28,6 +28,7 @@ use crate::photon::bsdf::BsdfVariant;
 use crate::photon_frame::PhotonFrame;
 use crate::plan::Effects;
 use crate::scene::{Camera, Light, Scene};
+use crate::timing;
 use crate::translucent_frame::{TranslucentFrame, TranslucentResources};
 use glam::{DMat4, UVec4, Vec4};
 use std::sync::Arc;
@@ -119,6 +120,8 @@ pub struct FrameStats {
     /// Photons alive after each bounce (the paper's Figure 10).
     pub attrition: Vec<u64>,
     pub cpu_trace_ms: f64,
+    /// Host time from the frame's start to the end of its GPU work.
+    pub frame_ms: f64,
     pub passes_run: Vec<String>,
     /// The subsample factor the frame used (after clamping to the image size).
     pub subsample: u32,
@@ -146,6 +149,8 @@ pub struct Renderer {
     /// Glass and mirrors (scenes with delta materials only).
     translucent: Option<TranslucentFrame>,
     timestamps: Arc<Timestamps>,
+    /// Index of the next frame (the `frame` of its spans).
+    frame_index: u64,
 }
 
 fn host_buffer(
@@ -289,6 +294,7 @@ impl Renderer {
             photons,
             translucent,
             timestamps,
+            frame_index: 0,
         })
     }
 
@@ -307,6 +313,7 @@ impl Renderer {
 
     /// Renders one frame, waits for it, and reads the images back.
     pub fn render(&mut self) -> anyhow::Result<FrameImage> {
+        let frame_span = timing::frame(self.frame_index);
         let gpu = self.gpu.clone();
         let camera_pos = self.camera.position().as_dvec3();
         let setup = LightSetup::new(
@@ -358,7 +365,7 @@ impl Renderer {
             .into_iter()
             .partition(|d| self.scene.is_delta(d));
 
-        self.timestamps.reset();
+        self.timestamps.reset(self.frame_index);
         let mut stats = FrameStats::default();
         if let Some(photons) = &mut self.photons {
             stats = photons.emit_and_trace(&self.scene, &self.timestamps)?;
@@ -417,7 +424,9 @@ impl Renderer {
             );
         }
         let done = gpu.submit(rec, &[])?;
-        gpu.wait(done)?;
+        timing::timed("host wait", || gpu.wait(done))?;
+        stats.frame_ms = frame_span.finish();
+        self.frame_index += 1;
         let gpu_spans = self.timestamps.read()?;
         stats.passes_run = gpu_spans.iter().map(|s| s.name.clone()).collect();
         stats.passes_run.dedup();

@@ -9,6 +9,7 @@
 //! - [`passes`]: one explicit GPU pass per file.
 //! - [`plan`]: scene analysis → which effects, passes, lights and shader variants a frame
 //!   needs; no Vulkan.
+//! - [`timing`]: CPU and GPU spans on one host clock, Chrome trace JSON.
 
 pub mod frame;
 pub mod gpu;
@@ -24,6 +25,7 @@ pub mod plan;
 pub mod reference;
 pub mod scene;
 pub mod stats;
+pub mod timing;
 pub mod translucent_frame;
 
 /// Constants shared with GLSL (generated into `shared_constants.glsl` by `build.rs`).

@@ -96,15 +96,20 @@ struct RenderArgs {
     /// Eye samples per pixel (CPU references).
     #[arg(long, default_value_t = 16)]
     spp: u32,
-    /// Iterations of progressive photon mapping.
-    #[arg(long, default_value_t = 16)]
-    frames: u32,
+    /// Frames to render (GPU methods: the last one is written; default 1), or iterations of
+    /// progressive photon mapping (default 16).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    frames: Option<u32>,
     /// Seed of every random choice.
     #[arg(long, default_value_t = 0)]
     seed: u32,
     /// Write the frame's statistics (the paper's Table 2 columns) as JSON.
     #[arg(long)]
     stats: Option<PathBuf>,
+    /// Write a Chrome Trace Event JSON of every frame (GPU passes per queue, CPU work per
+    /// thread, on one clock); open it in ui.perfetto.dev.
+    #[arg(long)]
+    trace: Option<PathBuf>,
     /// Display transform for PNG output.
     #[arg(long, value_enum, default_value = "pbr-neutral")]
     tonemap: Tonemap,
@@ -165,6 +170,13 @@ fn check_validation(gpu: &Gpu) -> anyhow::Result<()> {
 
 fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
     let format = OutputFormat::from_path(&args.output)?;
+    // Outputs that cannot be written fail before any work, so none is left half done.
+    for path in [Some(&args.output), args.stats.as_ref(), args.trace.as_ref()]
+        .into_iter()
+        .flatten()
+    {
+        ispm::output::check_writable(path)?;
+    }
     if let Some(r) = args.radius {
         anyhow::ensure!(
             r.is_finite() && r > 0.0,
@@ -180,6 +192,12 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
         Method::Ispm | Method::Direct => None,
     };
     if let Some(method) = reference {
+        if let Some(trace) = &args.trace {
+            anyhow::bail!(
+                "{}: --trace records the GPU methods (ispm, direct) only",
+                trace.display()
+            );
+        }
         return render_reference(&args, &scene, method, format);
     }
     let gpu = gpu(device)?;
@@ -201,10 +219,18 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
         subsample: args.subsample,
         ..Default::default()
     };
+    if args.trace.is_some() {
+        ispm::timing::start_capture();
+    }
     let (frame, triangles) = {
         let mut renderer = Renderer::new(&gpu, &scene, settings)?;
-        (renderer.render()?, renderer.triangles())
+        let mut frame = renderer.render()?;
+        for _ in 1..args.frames.unwrap_or(1) {
+            frame = renderer.render()?;
+        }
+        (frame, renderer.triangles())
     };
+    let capture = ispm::timing::finish_capture();
     check_validation(&gpu)?;
     match format {
         OutputFormat::Png => write_png(&args.output, frame.width, frame.height, &frame.ldr)?,
@@ -222,6 +248,9 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
             serde_json::to_writer_pretty(f, &json)
                 .with_context(|| format!("{}: cannot write JSON", path.display()))
         })?;
+    }
+    if let Some(path) = &args.trace {
+        capture.write_chrome(path)?;
     }
     for s in &frame.gpu_spans {
         log::info!("{:>16}: {:.3} ms", s.name, s.ms());
@@ -255,7 +284,7 @@ fn render_reference(
         spp: args.spp.max(1),
         photons: args.photons,
         bounces: args.bounces,
-        iterations: args.frames.max(1),
+        iterations: args.frames.unwrap_or(16),
         radius: args.radius,
         seed: args.seed,
         ..Default::default()
@@ -342,9 +371,9 @@ fn info(device: Option<usize>) -> anyhow::Result<()> {
         );
     }
     println!(
-        "  timestamps: {} ns/tick, calibrated timestamps: {}",
+        "  timestamps: {} ns/tick, on the host clock by {}",
         p.timestamp_period,
-        if p.calibrated_timestamps { "yes" } else { "no" }
+        gpu.clock_source()
     );
     println!(
         "  validation: {}",

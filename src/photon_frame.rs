@@ -19,8 +19,8 @@ use crate::photon::kernel::KernelSettings;
 use crate::photon::trace::{trace_photons, TraceSettings};
 use crate::photon::types::{BounceMapPhoton, Photon};
 use crate::scene::Scene;
+use crate::timing;
 use std::sync::Arc;
-use std::time::Instant;
 
 pub struct PhotonFrame {
     gpu: Arc<Gpu>,
@@ -174,10 +174,16 @@ impl PhotonFrame {
                 max_bounces: settings.bounces.max(1),
                 seed: settings.seed,
             },
+            // The footprint floor of the image the estimate is made at (the low one when
+            // subsampling).
             kernel: KernelSettings::scene_relative(
                 &gpu_scene.bounds,
                 settings.photons,
                 settings.radius,
+            )
+            .for_view(
+                scene.camera.yfov,
+                upsample::low_size(radiance.width, radiance.height, subsample).1,
             ),
             plan,
             light_gbuffer,
@@ -255,15 +261,15 @@ impl PhotonFrame {
             cmd.transition_buffer(&self.readback, Access::HostRead);
         }
         let done = self.gpu.submit(rec, &[])?;
-        self.gpu.wait(done)?;
+        timing::timed("readback wait", || self.gpu.wait(done))?;
 
         let bytes = self.readback.read()?;
         let records = plan.texels * size_of::<BounceMapPhoton>();
         let bounce_map: Vec<BounceMapPhoton> = bytemuck::pod_collect_to_vec(&bytes[..records]);
-        let start = Instant::now();
+        let trace_span = timing::span("cpu_trace");
         let starts = plan.photon_starts(&bounce_map);
         let map = trace_photons(&self.scene, &self.bvh, &starts, &self.trace);
-        stats.cpu_trace_ms = start.elapsed().as_secs_f64() * 1e3;
+        stats.cpu_trace_ms = trace_span.finish();
         stats.bounce_map_photons = starts.len();
         stats.stored_photons = map.photons.len();
         stats.attrition = map.attrition;
@@ -283,7 +289,9 @@ impl PhotonFrame {
             self.photons = photons;
             self.rebind = true;
         }
-        self.staging.write(0, bytemuck::cast_slice(&relative))?;
+        timing::timed("upload write", || {
+            self.staging.write(0, bytemuck::cast_slice(&relative))
+        })?;
         self.count = relative.len() as u32;
         self.last_bounce_map = bounce_map;
         self.last_photons = relative;
@@ -319,18 +327,17 @@ impl PhotonFrame {
             self.photon_pass.rebind(&inputs);
             self.rebind = false;
         }
-        let radius = (self.kernel.r_min, self.kernel.r_max);
         match &mut self.subsampled {
             None => self.photon_pass.record(
                 cmd,
                 &inputs,
                 self.count,
-                radius,
+                &self.kernel,
                 std::slice::from_mut(&mut self.indirect),
             ),
             Some(sub) => {
                 self.photon_pass
-                    .record(cmd, &inputs, self.count, radius, &mut sub.low);
+                    .record(cmd, &inputs, self.count, &self.kernel, &mut sub.low);
                 let inputs = UpsampleInputs {
                     materials,
                     gbuffer,

@@ -72,7 +72,8 @@ fn cpu_gather(
         .iter()
         .map(|p| {
             let (wi, rho) = unpack_direction(p.direction);
-            let (r_xy, r_z) = kernel_radius(rho, &kernel);
+            // Camera-relative positions: the eye is at the origin.
+            let (r_xy, r_z) = kernel_radius(rho, &kernel, p.position.length());
             (p.position, p.normal.normalize(), wi, r_xy, r_z, p.power)
         })
         .collect();

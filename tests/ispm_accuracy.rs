@@ -507,14 +507,14 @@ fn ispm_caustic_energy_matches_progressive_photon_mapping_at_block_scale() {
     }
 }
 
-/// Known to fail (docs/accuracy.md, "Caustics"): with the default kernel, r_min = r_max/50
-/// shrinks as 1/√N far below the pixel footprint (≈ 3 cm here), so caustic photons become
-/// sub-pixel fireflies and the per-pixel error grows with the photon count.
+/// With the pixel-footprint floor on the kernel radius (`photon::kernel`, "Radius from the pixel
+/// footprint") the caustic's per-pixel error falls as the photons grow, then holds at the
+/// pixel-scale floor. Without the floor it grew 0.088 → 0.168 from 160k to 640k photons
+/// (fireflies, docs/accuracy.md "Caustics").
 #[test]
-#[ignore = "fails: caustic kernels shrink below a pixel (docs/accuracy.md, Caustics)"]
 fn ispm_caustic_error_falls_as_photons_grow() {
     let curve = caustic_curve(&[10_000, 40_000, 160_000, 640_000]);
-    for w in curve.windows(2) {
+    for w in curve[..3].windows(2) {
         assert!(
             w[1].per_pixel < w[0].per_pixel,
             "per-pixel relMSE grew from {} to {} photons: {} → {}",
@@ -522,6 +522,23 @@ fn ispm_caustic_error_falls_as_photons_grow() {
             w[1].photons,
             w[0].per_pixel,
             w[1].per_pixel
+        );
+    }
+    let (held, last) = (&curve[2], &curve[3]);
+    assert!(
+        last.per_pixel < 1.1 * held.per_pixel,
+        "per-pixel relMSE rose from {} to {} photons: {} → {} (fireflies?)",
+        held.photons,
+        last.photons,
+        held.per_pixel,
+        last.per_pixel
+    );
+    for p in &curve {
+        assert!(
+            (0.8..1.25).contains(&p.mean_ratio),
+            "{} photons: indirect energy ratio {}",
+            p.photons,
+            p.mean_ratio
         );
     }
 }

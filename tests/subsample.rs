@@ -174,11 +174,14 @@ fn subsampled_indirect_light_stays_close_to_full_resolution() {
     let edges = edge_pixels(&full, SIZE, 4);
     let geometry = |i: usize| full.position[i * 4 + 3] != 0.0;
     let dir = common::image_dir("subsample");
-    // Measured (lavapipe, 50k photons, 128×128): N=2 hdr 0.0088, indirect 0.0102 (edges
-    // 0.0141, elsewhere 0.0079); N=4 hdr 0.0168, indirect 0.0194 (edges 0.0277, elsewhere
-    // 0.0148). The bounds leave about 2× headroom.
+    // Measured (lavapipe, 50k photons, 128×128): N=2 hdr 0.0300, indirect 0.0365 (edges
+    // 0.0106, elsewhere 0.0495); N=4 hdr 0.0231, indirect 0.0417 (edges 0.0184, elsewhere
+    // 0.0534). Most of it is not upsampling error: the kernel's pixel-footprint floor
+    // (`photon::kernel`) follows the low resolution, so at N ≥ 2 every photon's kernel is wider
+    // than at N = 1 and the two images carry different noise (before the floor: N=2 hdr 0.0088,
+    // N=4 0.0168). The bounds leave about 1.5× headroom.
     for (n, bound_hdr, bound_indirect, bound_edges) in
-        [(2, 0.02, 0.025, 0.035), (4, 0.04, 0.045, 0.06)]
+        [(2, 0.045, 0.055, 0.02), (4, 0.045, 0.065, 0.03)]
     {
         let sub = render(&scene, settings(SIZE, n));
         assert!(sub.frame.stats.passes_run.iter().any(|p| p == "upsample"));

@@ -23,6 +23,7 @@ use crate::gpu::{
     VertexAttribute, ViewKind, Write,
 };
 use crate::photon::bsdf::BsdfVariant;
+use crate::photon::kernel::KernelSettings;
 use std::sync::Arc;
 
 pub const FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
@@ -48,6 +49,7 @@ struct Push {
     r_max: f32,
     count: u32,
     subsample: u32,
+    footprint: f32,
 }
 
 /// The indirect-radiance target (alpha: number of volumes that touched the pixel).
@@ -218,14 +220,15 @@ impl PhotonVolumesPass {
             .update(self.set, &Self::writes(inputs, &self.sampler));
     }
 
-    /// Draws `count` photon volumes with kernel radii clamped to [`r_min`, `r_max`] into
-    /// `targets`: `[indirect]` at subsample 1, else the two [`low_targets`].
+    /// Draws `count` photon volumes with the radii of `kernel` (its clamp and footprint floor,
+    /// [`crate::photon::kernel`]) into `targets`: `[indirect]` at subsample 1, else the two
+    /// [`low_targets`].
     pub fn record(
         &self,
         cmd: &Cmd,
         inputs: &PhotonVolumeInputs,
         count: u32,
-        radius: (f32, f32),
+        kernel: &KernelSettings,
         targets: &mut [Image],
     ) {
         let _scope = cmd.scope("photon_volumes");
@@ -256,10 +259,11 @@ impl PhotonVolumesPass {
             cmd.push_constants(
                 &self.pipeline,
                 &Push {
-                    r_min: radius.0,
-                    r_max: radius.1,
+                    r_min: kernel.r_min,
+                    r_max: kernel.r_max,
                     count,
                     subsample: self.subsample,
+                    footprint: kernel.footprint,
                 },
             );
             cmd.draw_indexed_instanced(60, count);

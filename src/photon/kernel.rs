@@ -23,6 +23,17 @@
 //! [`KernelSettings::scene_relative`] derives `r_max` from the scene size and the photon count
 //! and sets `r_min = r_max/50`.
 //!
+//! # Radius from the pixel footprint: a floor
+//! A kernel smaller than the pixel spacing is sampled only at pixel centres: each photon becomes
+//! a single-pixel firefly (`3/(π r²)` times its power) or nothing. The estimate stays unbiased in
+//! expectation, but its per-pixel variance grows as `r` shrinks, so caustic photons (ρp ≈ 1,
+//! radius `r_min`) got *noisier* with more photons (docs/accuracy.md, "Caustics"). The radius is
+//! therefore never below `FOOTPRINT_PIXELS` pixel spacings at the photon's distance `d` from
+//! the eye: `r_xy ≥ footprint·d`, `footprint = FOOTPRINT_PIXELS·2·tan(yfov/2)/height` (the
+//! height of the image the estimate is made at, so `--subsample N` uses its low resolution).
+//! The floor blurs the estimate only at the scale the image can show; it depends on the view,
+//! which is why [`KernelSettings::for_view`] sets it and camera-free gathers leave it 0.
+//!
 //! # Radius from the photon count: a consistent schedule
 //! `r_max = RADIUS_SCALE · diagonal · N^(−1/4)`. As N grows the kernel shrinks (bias → 0) while
 //! the photons per kernel grow as √N (variance → 0), so the estimate converges. Keeping the
@@ -45,11 +56,16 @@ pub const RADIUS_RANGE: f32 = 50.0;
 /// earlier constant-count schedule (5·diagonal/√photons) at 20 000 photons.
 pub const RADIUS_SCALE: f32 = 0.42;
 
-/// The radius clamp, in metres.
+/// The radius floor in pixel spacings (module docs, "Radius from the pixel footprint").
+pub const FOOTPRINT_PIXELS: f32 = 1.0;
+
+/// The radius clamp, in metres, and the view's footprint floor.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct KernelSettings {
     pub r_min: f32,
     pub r_max: f32,
+    /// Smallest radius per metre of distance from the eye (0: no floor).
+    pub footprint: f32,
 }
 
 impl KernelSettings {
@@ -67,12 +83,27 @@ impl KernelSettings {
         Self {
             r_min: r_max / RADIUS_RANGE,
             r_max,
+            footprint: 0.0,
+        }
+    }
+
+    /// The same clamp with the footprint floor of an estimate made by a perspective camera of
+    /// vertical field of view `yfov` (radians) into an image `height` pixels high.
+    pub fn for_view(self, yfov: f32, height: u32) -> Self {
+        let spacing = 2.0 * (0.5 * yfov).tan() / height.max(1) as f32;
+        Self {
+            footprint: if spacing.is_finite() {
+                FOOTPRINT_PIXELS * spacing
+            } else {
+                0.0
+            },
+            ..self
         }
     }
 }
 
-/// `(r_xy, r_z)` of a photon with path density `rho_p`.
-pub fn kernel_radius(rho_p: f32, settings: &KernelSettings) -> (f32, f32) {
+/// `(r_xy, r_z)` of a photon with path density `rho_p` at `eye_distance` metres from the eye.
+pub fn kernel_radius(rho_p: f32, settings: &KernelSettings, eye_distance: f32) -> (f32, f32) {
     let rho = if rho_p.is_finite() && rho_p > 0.0 {
         rho_p
     } else {
@@ -83,6 +114,8 @@ pub fn kernel_radius(rho_p: f32, settings: &KernelSettings) -> (f32, f32) {
     } else {
         settings.r_max
     };
+    // NaN distances (a photon with a broken position) leave the floor out.
+    let r = r.max(settings.footprint * eye_distance);
     (r, r * NORMAL_RATIO)
 }
 
@@ -166,12 +199,37 @@ mod tests {
         let k = KernelSettings {
             r_min: 0.01,
             r_max: 0.5,
+            footprint: 0.0,
         };
-        assert_eq!(kernel_radius(1.0, &k).0, 0.01);
-        assert_eq!(kernel_radius(1e-9, &k).0, 0.5);
-        assert_eq!(kernel_radius(0.0, &k).0, 0.5);
-        assert_eq!(kernel_radius(f32::NAN, &k).0, 0.5);
-        let (r, rz) = kernel_radius(1e-2, &k);
+        assert_eq!(kernel_radius(1.0, &k, 3.0).0, 0.01);
+        assert_eq!(kernel_radius(1e-9, &k, 3.0).0, 0.5);
+        assert_eq!(kernel_radius(0.0, &k, 3.0).0, 0.5);
+        assert_eq!(kernel_radius(f32::NAN, &k, 3.0).0, 0.5);
+        let (r, rz) = kernel_radius(1e-2, &k, 3.0);
         assert!((r - 0.1).abs() < 1e-6 && (rz - 0.1 * NORMAL_RATIO).abs() < 1e-6);
+    }
+
+    #[test]
+    fn radius_never_falls_below_the_pixel_footprint() {
+        // 90° over 100 pixels: spacing 0.02 m per metre of distance.
+        let k = KernelSettings {
+            r_min: 0.01,
+            r_max: 0.5,
+            footprint: 0.0,
+        }
+        .for_view(std::f32::consts::FRAC_PI_2, 100);
+        assert!(
+            (k.footprint - FOOTPRINT_PIXELS * 0.02).abs() < 1e-6,
+            "{k:?}"
+        );
+        // A caustic photon (r_min) 2 m away is raised to the footprint …
+        let (r, rz) = kernel_radius(1.0, &k, 2.0);
+        assert!((r - FOOTPRINT_PIXELS * 0.04).abs() < 1e-6, "{r}");
+        assert!((rz - r * NORMAL_RATIO).abs() < 1e-7);
+        // … a diffuse one keeps its larger radius, and the floor may exceed r_max far away.
+        assert_eq!(kernel_radius(1e-9, &k, 2.0).0, 0.5);
+        assert!((kernel_radius(1e-9, &k, 100.0).0 - FOOTPRINT_PIXELS * 2.0).abs() < 1e-5);
+        // Broken distances leave the clamp alone.
+        assert_eq!(kernel_radius(1.0, &k, f32::NAN).0, 0.01);
     }
 }

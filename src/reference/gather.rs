@@ -32,12 +32,15 @@ pub struct GatherMap {
 }
 
 impl GatherMap {
-    /// Radii from each photon's ρp ([`kernel_radius`]).
-    pub fn with_path_density(map: PhotonMap, kernel: &KernelSettings) -> Self {
+    /// Radii from each photon's ρp and its distance from `eye` ([`kernel_radius`]).
+    pub fn with_path_density(map: PhotonMap, kernel: &KernelSettings, eye: Vec3) -> Self {
         let radii: Vec<(f32, f32)> = map
             .photons
             .iter()
-            .map(|p| kernel_radius(unpack_direction(p.direction).1, kernel))
+            .map(|p| {
+                let rho_p = unpack_direction(p.direction).1;
+                kernel_radius(rho_p, kernel, p.position.distance(eye))
+            })
             .collect();
         Self::with_radii(map, radii)
     }
@@ -101,8 +104,11 @@ fn gather_passes(ctx: &Ctx, map: &GatherMap, first_pass: u32, acc: &mut Accumula
 pub(super) fn render_gather(ctx: &Ctx) -> Result<HdrImage> {
     let s = ctx.settings;
     ctx.set_length(s.spp.max(1) as u64 * s.height as u64);
-    let kernel = KernelSettings::scene_relative(&ctx.scene.bounds(), s.photons, s.radius);
-    let map = GatherMap::with_path_density(photon_map(ctx, s.photons, s.seed), &kernel);
+    // The same kernel as the GPU's photon volumes: clamp and pixel-footprint floor.
+    let kernel = KernelSettings::scene_relative(&ctx.scene.bounds(), s.photons, s.radius)
+        .for_view(ctx.scene.camera.yfov, s.height);
+    let eye = ctx.scene.camera.position();
+    let map = GatherMap::with_path_density(photon_map(ctx, s.photons, s.seed), &kernel, eye);
     let mut acc = Accumulator::new(s.width, s.height);
     gather_passes(ctx, &map, 0, &mut acc);
     acc.finish()
