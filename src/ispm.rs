@@ -238,8 +238,8 @@ mod tests {
         s
     }
 
-    #[test]
-    fn photon_budget_sets_view_resolutions_and_texel_offsets() {
+    /// A point light (6 views) and a spot light (1 view) ten times as intense, at the origin.
+    fn point_and_spot() -> Scene {
         let point = Light {
             name: "p".into(),
             kind: LightKind::Point,
@@ -256,7 +256,12 @@ mod tests {
             intensity: Vec3::splat(30.0),
             ..point.clone()
         };
-        let scene = scene_with(vec![point, spot]);
+        scene_with(vec![point, spot])
+    }
+
+    #[test]
+    fn photon_budget_sets_view_resolutions_and_texel_offsets() {
+        let scene = point_and_spot();
         let plan = BouncePlan::new(&scene, DVec3::new(0.0, 0.0, 5.0), &scene.bounds(), 60_000);
         assert_eq!(plan.views.len(), 7);
         // Every light gets about its share; the realised texels are at least the budget.
@@ -283,23 +288,7 @@ mod tests {
 
     #[test]
     fn inactive_lights_get_no_views_and_their_budget_goes_to_the_others() {
-        let point = Light {
-            name: "p".into(),
-            kind: LightKind::Point,
-            position: Vec3::ZERO,
-            direction: Vec3::NEG_Y,
-            intensity: Vec3::splat(3.0),
-        };
-        let spot = Light {
-            name: "s".into(),
-            kind: LightKind::Spot {
-                inner_cone_angle: 0.3,
-                outer_cone_angle: 0.5,
-            },
-            intensity: Vec3::splat(30.0),
-            ..point.clone()
-        };
-        let scene = scene_with(vec![point, spot]);
+        let scene = point_and_spot();
         let camera = DVec3::new(0.0, 0.0, 5.0);
         let all = BouncePlan::new(&scene, camera, &scene.bounds(), 60_000);
         let spot_only = BouncePlan::active(&scene, &[false, true], camera, &scene.bounds(), 60_000);

@@ -205,9 +205,9 @@ mod tests {
         }
     }
 
-    #[test]
-    fn each_light_kind_gets_the_views_that_cover_it() {
-        let lights = [
+    /// A point light, a narrow spot (one view), a wide spot (a cube) and a directional light.
+    fn every_kind() -> [Light; 4] {
+        [
             light(LightKind::Point),
             light(LightKind::Spot {
                 inner_cone_angle: 0.3,
@@ -218,7 +218,12 @@ mod tests {
                 outer_cone_angle: 1.5,
             }),
             light(LightKind::Directional),
-        ];
+        ]
+    }
+
+    #[test]
+    fn each_light_kind_gets_the_views_that_cover_it() {
+        let lights = every_kind();
         let s = LightSetup::new(&lights, DVec3::ZERO, &unit_bounds(), 256, 3);
         let counts: Vec<u32> = s.lights.iter().map(|l| l.shadow.z).collect();
         assert_eq!(counts, vec![6, 1, 6, 1]);
@@ -229,14 +234,8 @@ mod tests {
 
     #[test]
     fn inactive_lights_get_no_light_and_no_views() {
-        let lights = [
-            light(LightKind::Point),
-            light(LightKind::Spot {
-                inner_cone_angle: 0.3,
-                outer_cone_angle: 0.5,
-            }),
-            light(LightKind::Directional),
-        ];
+        let [point, narrow_spot, _, directional] = every_kind();
+        let lights = [point, narrow_spot, directional];
         let all = LightSetup::new(&lights, DVec3::ZERO, &unit_bounds(), 256, 3);
         let some = LightSetup::active(
             &lights,
