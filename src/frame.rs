@@ -24,7 +24,9 @@ use crate::passes::direct::{DirectInputs, DirectPass};
 use crate::passes::eye_gbuffer::{EyeGBufferPass, GBuffer, View};
 use crate::passes::shadow_map::{self, ShadowMapPass};
 use crate::passes::tonemap::{self, Tonemap, TonemapPass};
+use crate::photon::bsdf::BsdfVariant;
 use crate::photon_frame::PhotonFrame;
+use crate::plan::Effects;
 use crate::scene::{Camera, Light, Scene};
 use crate::timing;
 use crate::translucent_frame::{TranslucentFrame, TranslucentResources};
@@ -66,6 +68,12 @@ pub struct RenderSettings {
     pub exposure_ev: f32,
     /// Photon volumes at 1/N resolution, upsampled (1: full resolution, no upsampling).
     pub subsample: u32,
+    /// `Auto`: the effects plan (`plan::EffectsPlan`) may skip what the scene does not need;
+    /// `All`: every pass and shader variant runs (`--effects all`, for comparison).
+    pub effects: Effects,
+    /// The über-BSDF lobes compiled into every shader that evaluates it (default: all).
+    /// `EffectsPlan::bsdf_variant` is the smallest one a scene renders exactly with.
+    pub bsdf_variant: BsdfVariant,
 }
 
 impl Default for RenderSettings {
@@ -82,6 +90,8 @@ impl Default for RenderSettings {
             tonemap: Tonemap::default(),
             exposure_ev: 0.0,
             subsample: 1,
+            effects: Effects::Auto,
+            bsdf_variant: BsdfVariant::ALL,
         }
     }
 }
@@ -234,6 +244,7 @@ impl Renderer {
                 shadow_atlas: &shadow_atlas,
             },
             &radiance,
+            settings.bsdf_variant,
         )?;
         let tonemap = TonemapPass::new(gpu, &radiance, &display)?;
         let photons = match settings.method {
@@ -260,6 +271,7 @@ impl Renderer {
             },
             gbuffer.depth.format,
             radiance.format,
+            settings.bsdf_variant,
         )?;
         let timestamps = Timestamps::new(gpu, "frame.timestamps", 64)?;
         Ok(Self {
