@@ -92,14 +92,20 @@ impl PhotonFrame {
         radiance: &Image,
     ) -> anyhow::Result<Self> {
         let camera = scene.camera.position().as_dvec3();
-        let plan = BouncePlan::new(scene, camera, &gpu_scene.bounds, settings.photons);
+        let plan = BouncePlan::with_caustic_share(
+            scene,
+            &vec![true; scene.lights.len()],
+            camera,
+            &gpu_scene.bounds,
+            settings.photons,
+            settings.caustic_share,
+        );
         let views = plan.views.len().max(1);
-        let res = plan.max_resolution.max(1);
         let light_gbuffer = GBuffer::new(
             gpu,
             "light_gbuffer",
-            res,
-            res,
+            plan.max_extent.0.max(1),
+            plan.max_extent.1.max(1),
             views as u32,
             ViewKind::D2Array,
         )?;
@@ -235,13 +241,8 @@ impl PhotonFrame {
             let cmd = rec.cmd();
             {
                 let _scope = cmd.scope("light_gbuffers");
-                self.light_pass.record(
-                    &cmd,
-                    scene,
-                    &draws,
-                    &plan.resolutions,
-                    &mut self.light_gbuffer,
-                );
+                self.light_pass
+                    .record(&cmd, scene, &draws, &plan.extents, &mut self.light_gbuffer);
             }
             let io = BounceMapIo {
                 materials: &scene.materials,
@@ -252,7 +253,7 @@ impl PhotonFrame {
             self.bounce_pass.record(
                 &cmd,
                 &io,
-                plan.max_resolution,
+                plan.max_extent,
                 plan.views.len() as u32,
                 self.trace.seed,
             );
@@ -347,6 +348,11 @@ impl PhotonFrame {
             }
         }
         self.composite.record(cmd, &self.indirect, radiance);
+    }
+
+    /// The light views the bounce map is made of.
+    pub fn plan(&self) -> &BouncePlan {
+        &self.plan
     }
 
     /// The last frame's bounce map, one record per light-G-buffer texel.
