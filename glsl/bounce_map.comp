@@ -82,7 +82,8 @@ void main() {
             int k = int(round(side / child.params.x));
             ivec2 origin = ivec2(round((child.params.zw - view.params.zw) / side));
             ivec2 first = (ivec2(xy) - origin) * k;
-            if (all(greaterThanEqual(first, ivec2(0))) && all(lessThan(first, ivec2(child.texels.xy)))) {
+            ivec2 child_size = ivec2(child.texels.xy);
+            if (all(greaterThanEqual(first, ivec2(0))) && all(lessThan(first, child_size))) {
                 int hits = 0;
                 for (int j = 0; j < k; j++) {
                     for (int i = 0; i < k; i++) {
@@ -98,7 +99,8 @@ void main() {
         // The parent texel holding this texel's centre (≥ 1/(2k) texels from its edges).
         ivec2 at = ivec2(floor((q - parent.params.zw) / parent.params.x));
         ivec3 parent_texel = ivec3(at, int(view.kind.z));
-        bool inside = all(greaterThanEqual(at, ivec2(0))) && all(lessThan(at, ivec2(parent.texels.xy)));
+        bool inside = all(greaterThanEqual(at, ivec2(0)))
+            && all(lessThan(at, ivec2(parent.texels.xy)));
         if (!inside || !(first_hit_is_delta(texel) || first_hit_is_delta(parent_texel))) {
             part = 0.0;
         }

@@ -27,10 +27,10 @@
 //! Photons matter most where they hit a delta material (mirror, glass: `Material::has_delta_lobe`)
 //! first: those become caustics, which the smallest kernels resolve, while a photon that hits a
 //! diffuse surface first adds to smooth indirect light (or leaves the scene). A view fitted to the
-//! whole scene spends few texels on small casters (1.7 % of the sun's view on `caustic-ring`), so
+//! whole scene spends few texels on small casters (1.8 % of the sun's view on `caustic-ring`), so
 //! each light whose views see delta instances gets, per main view that sees them, a **caustic
-//! view**: the rectangle of that view's texels holding the projection of the casters' boxes,
-//! subdivided k × k. It shares the parent view's eye, projection and near and far planes (its
+//! view**: the rectangle of that view's texels holding the casters' projection, subdivided
+//! k × k. It shares the parent view's eye, projection and near and far planes (its
 //! matrix is the parent's followed by a 2D scale and offset in clip space), so its texels tile
 //! the parent's texels exactly:
 //!
@@ -60,11 +60,11 @@
 //! resolution follows from `(1 − s)·N_L`, and the subdivision is `k = round(√(s·N_L / W))` for
 //! caster windows of `W` main texels, at most [`MAX_CAUSTIC_SUBDIVISION`] and [`MAX_RESOLUTION`]
 //! per side. If the windows cover the fraction `a` of the main texels, the casters are sampled
-//! `k² ≈ s/((1 − s)·a)` times as densely as the rest of the scene: 1/a at s = ½, 64× for the ring
-//! of `caustic-ring` (a = 1.7 %), for half of the light's photons taken from the surfaces that
-//! only receive diffuse light. Where `k` rounds below 2 (casters covering more than ≈ 45 % of
-//! the view at s = ½) the main views already sample them nearly as densely: the light keeps one
-//! set of views with its whole budget. `s = 0` turns caustic views off.
+//! `k² ≈ s/((1 − s)·a)` times as densely as the rest of the scene: 1/a at s = ½, 49× (k = 7) for
+//! the ring of `caustic-ring` (a = 1.8 %), for half of the light's photons taken from the surfaces
+//! that only receive diffuse light. Where `k` rounds below 2 (casters covering more than ≈ 45 %
+//! of the view at s = ½) the main views already sample them nearly as densely: the light keeps
+//! one set of views with its whole budget. `s = 0` turns caustic views off.
 
 use crate::layout::{BounceView, FrameUniforms, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
 use crate::lighting::LightSetup;

@@ -262,7 +262,7 @@ fn bounce_map_is_the_cpu_first_bounce_in_distribution_with_spot_lights_glass_and
 }
 
 /// The sun over the mirror ring: half of the photons come from the caustic view around the
-/// ring, at 64× the texel density and 1/64 of the power.
+/// ring, at 49× the texel density and 1/49 of the power.
 #[test]
 fn bounce_map_is_the_cpu_first_bounce_in_distribution_with_a_caustic_view() {
     let scene = bundled("caustic-ring");

@@ -1,8 +1,9 @@
 //! Light G-buffers: the scene rasterised from every light view (spot: one frustum, point: six
 //! cube faces, directional: an orthographic box; and the caustic views, windows of those around
 //! the delta instances, `ispm.rs`), each into one layer of an array G-buffer, at the resolution
-//! the light's share of the photon budget asks for (drawn into the layer's top-left texels). Texel (x, y) of a view is where the photon through that texel first hits
-//! the scene: the bounce map starts from it.
+//! the light's share of the photon budget asks for (drawn into the layer's top-left texels).
+//! Texel (x, y) of a view is where the photon through that texel first hits the scene: the
+//! bounce map starts from it.
 
 use super::eye_gbuffer::{GBuffer, GBufferPass, View};
 use crate::gpu::{vk, Buffer, Cmd, Gpu, MemoryLocation};
