@@ -15,7 +15,8 @@
 //! the serial order; the overlapped schedule of the paper's Figure 3 reorders the same steps.
 
 use crate::gpu::{
-    vk, Buffer, Gpu, Image, ImageDesc, MemoryLocation, QueueRole, Span, Timestamps, ViewKind,
+    vk, Buffer, Cmd, Gpu, Image, ImageDesc, QueueRole, Recording, Span, TimelinePoint,
+    Timestamps, ViewKind, Wait,
 };
 use crate::gpu_scene::GpuScene;
 use crate::layout::FrameUniforms;
@@ -32,6 +33,21 @@ use std::sync::Arc;
 
 /// Texels by which shadow cube faces overlap (normal offset 1.5 + PCF 1 + bilinear 0.5).
 const SHADOW_FACE_MARGIN: u32 = 3;
+
+/// Frames the host may issue before it waits for the oldest one to finish.
+pub const FRAMES_IN_FLIGHT: usize = 2;
+
+/// How the frame's steps are ordered in time.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Schedule {
+    /// The paper's Figure 3: the CPU trace runs while the GPU draws the eye G-buffer and
+    /// direct light; frames overlap.
+    #[default]
+    Overlapped,
+    /// Every step waits for the one before: the baseline the overlap is measured against.
+    Serial,
+}
 
 /// How the frame computes light.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
@@ -65,6 +81,7 @@ pub struct RenderSettings {
     pub exposure_ev: f32,
     /// Photon volumes at 1/N resolution, upsampled (1: full resolution, no upsampling).
     pub subsample: u32,
+    pub schedule: Schedule,
 }
 
 impl Default for RenderSettings {
@@ -81,6 +98,7 @@ impl Default for RenderSettings {
             tonemap: Tonemap::default(),
             exposure_ev: 0.0,
             subsample: 1,
+            schedule: Schedule::Overlapped,
         }
     }
 }
@@ -135,22 +153,51 @@ pub struct Renderer {
     photons: Option<PhotonFrame>,
     /// Glass and mirrors (scenes with delta materials only).
     translucent: Option<TranslucentFrame>,
-    timestamps: Arc<Timestamps>,
+    slots: Vec<FrameSlot>,
+    /// Frames submitted so far.
+    frame_index: u64,
+    /// The last submitted frame's final point (its photon volumes read the photon buffer).
+    last_frame_done: Option<TimelinePoint>,
+    /// The last photon-map upload (it reads the staging buffer the next trace writes).
+    last_upload: Option<TimelinePoint>,
 }
 
-fn host_buffer(
+/// What one frame in flight keeps until it is retired.
+struct FrameSlot {
+    timestamps: Arc<Timestamps>,
+    pending: Option<PendingFrame>,
+}
+
+struct PendingFrame {
+    done: TimelinePoint,
+    stats: FrameStats,
+}
+
+/// The host's set-up of one frame.
+struct FrameSetup {
+    camera_pos: glam::DVec3,
+    setup: LightSetup,
+    uniforms: FrameUniforms,
+    shadow_draws: Vec<Vec<crate::gpu_scene::Draw>>,
+    eye_draws: Vec<crate::gpu_scene::Draw>,
+    delta_draws: Vec<crate::gpu_scene::Draw>,
+}
+
+/// A wait for `point` before any work of the waiting submission.
+fn after(point: TimelinePoint) -> Wait {
+    Wait {
+        point,
+        stage: vk::PipelineStageFlags2::ALL_COMMANDS,
+    }
+}
+
+fn constants(
     gpu: &Arc<Gpu>,
     name: &str,
     size: usize,
     usage: vk::BufferUsageFlags,
 ) -> anyhow::Result<Buffer> {
-    Ok(Buffer::new(
-        gpu,
-        name,
-        size as u64,
-        usage,
-        MemoryLocation::CpuToGpu,
-    )?)
+    Ok(Buffer::constants(gpu, name, size as u64, usage)?)
 }
 
 impl Renderer {
@@ -169,19 +216,19 @@ impl Renderer {
             settings.shadow_resolution,
             SHADOW_FACE_MARGIN,
         );
-        let frame_uniforms = host_buffer(
+        let frame_uniforms = constants(
             gpu,
             "frame.uniforms",
             size_of::<FrameUniforms>(),
             vk::BufferUsageFlags::UNIFORM_BUFFER,
         )?;
-        let light_buffer = host_buffer(
+        let light_buffer = constants(
             gpu,
             "frame.lights",
             size_of::<crate::layout::GpuLight>() * setup.lights.len().max(1),
             vk::BufferUsageFlags::STORAGE_BUFFER,
         )?;
-        let view_buffer = host_buffer(
+        let view_buffer = constants(
             gpu,
             "frame.shadow_views",
             size_of::<crate::layout::ShadowView>() * setup.views.len().max(1),
@@ -256,7 +303,14 @@ impl Renderer {
             gbuffer.depth.format,
             radiance.format,
         )?;
-        let timestamps = Timestamps::new(gpu, "frame.timestamps", 64)?;
+        let slots = (0..FRAMES_IN_FLIGHT)
+            .map(|i| {
+                Ok(FrameSlot {
+                    timestamps: Timestamps::new(gpu, &format!("frame[{i}].timestamps"), 64)?,
+                    pending: None,
+                })
+            })
+            .collect::<anyhow::Result<Vec<_>>>()?;
         Ok(Self {
             gpu: gpu.clone(),
             settings,
@@ -276,7 +330,10 @@ impl Renderer {
             tonemap,
             photons,
             translucent,
-            timestamps,
+            slots,
+            frame_index: 0,
+            last_frame_done: None,
+            last_upload: None,
         })
     }
 
@@ -295,7 +352,135 @@ impl Renderer {
 
     /// Renders one frame, waits for it, and reads the images back.
     pub fn render(&mut self) -> anyhow::Result<FrameImage> {
+        self.submit_frame()?;
+        self.finish()
+    }
+
+    /// Issues one frame without waiting for the GPU to finish it (module docs: the schedule).
+    /// At most [`FRAMES_IN_FLIGHT`] frames are in flight: the frame that last used this
+    /// frame's slot is waited for first (in the steady state it has long finished).
+    pub fn submit_frame(&mut self) -> anyhow::Result<()> {
         let gpu = self.gpu.clone();
+        let slot = (self.frame_index % FRAMES_IN_FLIGHT as u64) as usize;
+        self.retire_slot(slot)?;
+        gpu.collect_garbage();
+        let timestamps = self.slots[slot].timestamps.clone();
+        timestamps.reset();
+        let frame = self.prepare();
+
+        // Box A (graphics): per-frame constants, light G-buffers, bounce map.
+        let a = gpu.record(QueueRole::Graphics, "box A", Some(timestamps.clone()))?;
+        {
+            let cmd = a.cmd();
+            self.record_constants(&cmd, &frame);
+            if let Some(photons) = &mut self.photons {
+                photons.record_emission(&cmd, &self.scene);
+            }
+        }
+        let a_done = self.submit(a, &[])?;
+
+        // The bounce map's GPU→CPU copy (transfer queue).
+        let emits = self.photons.as_ref().is_some_and(PhotonFrame::emits);
+        let readback_done = match &self.photons {
+            Some(photons) if emits => {
+                let rec = gpu.record(QueueRole::Transfer, "readback", Some(timestamps.clone()))?;
+                photons.record_readback(&rec.cmd());
+                Some(self.submit(rec, &[after(a_done)])?)
+            }
+            _ => None,
+        };
+
+        // Box B (graphics): shadow maps, eye G-buffer, direct light.
+        let b = gpu.record(QueueRole::Graphics, "box B", Some(timestamps.clone()))?;
+        self.record_eye_and_direct(&b.cmd(), &frame);
+        let b_done = self.submit(b, &[])?;
+
+        // Box C (host, all cores): trace the bounce map's photons while box B runs.
+        let mut stats = FrameStats::default();
+        let mut upload_done = None;
+        if let (Some(photons), Some(readback)) = (&mut self.photons, readback_done) {
+            gpu.wait(readback)?;
+            if let Some(previous) = self.last_upload.take() {
+                gpu.wait(previous)?; // the staging buffer is free again (long done by now)
+            }
+            stats = photons.trace()?;
+            // The photon map's CPU→GPU copy (transfer queue), after the previous frame's
+            // photon volumes stopped reading the photon buffer.
+            if photons.has_photons() {
+                let rec = gpu.record(QueueRole::Transfer, "upload", Some(timestamps.clone()))?;
+                photons.record_upload(&rec.cmd());
+                let waits: Vec<Wait> = self.last_frame_done.map(after).into_iter().collect();
+                let done = self.submit(rec, &waits)?;
+                upload_done = Some(done);
+                self.last_upload = Some(done);
+            }
+        }
+
+        // Box D (graphics): photon volumes, upsampling, composite, glass, tonemap.
+        let d = gpu.record(QueueRole::Graphics, "box D", Some(timestamps.clone()))?;
+        self.record_estimate_and_finish(&d.cmd(), &frame);
+        let waits: Vec<Wait> = upload_done.map(after).into_iter().collect();
+        let d_done = self.submit(d, &waits)?;
+        let _ = b_done;
+
+        self.last_frame_done = Some(d_done);
+        self.slots[slot].pending = Some(PendingFrame {
+            done: d_done,
+            stats,
+        });
+        self.frame_index += 1;
+        Ok(())
+    }
+
+    /// Waits for every frame in flight and reads back the last one.
+    pub fn finish(&mut self) -> anyhow::Result<FrameImage> {
+        anyhow::ensure!(self.frame_index > 0, "no frame was submitted");
+        let last = ((self.frame_index - 1) % FRAMES_IN_FLIGHT as u64) as usize;
+        for slot in 0..FRAMES_IN_FLIGHT {
+            if slot != last {
+                self.retire_slot(slot)?;
+            }
+        }
+        let (gpu_spans, mut stats) = self.retire_slot(last)?.unwrap_or_default();
+        stats.passes_run = gpu_spans.iter().map(|s| s.name.clone()).collect();
+        stats.passes_run.dedup();
+        stats.subsample = crate::photon_frame::subsample_factor(&self.settings);
+        let gpu = self.gpu.clone();
+        let hdr_bytes = gpu.read_image(&self.radiance)?;
+        let ldr = gpu.read_image(&self.display)?;
+        let hdr: Vec<f32> = bytemuck::pod_collect_to_vec(&hdr_bytes);
+        gpu.collect_garbage();
+        Ok(FrameImage {
+            width: self.settings.width,
+            height: self.settings.height,
+            hdr,
+            ldr,
+            gpu_spans,
+            stats,
+        })
+    }
+
+    /// Submits `rec`; in the serial schedule, also waits for it.
+    fn submit(&self, rec: Recording, waits: &[Wait]) -> anyhow::Result<TimelinePoint> {
+        let done = self.gpu.submit(rec, waits)?;
+        if self.settings.schedule == Schedule::Serial {
+            self.gpu.wait(done)?;
+        }
+        Ok(done)
+    }
+
+    /// Waits for the frame in `slot` (if any) and returns its GPU spans and stats.
+    fn retire_slot(&mut self, slot: usize) -> anyhow::Result<Option<(Vec<Span>, FrameStats)>> {
+        let Some(pending) = self.slots[slot].pending.take() else {
+            return Ok(None);
+        };
+        self.gpu.wait(pending.done)?;
+        let spans = self.slots[slot].timestamps.read()?;
+        Ok(Some((spans, pending.stats)))
+    }
+
+    /// The host's part of a frame before any recording: light set-up and the frame constants.
+    fn prepare(&self) -> FrameSetup {
         let camera_pos = self.camera.position().as_dvec3();
         let setup = LightSetup::new(
             &self.lights,
@@ -323,16 +508,6 @@ impl Renderer {
             ),
             viewer: Vec4::new(0.0, 0.0, 0.0, 1.0),
         };
-        self.frame_uniforms
-            .write(0, bytemuck::bytes_of(&uniforms))?;
-        self.light_buffer
-            .write(0, bytemuck::cast_slice(&setup.lights))?;
-        self.view_buffer
-            .write(0, bytemuck::cast_slice(&setup.views))?;
-        if let Some(translucent) = &self.translucent {
-            translucent.update(&uniforms, camera_pos)?;
-        }
-
         let shadow_draws: Vec<_> = setup
             .view_matrices
             .iter()
@@ -345,83 +520,90 @@ impl Renderer {
             .draws(camera_pos, None)
             .into_iter()
             .partition(|d| self.scene.is_delta(d));
-
-        self.timestamps.reset();
-        let mut stats = FrameStats::default();
-        if let Some(photons) = &mut self.photons {
-            stats = photons.emit_and_trace(&self.scene, &self.timestamps)?;
+        FrameSetup {
+            camera_pos,
+            setup,
+            uniforms,
+            shadow_draws,
+            eye_draws,
+            delta_draws,
         }
-        let rec = gpu.record(QueueRole::Graphics, "frame", Some(self.timestamps.clone()))?;
-        {
-            let cmd = rec.cmd();
-            let _frame = cmd.scope("frame");
-            if let Some(photons) = &self.photons {
-                photons.record_upload(&cmd);
-            }
-            self.shadow_maps
-                .record(&cmd, &self.scene, &shadow_draws, &mut self.shadow_atlas);
-            let view = View {
-                index: 0,
-                draws: &eye_draws,
-                layer: 0,
-                extent: (self.settings.width, self.settings.height),
-            };
-            self.eye_gbuffer
-                .record(&cmd, &self.scene, &view, &mut self.gbuffer);
-            let inputs = DirectInputs {
-                frame: &self.frame_uniforms,
-                materials: &self.scene.materials,
-                lights: &self.light_buffer,
-                shadow_views: &self.view_buffer,
-                gbuffer: &self.gbuffer,
-                shadow_atlas: &self.shadow_atlas,
-            };
-            self.direct.record(&cmd, &inputs, &mut self.radiance);
-            if let Some(photons) = &mut self.photons {
-                photons.record_estimate(
-                    &cmd,
-                    &self.frame_uniforms,
-                    &self.scene.materials,
-                    &self.gbuffer,
-                    &mut self.radiance,
-                );
-            }
-            if let Some(translucent) = &mut self.translucent {
-                translucent.record(
-                    &cmd,
-                    &self.scene,
-                    (&eye_draws, &delta_draws),
-                    &self.shadow_atlas,
-                    &mut self.gbuffer.depth,
-                    &mut self.radiance,
-                );
-            }
-            self.tonemap.record(
-                &cmd,
-                &self.radiance,
-                self.settings.tonemap,
-                self.settings.exposure_ev,
-                &mut self.display,
+    }
+
+    /// The frame's constants, written from the command stream so that frames in flight never
+    /// share host-written memory.
+    fn record_constants(&self, cmd: &Cmd, frame: &FrameSetup) {
+        cmd.update_buffer(&self.frame_uniforms, 0, bytemuck::bytes_of(&frame.uniforms));
+        cmd.update_buffer(
+            &self.light_buffer,
+            0,
+            bytemuck::cast_slice(&frame.setup.lights),
+        );
+        cmd.update_buffer(
+            &self.view_buffer,
+            0,
+            bytemuck::cast_slice(&frame.setup.views),
+        );
+        if let Some(translucent) = &self.translucent {
+            translucent.update(cmd, &frame.uniforms, frame.camera_pos);
+        }
+    }
+
+    /// Box B: shadow maps, the eye G-buffer and direct light.
+    fn record_eye_and_direct(&mut self, cmd: &Cmd, frame: &FrameSetup) {
+        self.shadow_maps.record(
+            cmd,
+            &self.scene,
+            &frame.shadow_draws,
+            &mut self.shadow_atlas,
+        );
+        let view = View {
+            index: 0,
+            draws: &frame.eye_draws,
+            layer: 0,
+            extent: (self.settings.width, self.settings.height),
+        };
+        self.eye_gbuffer
+            .record(cmd, &self.scene, &view, &mut self.gbuffer);
+        let inputs = DirectInputs {
+            frame: &self.frame_uniforms,
+            materials: &self.scene.materials,
+            lights: &self.light_buffer,
+            shadow_views: &self.view_buffer,
+            gbuffer: &self.gbuffer,
+            shadow_atlas: &self.shadow_atlas,
+        };
+        self.direct.record(cmd, &inputs, &mut self.radiance);
+    }
+
+    /// Box D: photon volumes (+ upsampling and composite), glass and mirrors, tonemapping.
+    fn record_estimate_and_finish(&mut self, cmd: &Cmd, frame: &FrameSetup) {
+        if let Some(photons) = &mut self.photons {
+            photons.record_estimate(
+                cmd,
+                &self.frame_uniforms,
+                &self.scene.materials,
+                &self.gbuffer,
+                &mut self.radiance,
             );
         }
-        let done = gpu.submit(rec, &[])?;
-        gpu.wait(done)?;
-        let gpu_spans = self.timestamps.read()?;
-        stats.passes_run = gpu_spans.iter().map(|s| s.name.clone()).collect();
-        stats.passes_run.dedup();
-        stats.subsample = crate::photon_frame::subsample_factor(&self.settings);
-        let hdr_bytes = gpu.read_image(&self.radiance)?;
-        let ldr = gpu.read_image(&self.display)?;
-        let hdr: Vec<f32> = bytemuck::pod_collect_to_vec(&hdr_bytes);
-        gpu.collect_garbage();
-        Ok(FrameImage {
-            width: self.settings.width,
-            height: self.settings.height,
-            hdr,
-            ldr,
-            gpu_spans,
-            stats,
-        })
+        if let Some(translucent) = &mut self.translucent {
+            translucent.record(
+                cmd,
+                &self.scene,
+                (&frame.eye_draws, &frame.delta_draws),
+                &self.shadow_atlas,
+                &mut self.gbuffer.depth,
+                &mut self.radiance,
+            );
+        }
+        self.tonemap.record(
+            cmd,
+            &self.radiance,
+            self.settings.tonemap,
+            self.settings.exposure_ev,
+            &mut self.display,
+        );
     }
 
     pub fn gpu(&self) -> &Arc<Gpu> {

@@ -3,7 +3,7 @@
 
 use anyhow::Context;
 use clap::{Parser, Subcommand, ValueEnum};
-use ispm::frame::{RenderSettings, Renderer};
+use ispm::frame::{RenderSettings, Renderer, Schedule};
 use ispm::gpu::{Gpu, GpuOptions};
 use ispm::output::{write_exr, write_png, OutputFormat};
 use ispm::passes::tonemap::Tonemap;
@@ -70,9 +70,14 @@ struct RenderArgs {
     /// Eye samples per pixel (CPU references).
     #[arg(long, default_value_t = 16)]
     spp: u32,
-    /// Iterations of progressive photon mapping.
-    #[arg(long, default_value_t = 16)]
-    frames: u32,
+    /// GPU methods: frames to render, the image and stats are the last one's (default 1).
+    /// `progressive`: its iterations (default 16).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    frames: Option<u32>,
+    /// GPU methods: overlap the CPU photon trace with GPU work and keep frames in flight, or
+    /// run every step strictly after the one before.
+    #[arg(long, value_enum, default_value = "overlapped")]
+    schedule: Schedule,
     /// Seed of every random choice.
     #[arg(long, default_value_t = 0)]
     seed: u32,
@@ -173,9 +178,13 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
         tonemap: args.tonemap,
         exposure_ev: args.exposure,
         subsample: args.subsample,
+        schedule: args.schedule,
     };
     let (frame, triangles) = {
         let mut renderer = Renderer::new(&gpu, &scene, settings)?;
+        for _ in 1..args.frames.unwrap_or(1) {
+            renderer.submit_frame()?;
+        }
         (renderer.render()?, renderer.triangles())
     };
     check_validation(&gpu)?;
@@ -228,7 +237,7 @@ fn render_reference(
         spp: args.spp.max(1),
         photons: args.photons,
         bounces: args.bounces,
-        iterations: args.frames.max(1),
+        iterations: args.frames.unwrap_or(16),
         radius: args.radius,
         seed: args.seed,
         ..Default::default()

@@ -4,7 +4,7 @@
 
 use crate::frame::{FrameStats, RenderSettings};
 use crate::gpu::{
-    vk, Access, Buffer, Cmd, Gpu, Image, MemoryLocation, QueueRole, Timestamps, ViewKind,
+    vk, Access, Buffer, Cmd, Gpu, Image, MemoryLocation, QueueRole, ViewKind,
 };
 use crate::gpu_scene::GpuScene;
 use crate::ispm::BouncePlan;
@@ -104,12 +104,11 @@ impl PhotonFrame {
             ViewKind::D2Array,
         )?;
         let light_pass = LightGBufferPass::new(gpu, gpu_scene, views)?;
-        let view_buffer = Buffer::new(
+        let view_buffer = Buffer::constants(
             gpu,
             "bounce_map.views",
             (views * size_of::<crate::layout::BounceView>()) as u64,
             vk::BufferUsageFlags::STORAGE_BUFFER,
-            MemoryLocation::CpuToGpu,
         )?;
         let bounce_bytes = (plan.texels.max(1) * size_of::<BounceMapPhoton>()) as u64;
         let bounce_map = Buffer::new(
@@ -202,13 +201,66 @@ impl PhotonFrame {
         })
     }
 
-    /// Light G-buffers and bounce map on the GPU, then the readback and the CPU trace; leaves
-    /// the photon map in the staging buffer for [`PhotonFrame::record_upload`].
-    pub fn emit_and_trace(
-        &mut self,
-        scene: &GpuScene,
-        timestamps: &Arc<Timestamps>,
-    ) -> anyhow::Result<FrameStats> {
+    /// Whether this frame has photons to emit (a budget and a light with power).
+    pub fn emits(&self) -> bool {
+        self.plan.texels > 0
+    }
+
+    /// Box A: the light views' uniforms, the light G-buffers and the bounce map; hands the
+    /// bounce map to the transfer queue for [`Self::record_readback`].
+    pub fn record_emission(&mut self, cmd: &Cmd, scene: &GpuScene) {
+        let plan = &self.plan;
+        if plan.texels == 0 {
+            return;
+        }
+        self.light_pass.update(cmd, &plan.uniforms);
+        cmd.update_buffer(&self.views, 0, bytemuck::cast_slice(&plan.views));
+        // Camera-relative models; each view's uniforms hold its light clip transform.
+        let relative = scene.draws(plan.camera, None);
+        let draws = vec![relative; plan.views.len()];
+        {
+            let _scope = cmd.scope("light_gbuffers");
+            self.light_pass.record(
+                cmd,
+                scene,
+                &draws,
+                &plan.resolutions,
+                &mut self.light_gbuffer,
+            );
+        }
+        let io = BounceMapIo {
+            materials: &scene.materials,
+            views: &self.views,
+            light_gbuffer: &self.light_gbuffer,
+            bounce_map: &self.bounce_map,
+        };
+        self.bounce_pass.record(
+            cmd,
+            &io,
+            plan.max_resolution,
+            plan.views.len() as u32,
+            self.trace.seed,
+        );
+        cmd.release_buffer(&self.bounce_map, QueueRole::Transfer);
+    }
+
+    /// The GPU→CPU copy of the bounce map (on the transfer queue), handing it back to the
+    /// graphics queue.
+    pub fn record_readback(&self, cmd: &Cmd) {
+        if self.plan.texels == 0 {
+            return;
+        }
+        let _scope = cmd.scope("readback");
+        cmd.acquire_buffer(&self.bounce_map, QueueRole::Graphics, Access::TransferSrc);
+        cmd.copy_buffer(&self.bounce_map, &self.readback);
+        cmd.transition_buffer(&self.readback, Access::HostRead);
+        cmd.release_buffer(&self.bounce_map, QueueRole::Graphics);
+    }
+
+    /// Box C, on the host once the readback has completed: traces the bounce map's surviving
+    /// photons on every core and writes the photon map into the staging buffer for
+    /// [`Self::record_upload`]. The previous frame's upload must have completed.
+    pub fn trace(&mut self) -> anyhow::Result<FrameStats> {
         let plan = &self.plan;
         let mut stats = FrameStats {
             emitted_photons: plan.texels,
@@ -218,48 +270,6 @@ impl PhotonFrame {
             self.count = 0;
             return Ok(stats);
         }
-        self.light_pass.update(&plan.uniforms)?;
-        self.views.write(0, bytemuck::cast_slice(&plan.views))?;
-        // Camera-relative models; each view's uniforms hold its light clip transform.
-        let relative = scene.draws(plan.camera, None);
-        let draws = vec![relative; plan.views.len()];
-        let rec = self.gpu.record(
-            QueueRole::Graphics,
-            "photon_emission",
-            Some(timestamps.clone()),
-        )?;
-        {
-            let cmd = rec.cmd();
-            {
-                let _scope = cmd.scope("light_gbuffers");
-                self.light_pass.record(
-                    &cmd,
-                    scene,
-                    &draws,
-                    &plan.resolutions,
-                    &mut self.light_gbuffer,
-                );
-            }
-            let io = BounceMapIo {
-                materials: &scene.materials,
-                views: &self.views,
-                light_gbuffer: &self.light_gbuffer,
-                bounce_map: &self.bounce_map,
-            };
-            self.bounce_pass.record(
-                &cmd,
-                &io,
-                plan.max_resolution,
-                plan.views.len() as u32,
-                self.trace.seed,
-            );
-            let _scope = cmd.scope("readback");
-            cmd.copy_buffer(&self.bounce_map, &self.readback);
-            cmd.transition_buffer(&self.readback, Access::HostRead);
-        }
-        let done = self.gpu.submit(rec, &[])?;
-        self.gpu.wait(done)?;
-
         let bytes = self.readback.read()?;
         let records = plan.texels * size_of::<BounceMapPhoton>();
         let bounce_map: Vec<BounceMapPhoton> = bytemuck::pod_collect_to_vec(&bytes[..records]);
@@ -281,6 +291,7 @@ impl PhotonFrame {
             })
             .collect();
         if relative.len() * size_of::<Photon>() > self.photons.size as usize {
+            // The old buffers go to the graveyard, destroyed once the frames using them finish.
             let (staging, photons) = photon_buffers(&self.gpu, relative.len().next_power_of_two())?;
             self.staging = staging;
             self.photons = photons;
@@ -293,13 +304,21 @@ impl PhotonFrame {
         Ok(stats)
     }
 
-    /// Copies the photon map to the GPU.
+    /// Whether [`Self::trace`] left photons to upload and draw.
+    pub fn has_photons(&self) -> bool {
+        self.count > 0
+    }
+
+    /// The CPU→GPU copy of the photon map (on the transfer queue), handing it to the graphics
+    /// queue for [`Self::record_estimate`].
     pub fn record_upload(&self, cmd: &Cmd) {
         if self.count == 0 {
             return;
         }
         let _scope = cmd.scope("upload");
+        cmd.acquire_buffer(&self.photons, QueueRole::Graphics, Access::TransferDst);
         cmd.copy_buffer(&self.staging, &self.photons);
+        cmd.release_buffer(&self.photons, QueueRole::Graphics);
     }
 
     /// Photon volumes into the indirect buffer (at 1/N resolution and upsampled, at
@@ -312,6 +331,21 @@ impl PhotonFrame {
         gbuffer: &GBuffer,
         radiance: &mut Image,
     ) {
+        if self.count > 0 {
+            cmd.acquire_buffer(
+                &self.photons,
+                QueueRole::Transfer,
+                Access::GraphicsStorageRead,
+            );
+        }
+        if self.plan.texels > 0 {
+            // Back from the readback, for the next frame's bounce map.
+            cmd.acquire_buffer(
+                &self.bounce_map,
+                QueueRole::Transfer,
+                Access::ComputeStorageWrite,
+            );
+        }
         let inputs = PhotonVolumeInputs {
             frame,
             photons: &self.photons,
@@ -342,6 +376,9 @@ impl PhotonFrame {
             }
         }
         self.composite.record(cmd, &self.indirect, radiance);
+        if self.count > 0 {
+            cmd.release_buffer(&self.photons, QueueRole::Transfer);
+        }
     }
 
     /// The last frame's bounce map, one record per light-G-buffer texel.

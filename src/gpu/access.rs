@@ -28,6 +28,9 @@ pub enum Access {
     /// Storage buffer read by graphics and compute shaders alike (scene-wide data such as the
     /// material buffer).
     AnyShaderStorageRead,
+    /// Uniform or storage buffer read by any shader stage: what [`Cmd::update_buffer`]
+    /// (super::Cmd::update_buffer) leaves a per-frame constant buffer in.
+    AnyShaderUniformRead,
     VertexInput,
     IndexInput,
     TransferSrc,
@@ -35,6 +38,9 @@ pub enum Access {
     HostRead,
     HostWrite,
     Present,
+    /// Released to another queue family ([`Cmd::release_buffer`](super::Cmd::release_buffer));
+    /// the next use on the receiving queue must acquire it.
+    Released,
 }
 
 /// The synchronization2 view of an [`Access`].
@@ -99,6 +105,11 @@ impl Access {
                 A::SHADER_STORAGE_READ,
                 L::GENERAL,
             ),
+            Access::AnyShaderUniformRead => (
+                S::VERTEX_SHADER | S::FRAGMENT_SHADER | S::COMPUTE_SHADER,
+                A::UNIFORM_READ | A::SHADER_STORAGE_READ,
+                L::GENERAL,
+            ),
             Access::VertexInput => (
                 S::VERTEX_ATTRIBUTE_INPUT,
                 A::VERTEX_ATTRIBUTE_READ,
@@ -110,6 +121,7 @@ impl Access {
             Access::HostRead => (S::HOST, A::HOST_READ, L::GENERAL),
             Access::HostWrite => (S::HOST, A::HOST_WRITE, L::GENERAL),
             Access::Present => (S::NONE, A::NONE, L::PRESENT_SRC_KHR),
+            Access::Released => (S::NONE, A::NONE, L::UNDEFINED),
         };
         AccessInfo {
             stage,
@@ -147,6 +159,7 @@ mod tests {
             Access::ComputeStorageRead,
             Access::GraphicsStorageRead,
             Access::AnyShaderStorageRead,
+            Access::AnyShaderUniformRead,
             Access::VertexInput,
             Access::IndexInput,
             Access::TransferSrc,
@@ -154,6 +167,7 @@ mod tests {
             Access::HostRead,
             Access::HostWrite,
             Access::Present,
+            Access::Released,
         ];
         for a in all {
             let i = a.info();

@@ -181,6 +181,7 @@ impl Recording {
             gpu: &self.gpu,
             raw: self.raw,
             timestamps: self.timestamps.as_deref(),
+            family: self.gpu.queue(self.role).family,
         }
     }
 }
@@ -191,6 +192,8 @@ pub struct Cmd<'a> {
     gpu: &'a Gpu,
     raw: vk::CommandBuffer,
     timestamps: Option<&'a Timestamps>,
+    /// The queue family the command buffer is recorded for.
+    family: u32,
 }
 
 /// An open debug label / timestamp scope; closes when dropped.
@@ -569,5 +572,95 @@ impl<'a> Cmd<'a> {
             self.device()
                 .cmd_fill_buffer(self.raw, buffer.raw, 0, vk::WHOLE_SIZE, value)
         };
+    }
+
+    /// Writes `bytes` at `offset` of `buffer` from the command stream (`vkCmdUpdateBuffer`, in
+    /// chunks of 64 KiB), then makes them visible to every shader stage. Per-frame constants
+    /// travel this way so the host never writes memory an earlier frame in flight still reads.
+    pub fn update_buffer(&self, buffer: &Buffer, offset: u64, bytes: &[u8]) {
+        if bytes.is_empty() {
+            return;
+        }
+        assert!(
+            offset % 4 == 0 && bytes.len() % 4 == 0 && offset + bytes.len() as u64 <= buffer.size,
+            "update_buffer: {} bytes at {offset} of {} ({} bytes)",
+            bytes.len(),
+            buffer.name,
+            buffer.size
+        );
+        self.transition_buffer(buffer, Access::TransferDst);
+        for (i, chunk) in bytes.chunks(65536).enumerate() {
+            // SAFETY: recording state, outside a render pass; the buffer is live with
+            // TRANSFER_DST usage; offset and size are multiples of 4, the chunk is ≤ 65536 bytes
+            // and fits the buffer (asserted above).
+            unsafe {
+                self.device().cmd_update_buffer(
+                    self.raw,
+                    buffer.raw,
+                    offset + i as u64 * 65536,
+                    chunk,
+                )
+            };
+        }
+        self.transition_buffer(buffer, Access::AnyShaderUniformRead);
+    }
+
+    /// Ends this queue's use of `buffer` (last access: its tracked one) and hands it to the
+    /// queue of `to`: a queue-family release barrier when the families differ, nothing but the
+    /// tracked state otherwise (the timeline semaphore the other queue waits on orders and makes
+    /// visible everything before it). Pair with [`Cmd::acquire_buffer`] in a submission that
+    /// waits for this one.
+    pub fn release_buffer(&self, buffer: &Buffer, to: QueueRole) {
+        let mut last = buffer.access.lock().unwrap_or_else(|e| e.into_inner());
+        let (src, dst) = (self.family, self.gpu.queue(to).family);
+        if src != dst {
+            let f = last.info();
+            let barrier = vk::BufferMemoryBarrier2::default()
+                .src_stage_mask(f.stage)
+                .src_access_mask(f.access)
+                .dst_stage_mask(vk::PipelineStageFlags2::NONE)
+                .dst_access_mask(vk::AccessFlags2::NONE)
+                .src_queue_family_index(src)
+                .dst_queue_family_index(dst)
+                .buffer(buffer.raw)
+                .offset(0)
+                .size(vk::WHOLE_SIZE);
+            let barriers = [barrier];
+            let dep = vk::DependencyInfo::default().buffer_memory_barriers(&barriers);
+            // SAFETY: recording state on a queue of family `src`, which owns the buffer; the
+            // buffer is live; synchronization2 is enabled.
+            unsafe { self.device().cmd_pipeline_barrier2(self.raw, &dep) };
+            *last = Access::Released;
+        } else {
+            *last = Access::Nothing;
+        }
+    }
+
+    /// Takes `buffer` over from the queue of `from` (see [`Cmd::release_buffer`], recorded in a
+    /// submission this one waits for) for the access `to`.
+    pub fn acquire_buffer(&self, buffer: &Buffer, from: QueueRole, to: Access) {
+        let mut last = buffer.access.lock().unwrap_or_else(|e| e.into_inner());
+        let (src, dst) = (self.gpu.queue(from).family, self.family);
+        // A buffer never released (new, or the families are equal) needs no acquire.
+        if src != dst && *last == Access::Released {
+            let t = to.info();
+            let barrier = vk::BufferMemoryBarrier2::default()
+                .src_stage_mask(vk::PipelineStageFlags2::NONE)
+                .src_access_mask(vk::AccessFlags2::NONE)
+                .dst_stage_mask(t.stage)
+                .dst_access_mask(t.access)
+                .src_queue_family_index(src)
+                .dst_queue_family_index(dst)
+                .buffer(buffer.raw)
+                .offset(0)
+                .size(vk::WHOLE_SIZE);
+            let barriers = [barrier];
+            let dep = vk::DependencyInfo::default().buffer_memory_barriers(&barriers);
+            // SAFETY: recording state on a queue of family `dst`; the matching release was
+            // submitted on `src` before the semaphore this submission waits on; the buffer is
+            // live; synchronization2 is enabled.
+            unsafe { self.device().cmd_pipeline_barrier2(self.raw, &dep) };
+        }
+        *last = to;
     }
 }

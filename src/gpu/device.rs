@@ -30,9 +30,23 @@ pub struct GpuOptions {
     pub device_index: Option<usize>,
     /// Enable the Khronos validation layer with synchronization validation.
     pub validation: bool,
-    /// Use one queue for every role even when the device has dedicated compute and transfer
-    /// families (the `--schedule` comparisons and tests use this).
-    pub single_queue: bool,
+    /// Which queues the roles use.
+    pub queues: QueueMode,
+}
+
+/// Which device queues serve the [`QueueRole`]s.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum QueueMode {
+    /// Dedicated compute and transfer families where the device has them, else the graphics
+    /// queue.
+    #[default]
+    Auto,
+    /// The graphics queue for every role.
+    Single,
+    /// A logical transfer queue: the graphics `VkQueue` again, with its own timeline
+    /// semaphore, so one-queue devices (lavapipe) run the multi-queue schedule's separate
+    /// submissions, cross-queue waits and release/acquire hand-offs.
+    SplitTransfer,
 }
 
 /// What a queue is used for.
@@ -45,7 +59,8 @@ pub enum QueueRole {
 
 /// A device queue with its own timeline semaphore.
 pub struct Queue {
-    raw: Mutex<vk::Queue>,
+    /// Shared by the logical queues of [`QueueMode::SplitTransfer`]: one lock per `VkQueue`.
+    raw: Arc<Mutex<vk::Queue>>,
     pub family: u32,
     pub flags: vk::QueueFlags,
     pub timestamp_valid_bits: u32,
@@ -178,7 +193,7 @@ impl Gpu {
                 .position(|f| f.queue_flags.contains(want) && !f.queue_flags.intersects(not))
                 .map(|i| i as u32)
         };
-        let (compute_family, transfer_family) = if options.single_queue {
+        let (compute_family, transfer_family) = if options.queues != QueueMode::Auto {
             (graphics_family, graphics_family)
         } else {
             let compute = dedicated(vk::QueueFlags::COMPUTE, vk::QueueFlags::GRAPHICS)
@@ -238,8 +253,7 @@ impl Gpu {
         let device = guard.device().clone();
         let debug_utils = ash::ext::debug_utils::Device::new(instance, &device);
 
-        let mut queues = Vec::new();
-        for &family in &distinct {
+        let create_timeline = |guard: &mut DeviceGuard| -> anyhow::Result<vk::Semaphore> {
             let mut type_info = vk::SemaphoreTypeCreateInfo::default()
                 .semaphore_type(vk::SemaphoreType::TIMELINE)
                 .initial_value(0);
@@ -248,11 +262,16 @@ impl Gpu {
             let timeline = unsafe { device.create_semaphore(&sem_info, None) }
                 .map_err(vk_err("vkCreateSemaphore"))?;
             guard.semaphores.push(timeline);
+            Ok(timeline)
+        };
+        let mut queues = Vec::new();
+        for &family in &distinct {
+            let timeline = create_timeline(&mut guard)?;
             // SAFETY: one queue of this family was requested at device creation.
             let raw = unsafe { device.get_device_queue(family, 0) };
             let props = &families[family as usize];
             queues.push(Queue {
-                raw: Mutex::new(raw),
+                raw: Arc::new(Mutex::new(raw)),
                 family,
                 flags: props.queue_flags,
                 timestamp_valid_bits: props.timestamp_valid_bits,
@@ -261,11 +280,25 @@ impl Gpu {
             });
         }
         let role_index = |f: u32| distinct.iter().position(|&d| d == f).unwrap_or(0);
-        let roles = [
+        let mut roles = [
             role_index(graphics_family),
             role_index(compute_family),
             role_index(transfer_family),
         ];
+        if options.queues == QueueMode::SplitTransfer {
+            let timeline = create_timeline(&mut guard)?;
+            let graphics = &queues[roles[QueueRole::Graphics as usize]];
+            let logical = Queue {
+                raw: graphics.raw.clone(),
+                family: graphics.family,
+                flags: graphics.flags,
+                timestamp_valid_bits: graphics.timestamp_valid_bits,
+                timeline,
+                submitted: AtomicU64::new(0),
+            };
+            queues.push(logical);
+            roles[QueueRole::Transfer as usize] = queues.len() - 1;
+        }
 
         let allocator = Allocator::new(&AllocatorCreateDesc {
             instance: instance.clone(),

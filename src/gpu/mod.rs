@@ -30,7 +30,7 @@ pub use access::{Access, AccessInfo};
 pub use ash::vk;
 pub use cmd::{Attachment, Cmd, Load, Recording, Scope, Wait};
 pub use device::{
-    list_devices, DeviceProperties, Gpu, GpuOptions, Queue, QueueRole, TimelinePoint,
+    list_devices, DeviceProperties, Gpu, GpuOptions, Queue, QueueMode, QueueRole, TimelinePoint,
 };
 pub use error::{GpuError, GpuResult};
 pub use instance::validation_requested;
