@@ -15,8 +15,8 @@
 //! the serial order; the overlapped schedule of the paper's Figure 3 reorders the same steps.
 
 use crate::gpu::{
-    vk, Buffer, Cmd, Gpu, Image, ImageDesc, QueueRole, Recording, Span, TimelinePoint,
-    Timestamps, ViewKind, Wait,
+    vk, Buffer, Cmd, Gpu, Image, ImageDesc, QueueRole, Recording, Span, TimelinePoint, Timestamps,
+    ViewKind, Wait,
 };
 use crate::gpu_scene::GpuScene;
 use crate::layout::FrameUniforms;
@@ -348,6 +348,30 @@ impl Renderer {
             f64::from(self.camera.znear),
         );
         proj * rotation_only.inverse()
+    }
+
+    /// Moves the scene's lights (the same lights in the same order, with new transforms or
+    /// powers) for the next frame.
+    pub fn set_lights(&mut self, lights: &[Light]) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            lights.len() == self.lights.len(),
+            "{} lights given, the scene has {}",
+            lights.len(),
+            self.lights.len()
+        );
+        if let Some(photons) = &mut self.photons {
+            photons.set_lights(lights)?;
+        }
+        if let Some(translucent) = &mut self.translucent {
+            translucent.invalidate(); // the cube map holds direct light
+        }
+        self.lights = lights.to_vec();
+        Ok(())
+    }
+
+    /// The scene's lights as the next frame uses them.
+    pub fn lights(&self) -> &[Light] {
+        &self.lights
     }
 
     /// Renders one frame, waits for it, and reads the images back.

@@ -3,9 +3,7 @@
 //! and passes those steps use; `frame.rs` calls its three steps in order.
 
 use crate::frame::{FrameStats, RenderSettings};
-use crate::gpu::{
-    vk, Access, Buffer, Cmd, Gpu, Image, MemoryLocation, QueueRole, ViewKind,
-};
+use crate::gpu::{vk, Access, Buffer, Cmd, Gpu, Image, MemoryLocation, QueueRole, ViewKind};
 use crate::gpu_scene::GpuScene;
 use crate::ispm::BouncePlan;
 use crate::passes::bounce_map::{BounceMapIo, BounceMapPass};
@@ -27,6 +25,9 @@ pub struct PhotonFrame {
     scene: Scene,
     bvh: SceneBvh,
     plan: BouncePlan,
+    /// Photons per frame and the scene's bounds: what the plan is made from.
+    budget: usize,
+    bounds: crate::scene::Aabb,
     trace: TraceSettings,
     kernel: KernelSettings,
     light_gbuffer: GBuffer,
@@ -182,6 +183,8 @@ impl PhotonFrame {
                 upsample::low_size(radiance.width, radiance.height, subsample).1,
             ),
             plan,
+            budget: settings.photons,
+            bounds: gpu_scene.bounds,
             light_gbuffer,
             light_pass,
             views: view_buffer,
@@ -199,6 +202,32 @@ impl PhotonFrame {
             last_bounce_map: Vec::new(),
             last_photons: Vec::new(),
         })
+    }
+
+    /// Moves the lights (same lights, new transforms or powers): the next frame's bounce map
+    /// starts from them. Fails if the new lights need more light views, texels or a larger
+    /// light G-buffer than the renderer was created with.
+    pub fn set_lights(&mut self, lights: &[crate::scene::Light]) -> anyhow::Result<()> {
+        let mut scene = self.scene.clone();
+        scene.lights = lights.to_vec();
+        let plan = BouncePlan::new(&scene, self.plan.camera, &self.bounds, self.budget);
+        let fits = plan.views.len() <= self.plan.views.len().max(1)
+            && plan.texels <= self.plan.texels.max(1)
+            && plan.max_resolution <= self.plan.max_resolution.max(1);
+        anyhow::ensure!(
+            fits,
+            "the moved lights need {} light views of up to {}² texels ({} in all), more than the \
+             {} views of {}² ({} texels) this renderer has",
+            plan.views.len(),
+            plan.max_resolution,
+            plan.texels,
+            self.plan.views.len(),
+            self.plan.max_resolution,
+            self.plan.texels
+        );
+        self.scene.lights = scene.lights;
+        self.plan = plan;
+        Ok(())
     }
 
     /// Whether this frame has photons to emit (a budget and a light with power).

@@ -450,7 +450,14 @@ impl Gpu {
     /// Blocks until the device is idle. Only for shutdown and one-shot tools.
     pub fn wait_idle(&self) -> GpuResult<()> {
         // vkDeviceWaitIdle needs every queue externally synchronised: hold all their locks.
-        let _locks: Vec<_> = self.queues.iter().map(Queue::raw).collect();
+        // Logical queues sharing one `VkQueue` share its lock: take each lock once.
+        let mut distinct: Vec<&Queue> = Vec::new();
+        for q in &self.queues {
+            if !distinct.iter().any(|d| Arc::ptr_eq(&d.raw, &q.raw)) {
+                distinct.push(q);
+            }
+        }
+        let _locks: Vec<_> = distinct.into_iter().map(Queue::raw).collect();
         // SAFETY: the device is live and no queue can be used while the locks are held.
         unsafe { self.device.device_wait_idle() }.map_err(vk_err("vkDeviceWaitIdle"))
     }

@@ -1,0 +1,123 @@
+//! The frame schedule (`src/frame.rs`): frames in flight with a moving light stay
+//! validation-clean (synchronization validation included) and end on the image a serial render
+//! of the same frame gives; the logical transfer queue (the multi-queue path on a one-queue
+//! device) renders the same image as the single queue.
+
+mod common;
+
+use ispm::frame::{FrameImage, Method, RenderSettings, Renderer, Schedule};
+use ispm::gpu::{Gpu, GpuOptions, QueueMode, QueueRole};
+use ispm::scene::{bundled, Light, Scene};
+use std::sync::Arc;
+
+fn settings(schedule: Schedule) -> RenderSettings {
+    RenderSettings {
+        method: Method::Ispm,
+        photons: 3_000,
+        width: 48,
+        height: 48,
+        shadow_resolution: 64,
+        schedule,
+        ..Default::default()
+    }
+}
+
+fn gpu(queues: QueueMode) -> Arc<Gpu> {
+    Gpu::new(&GpuOptions {
+        validation: true,
+        queues,
+        ..Default::default()
+    })
+    .expect("a Vulkan 1.3 device with the validation layer")
+}
+
+/// The scene's lights with the first one moved along a small circle (frame `i` of `n`).
+fn orbit(scene: &Scene, i: usize, n: usize) -> Vec<Light> {
+    let mut lights = scene.lights.clone();
+    let angle = std::f32::consts::TAU * i as f32 / n as f32;
+    let size = scene.bounds().extent().length();
+    lights[0].position += glam::Vec3::new(angle.cos(), 0.0, angle.sin()) * (0.05 * size);
+    lights
+}
+
+fn bits(frame: &FrameImage) -> Vec<u32> {
+    frame.hdr.iter().map(|v| v.to_bits()).collect()
+}
+
+#[test]
+fn moving_light_frames_in_flight_stay_validation_clean_and_match_a_serial_render() {
+    let scene = bundled::resolve(Some("cornell-box")).expect("scene");
+    const FRAMES: usize = 100;
+    let gpu = common::gpu();
+    let mut renderer = Renderer::new(&gpu, &scene, settings(Schedule::Overlapped)).expect("new");
+    for i in 0..FRAMES - 1 {
+        renderer
+            .set_lights(&orbit(&scene, i, FRAMES))
+            .expect("move");
+        renderer.submit_frame().expect("frame");
+    }
+    let last_lights = orbit(&scene, FRAMES - 1, FRAMES);
+    renderer.set_lights(&last_lights).expect("move");
+    let overlapped = renderer.render().expect("last frame");
+    common::assert_validation_clean(&gpu);
+    assert!(overlapped.stats.stored_photons > 0);
+
+    let mut moved = scene.clone();
+    moved.lights = last_lights;
+    let serial = Renderer::new(&gpu, &moved, settings(Schedule::Serial))
+        .expect("new")
+        .render()
+        .expect("serial");
+    common::assert_validation_clean(&gpu);
+    assert_eq!(overlapped.stats.stored_photons, serial.stats.stored_photons);
+    assert!(
+        bits(&overlapped) == bits(&serial),
+        "the 100th overlapped frame differs from a serial render of the same lights"
+    );
+    // The light really moved: frame 0's image is another one.
+    let mut first = scene.clone();
+    first.lights = orbit(&scene, 0, FRAMES);
+    let frame0 = Renderer::new(&gpu, &first, settings(Schedule::Serial))
+        .expect("new")
+        .render()
+        .expect("frame 0");
+    assert!(bits(&frame0) != bits(&serial), "the light did not move");
+}
+
+#[test]
+fn logical_transfer_queue_renders_what_the_single_queue_renders() {
+    let scene = bundled::resolve(Some("glass-sphere")).expect("scene");
+    let mut images = Vec::new();
+    for mode in [QueueMode::Single, QueueMode::SplitTransfer] {
+        let gpu = gpu(mode);
+        let split = gpu.queue_index(QueueRole::Transfer) != gpu.queue_index(QueueRole::Graphics);
+        assert_eq!(split, mode == QueueMode::SplitTransfer, "{mode:?}");
+        let mut renderer =
+            Renderer::new(&gpu, &scene, settings(Schedule::Overlapped)).expect("renderer");
+        for _ in 0..3 {
+            renderer.submit_frame().expect("frame");
+        }
+        let frame = renderer.render().expect("render");
+        common::assert_validation_clean(&gpu);
+        assert!(frame.stats.stored_photons > 0, "{mode:?}: no photons");
+        let names: Vec<&str> = frame.gpu_spans.iter().map(|s| s.name.as_str()).collect();
+        for pass in ["readback", "upload", "photon_volumes"] {
+            assert!(names.contains(&pass), "{mode:?}: no {pass} in {names:?}");
+        }
+        images.push(bits(&frame));
+    }
+    assert!(
+        images[0] == images[1],
+        "the logical transfer queue changed the image"
+    );
+}
+
+#[test]
+fn renderer_refuses_lights_it_was_not_made_for() {
+    let scene = bundled::resolve(Some("cornell-box")).expect("scene");
+    let gpu = common::gpu();
+    let mut renderer = Renderer::new(&gpu, &scene, settings(Schedule::Overlapped)).expect("new");
+    let err = renderer.set_lights(&scene.lights[..1]).unwrap_err();
+    assert!(err.to_string().contains("lights given"), "{err}");
+    common::assert_validation_clean(&gpu);
+}
