@@ -27,6 +27,7 @@ use crate::passes::shadow_map::{self, ShadowMapPass};
 use crate::passes::tonemap::{self, Tonemap, TonemapPass};
 use crate::photon_frame::PhotonFrame;
 use crate::scene::{Camera, Light, Scene};
+use crate::timing;
 use crate::translucent_frame::{TranslucentFrame, TranslucentResources};
 use glam::{DMat4, UVec4, Vec4};
 use std::sync::Arc;
@@ -127,6 +128,10 @@ pub struct FrameStats {
     /// Photons alive after each bounce (the paper's Figure 10).
     pub attrition: Vec<u64>,
     pub cpu_trace_ms: f64,
+    /// Host time from the frame's start (the host begins issuing it) to the end of its last
+    /// GPU pass. Under the overlapped schedule frames overlap, so this is latency, not the
+    /// frame period.
+    pub frame_ms: f64,
     pub passes_run: Vec<String>,
     /// The subsample factor the frame used (after clamping to the image size).
     pub subsample: u32,
@@ -171,6 +176,9 @@ struct FrameSlot {
 struct PendingFrame {
     done: TimelinePoint,
     stats: FrameStats,
+    /// When the host began issuing it ([`timing::now_ns`]).
+    start_ns: u64,
+    index: u64,
 }
 
 /// The host's set-up of one frame.
@@ -387,9 +395,13 @@ impl Renderer {
         let gpu = self.gpu.clone();
         let slot = (self.frame_index % FRAMES_IN_FLIGHT as u64) as usize;
         self.retire_slot(slot)?;
+        // The span covers the host's part of this frame only, so frames' spans never overlap
+        // on the main thread's track.
+        let frame_span = timing::frame(self.frame_index);
+        let start_ns = timing::now_ns();
         gpu.collect_garbage();
         let timestamps = self.slots[slot].timestamps.clone();
-        timestamps.reset();
+        timestamps.reset(self.frame_index);
         let frame = self.prepare();
 
         // Box A (graphics): per-frame constants, light G-buffers, bounce map.
@@ -423,7 +435,7 @@ impl Renderer {
         let mut stats = FrameStats::default();
         let mut upload_done = None;
         if let (Some(photons), Some(readback)) = (&mut self.photons, readback_done) {
-            gpu.wait(readback)?;
+            timing::timed("readback wait", || gpu.wait(readback))?;
             if let Some(previous) = self.last_upload.take() {
                 gpu.wait(previous)?; // the staging buffer is free again (long done by now)
             }
@@ -451,8 +463,11 @@ impl Renderer {
         self.slots[slot].pending = Some(PendingFrame {
             done: d_done,
             stats,
+            start_ns,
+            index: self.frame_index,
         });
         self.frame_index += 1;
+        drop(frame_span);
         Ok(())
     }
 
@@ -498,9 +513,19 @@ impl Renderer {
         let Some(pending) = self.slots[slot].pending.take() else {
             return Ok(None);
         };
-        self.gpu.wait(pending.done)?;
+        {
+            let _wait = timing::span_in("host wait", Some(pending.index));
+            self.gpu.wait(pending.done)?;
+        }
         let spans = self.slots[slot].timestamps.read()?;
-        Ok(Some((spans, pending.stats)))
+        let mut stats = pending.stats;
+        let end_ns = spans
+            .iter()
+            .map(|s| s.end_ns)
+            .max()
+            .unwrap_or(pending.start_ns);
+        stats.frame_ms = end_ns.saturating_sub(pending.start_ns) as f64 * 1e-6;
+        Ok(Some((spans, stats)))
     }
 
     /// The host's part of a frame before any recording: light set-up and the frame constants.

@@ -7,6 +7,7 @@
 //! - [`reference`]: CPU reference renderers; no Vulkan.
 //! - [`gpu`]: the only place raw `ash` lives.
 //! - [`passes`]: one explicit GPU pass per file.
+//! - [`timing`]: CPU and GPU spans on one host clock, Chrome trace JSON.
 
 pub mod frame;
 pub mod gpu;
@@ -21,6 +22,7 @@ pub mod photon_frame;
 pub mod reference;
 pub mod scene;
 pub mod stats;
+pub mod timing;
 pub mod translucent_frame;
 
 /// Constants shared with GLSL (generated into `shared_constants.glsl` by `build.rs`).

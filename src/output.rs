@@ -31,11 +31,14 @@ impl OutputFormat {
     }
 }
 
-/// Writes `bytes` produced by `write` to `path` atomically.
-pub fn write_atomically(
-    path: &Path,
-    write: impl FnOnce(&mut std::fs::File) -> anyhow::Result<()>,
-) -> anyhow::Result<()> {
+/// Fails, naming `path`, when a file cannot be written there: its folder is missing or the
+/// path is a folder.
+pub fn check_writable(path: &Path) -> anyhow::Result<()> {
+    target_folder(path).map(|_| ())
+}
+
+/// The folder `path` is written in, which must exist; `path` must not be a folder itself.
+fn target_folder(path: &Path) -> anyhow::Result<PathBuf> {
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
@@ -46,6 +49,16 @@ pub fn write_atomically(
         path.display(),
         dir.display()
     );
+    anyhow::ensure!(!path.is_dir(), "{}: is a folder", path.display());
+    Ok(dir)
+}
+
+/// Writes `bytes` produced by `write` to `path` atomically.
+pub fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&mut std::fs::File) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    let dir = target_folder(path)?;
     let name = path
         .file_name()
         .with_context(|| format!("{}: not a file name", path.display()))?;

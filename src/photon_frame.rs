@@ -17,8 +17,8 @@ use crate::photon::kernel::KernelSettings;
 use crate::photon::trace::{trace_photons, TraceSettings};
 use crate::photon::types::{BounceMapPhoton, Photon};
 use crate::scene::Scene;
+use crate::timing;
 use std::sync::Arc;
-use std::time::Instant;
 
 pub struct PhotonFrame {
     gpu: Arc<Gpu>,
@@ -302,10 +302,10 @@ impl PhotonFrame {
         let bytes = self.readback.read()?;
         let records = plan.texels * size_of::<BounceMapPhoton>();
         let bounce_map: Vec<BounceMapPhoton> = bytemuck::pod_collect_to_vec(&bytes[..records]);
-        let start = Instant::now();
+        let trace_span = timing::span("cpu_trace");
         let starts = plan.photon_starts(&bounce_map);
         let map = trace_photons(&self.scene, &self.bvh, &starts, &self.trace);
-        stats.cpu_trace_ms = start.elapsed().as_secs_f64() * 1e3;
+        stats.cpu_trace_ms = trace_span.finish();
         stats.bounce_map_photons = starts.len();
         stats.stored_photons = map.photons.len();
         stats.attrition = map.attrition;
@@ -326,7 +326,9 @@ impl PhotonFrame {
             self.photons = photons;
             self.rebind = true;
         }
-        self.staging.write(0, bytemuck::cast_slice(&relative))?;
+        timing::timed("upload write", || {
+            self.staging.write(0, bytemuck::cast_slice(&relative))
+        })?;
         self.count = relative.len() as u32;
         self.last_bounce_map = bounce_map;
         self.last_photons = relative;

@@ -1,10 +1,15 @@
 //! The stats JSON of a frame (DESIGN.md §7): the paper's Table 2 columns and per-stage times.
+//!
+//! Stage times are the frame's own measurements, the ones `--trace` shows: GPU stages are the
+//! summed GPU timestamp scopes of that name; `cpu_trace` is the main thread's `cpu_trace` span
+//! and `frame` its `frame` span (host time from the frame's start to the end of its GPU work).
 
 use crate::frame::FrameImage;
 use crate::scene::Scene;
 use serde_json::{json, Map, Value};
 
-/// The stages the stats always report (0 when a stage did not run).
+/// The stages the stats always report (0 when a stage did not run): DESIGN.md §7's, and the
+/// frame's other passes.
 pub const STAGES: &[&str] = &[
     "shadow_maps",
     "light_gbuffers",
@@ -16,8 +21,10 @@ pub const STAGES: &[&str] = &[
     "direct",
     "photon_volumes",
     "upsample",
+    "composite",
     "environment",
     "translucent",
+    "tonemap",
     "frame",
 ];
 
@@ -31,16 +38,17 @@ pub fn frame_json(
 ) -> Value {
     let mut ms = Map::new();
     for stage in STAGES {
-        // A fold from +0.0: `Sum` of no f64 is -0.0, which the JSON would print.
-        let gpu = frame
-            .gpu_spans
-            .iter()
-            .filter(|s| s.name == *stage)
-            .fold(0.0, |sum, s| sum + s.ms());
-        let value = if *stage == "cpu_trace" {
-            frame.stats.cpu_trace_ms
-        } else {
-            gpu
+        let value = match *stage {
+            // Host-side spans (timing::span guards) of the frame.
+            "cpu_trace" => frame.stats.cpu_trace_ms,
+            "frame" => frame.stats.frame_ms,
+            // GPU timestamp scopes; a fold from +0.0: `Sum` of no f64 is -0.0, which the JSON
+            // would print.
+            _ => frame
+                .gpu_spans
+                .iter()
+                .filter(|s| s.name == *stage)
+                .fold(0.0, |sum, s| sum + s.ms()),
         };
         ms.insert((*stage).to_string(), json!(value));
     }

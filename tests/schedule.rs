@@ -121,3 +121,71 @@ fn renderer_refuses_lights_it_was_not_made_for() {
     assert!(err.to_string().contains("lights given"), "{err}");
     common::assert_validation_clean(&gpu);
 }
+
+/// One capture (the only one in this process) of `frames` frames of the Cornell box.
+fn captured_frames(schedule: Schedule, frames: u64) -> Vec<ispm::timing::Span> {
+    let scene = bundled::resolve(Some("cornell-box")).expect("scene");
+    let gpu = common::gpu();
+    let settings = RenderSettings {
+        photons: 20_000,
+        width: 192,
+        height: 192,
+        shadow_resolution: 512,
+        schedule,
+        ..Default::default()
+    };
+    let mut renderer = Renderer::new(&gpu, &scene, settings).expect("renderer");
+    ispm::timing::start_capture();
+    let rendered = (0..frames).try_for_each(|_| renderer.submit_frame());
+    let last = renderer.finish();
+    let capture = ispm::timing::finish_capture();
+    rendered.expect("frames");
+    last.expect("last frame");
+    common::assert_validation_clean(&gpu);
+    capture.spans
+}
+
+/// Whether `a` and `b` overlap in time.
+fn overlap(a: &ispm::timing::Span, b: &ispm::timing::Span) -> bool {
+    a.begin_ns < b.end_ns && b.begin_ns < a.end_ns
+}
+
+/// The paper's Figure 3: in the overlapped schedule the CPU trace of a frame runs while the GPU
+/// draws (lavapipe's GPU work runs on its own threads); in the serial one nothing on the GPU
+/// runs during any CPU trace. Frame 0 (cold caches) is left out.
+#[test]
+fn cpu_trace_overlaps_gpu_work_only_in_the_overlapped_schedule() {
+    const FRAMES: u64 = 4;
+    for schedule in [Schedule::Overlapped, Schedule::Serial] {
+        let spans = captured_frames(schedule, FRAMES);
+        let gpu: Vec<_> = spans.iter().filter(|s| s.is_gpu()).collect();
+        let traces: Vec<_> = spans
+            .iter()
+            .filter(|s| !s.is_gpu() && s.name == "cpu_trace")
+            .collect();
+        assert_eq!(traces.len(), FRAMES as usize, "{schedule:?}");
+        for t in traces.iter().filter(|t| t.frame != Some(0)) {
+            let during: Vec<&str> = gpu
+                .iter()
+                .filter(|g| overlap(g, t) && g.depth == 0)
+                .map(|g| g.name.as_str())
+                .collect();
+            match schedule {
+                Schedule::Overlapped => assert!(
+                    !during.is_empty(),
+                    "frame {:?}: no GPU pass ran during the CPU trace",
+                    t.frame
+                ),
+                Schedule::Serial => assert!(
+                    during.is_empty(),
+                    "frame {:?}: serial, yet {during:?} ran during the CPU trace",
+                    t.frame
+                ),
+            }
+            eprintln!(
+                "{schedule:?} frame {:?}: during the trace: {during:?}",
+                t.frame
+            );
+        }
+    }
+}

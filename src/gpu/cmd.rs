@@ -12,6 +12,7 @@ use super::pipeline::{DescriptorSet, Pipeline};
 use super::resources::{aspect_of, Buffer, Image};
 use super::timestamps::Timestamps;
 use ash::vk;
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Arc;
 
 /// A command buffer being recorded for one queue role.
@@ -21,6 +22,8 @@ pub struct Recording {
     raw: vk::CommandBuffer,
     pub role: QueueRole,
     timestamps: Option<Arc<Timestamps>>,
+    /// Scopes open in this command buffer.
+    depth: AtomicU32,
 }
 
 /// How a colour attachment starts.
@@ -46,7 +49,7 @@ pub struct Wait {
 
 impl Gpu {
     /// Starts recording commands for `role`. With `timestamps`, every [`Cmd::scope`] also
-    /// writes GPU timestamps.
+    /// writes GPU timestamps, tagged with this queue and the scope's nesting depth.
     pub fn record(
         self: &Arc<Self>,
         role: QueueRole,
@@ -87,12 +90,15 @@ impl Gpu {
             raw,
             role,
             timestamps,
+            depth: AtomicU32::new(0),
         })
     }
 
     /// Ends `rec`, submits it to its queue after `waits`, and returns the timeline point its
-    /// completion signals.
+    /// completion signals. A CPU span `submit` covers the call (the GPU cannot start the work
+    /// before it does).
     pub fn submit(&self, mut rec: Recording, waits: &[Wait]) -> GpuResult<TimelinePoint> {
+        let _span = crate::timing::span("submit");
         let queue_index = self.queue_index(rec.role);
         let queue = &self.queues[queue_index];
         // SAFETY: the buffer is in the recording state (Recording's invariant).
@@ -180,8 +186,10 @@ impl Recording {
         Cmd {
             gpu: &self.gpu,
             raw: self.raw,
+            role: self.role,
             timestamps: self.timestamps.as_deref(),
             family: self.gpu.queue(self.role).family,
+            depth: &self.depth,
         }
     }
 }
@@ -191,9 +199,11 @@ impl Recording {
 pub struct Cmd<'a> {
     gpu: &'a Gpu,
     raw: vk::CommandBuffer,
+    role: QueueRole,
     timestamps: Option<&'a Timestamps>,
     /// The queue family the command buffer is recorded for.
     family: u32,
+    depth: &'a AtomicU32,
 }
 
 /// An open debug label / timestamp scope; closes when dropped.
@@ -207,6 +217,7 @@ impl Drop for Scope<'_, '_> {
         if let (Some(t), Some(i)) = (self.cmd.timestamps, self.index) {
             t.write_end(self.cmd, i);
         }
+        self.cmd.depth.fetch_sub(1, Ordering::Relaxed);
         // SAFETY: the label was opened by `Cmd::scope` on this command buffer.
         unsafe {
             self.cmd
@@ -237,7 +248,10 @@ impl<'a> Cmd<'a> {
                 .debug_utils
                 .cmd_begin_debug_utils_label(self.raw, &label)
         };
-        let index = self.timestamps.and_then(|t| t.write_begin(self, name));
+        let depth = self.depth.fetch_add(1, Ordering::Relaxed);
+        let index = self
+            .timestamps
+            .and_then(|t| t.write_begin(self, self.role, name, depth));
         Scope { cmd: self, index }
     }
 

@@ -14,6 +14,7 @@
 //! graveyard, tagged with every queue's last submitted timeline value, and is destroyed by
 //! [`Gpu::collect_garbage`] once all those values have completed (or at shutdown).
 
+use super::clock::{calibration_choice, ClockSource, DeviceClock};
 use super::error::{vk_err, GpuError, GpuResult};
 use super::instance::{create_instance, InstanceParts};
 use ash::vk;
@@ -32,6 +33,9 @@ pub struct GpuOptions {
     pub validation: bool,
     /// Which queues the roles use.
     pub queues: QueueMode,
+    /// Put GPU timestamps on the host clock by a measured offset even where calibrated
+    /// timestamps are available (tests compare the two).
+    pub measured_clock: bool,
 }
 
 /// Which device queues serve the [`QueueRole`]s.
@@ -55,6 +59,18 @@ pub enum QueueRole {
     Graphics,
     Compute,
     Transfer,
+}
+
+impl QueueRole {
+    pub const ALL: [QueueRole; 3] = [QueueRole::Graphics, QueueRole::Compute, QueueRole::Transfer];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            QueueRole::Graphics => "graphics",
+            QueueRole::Compute => "compute",
+            QueueRole::Transfer => "transfer",
+        }
+    }
 }
 
 /// A device queue with its own timeline semaphore.
@@ -112,6 +128,8 @@ pub struct Gpu {
     roles: [usize; 3],
     allocator: ManuallyDrop<Mutex<Allocator>>,
     graveyard: Mutex<Vec<(Vec<u64>, Retired)>>,
+    /// How timestamps are put on the host clock (`clock.rs`).
+    pub(super) clock: DeviceClock,
     pub validation: bool,
     /// Dropped last (fields drop after `Drop::drop`, which destroys the device first).
     instance: InstanceParts,
@@ -231,8 +249,13 @@ impl Gpu {
             .dynamic_rendering(true)
             .maintenance4(true);
         let mut extensions: Vec<&CStr> = Vec::new();
-        if properties.calibrated_timestamps {
-            extensions.push(ash::ext::calibrated_timestamps::NAME);
+        let calibration = if options.measured_clock {
+            None
+        } else {
+            calibration_choice(&parts.entry, instance, physical)
+        };
+        if let Some(c) = calibration {
+            extensions.push(c.extension);
         }
         let extension_ptrs: Vec<_> = extensions.iter().map(|e| e.as_ptr()).collect();
         let features = vk::PhysicalDeviceFeatures::default().fragment_stores_and_atomics(true);
@@ -252,6 +275,7 @@ impl Gpu {
         };
         let device = guard.device().clone();
         let debug_utils = ash::ext::debug_utils::Device::new(instance, &device);
+        let clock = DeviceClock::new(instance, &device, calibration);
 
         let create_timeline = |guard: &mut DeviceGuard| -> anyhow::Result<vk::Semaphore> {
             let mut type_info = vk::SemaphoreTypeCreateInfo::default()
@@ -322,6 +346,7 @@ impl Gpu {
             roles,
             allocator: ManuallyDrop::new(Mutex::new(allocator)),
             graveyard: Mutex::new(Vec::new()),
+            clock,
             validation,
             instance: parts,
         });
@@ -330,6 +355,12 @@ impl Gpu {
                 q.timeline,
                 &format!("timeline[queue {i}, family {}]", q.family),
             );
+        }
+        if gpu.clock_source() == ClockSource::MeasuredOffset {
+            // Measured now, while the device is idle and the bracket tight.
+            if let Err(e) = gpu.clock_calibration() {
+                log::warn!("cannot measure the GPU clock offset: {e}");
+            }
         }
         Ok(gpu)
     }
@@ -351,6 +382,17 @@ impl Gpu {
     /// The distinct queues this device uses.
     pub fn queue_list(&self) -> &[Queue] {
         &self.queues
+    }
+
+    /// The name of queue `index`'s trace track: the roles it serves, e.g.
+    /// `GPU graphics+compute+transfer queue`.
+    pub fn queue_label(&self, index: usize) -> String {
+        let roles: Vec<&str> = QueueRole::ALL
+            .into_iter()
+            .filter(|&r| self.queue_index(r) == index)
+            .map(QueueRole::name)
+            .collect();
+        format!("GPU {} queue", roles.join("+"))
     }
 
     /// Validation messages counted so far (empty when validation is off).
@@ -569,7 +611,8 @@ fn describe(instance: &ash::Instance, pd: vk::PhysicalDevice) -> DevicePropertie
         driver_info: text(driver.driver_info_as_c_str()),
         timestamp_period: p.limits.timestamp_period,
         families,
-        calibrated_timestamps: has(ash::ext::calibrated_timestamps::NAME),
+        calibrated_timestamps: has(ash::ext::calibrated_timestamps::NAME)
+            || has(ash::khr::calibrated_timestamps::NAME),
     }
 }
 

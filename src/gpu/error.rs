@@ -18,6 +18,8 @@ pub enum GpuError {
          (Debian/Ubuntu: apt-get install vulkan-validationlayers)"
     )]
     ValidationLayerMissing,
+    #[error("the device cannot time GPU work: {0}")]
+    NoTimestamps(&'static str),
     #[error("the GPU ran out of memory while {0}")]
     OutOfMemory(String),
     #[error("the device was lost while {0}")]

@@ -47,7 +47,7 @@ pub fn validation_requested() -> bool {
 /// path after instance creation cleans up by dropping this.
 pub(super) struct InstanceParts {
     /// Keeps the Vulkan loader library loaded while the instance lives.
-    _entry: ash::Entry,
+    pub entry: ash::Entry,
     pub instance: ash::Instance,
     debug_utils: ash::ext::debug_utils::Instance,
     messenger: vk::DebugUtilsMessengerEXT,
@@ -159,7 +159,7 @@ pub(super) fn create_instance(
         }
     };
     Ok(InstanceParts {
-        _entry: entry,
+        entry,
         instance,
         debug_utils,
         messenger,

@@ -31,7 +31,8 @@
 //! Each path draws from `Rng::new(seed_from_position(origin, seed))` (frame-coherent: the
 //! same start gives the same path). Work is split into fixed-size chunks traced in parallel by
 //! rayon; per-chunk buffers are concatenated in chunk order, so the photon map does not depend
-//! on the number of threads.
+//! on the number of threads. Each chunk is a `trace_chunk` span on its worker's track
+//! ([`crate::timing`]), in the frame of the thread that called [`trace_photons`].
 
 use super::bsdf::{Bsdf, Lobe};
 use super::bvh::SceneBvh;
@@ -319,9 +320,11 @@ pub fn trace_photons(
         max_bounces,
         ..*settings
     };
+    let frame = crate::timing::current_frame();
     let chunks: Vec<Chunk> = starts
         .par_chunks(CHUNK)
         .map(|chunk| {
+            let _span = crate::timing::span_in("trace_chunk", frame);
             let mut out = Chunk::new(max_bounces);
             for s in chunk {
                 trace_path(scene, bvh, s, &settings, &mut out);
