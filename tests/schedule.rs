@@ -8,7 +8,14 @@ mod common;
 use ispm::frame::{FrameImage, Method, RenderSettings, Renderer, Schedule};
 use ispm::gpu::{Gpu, GpuOptions, QueueMode, QueueRole};
 use ispm::scene::{bundled, Light, Scene};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, MutexGuard};
+
+/// The tests of this file run one at a time: the trace capture is process-wide, and another
+/// test's frames would land in it.
+fn exclusive() -> MutexGuard<'static, ()> {
+    static LOCK: Mutex<()> = Mutex::new(());
+    LOCK.lock().unwrap_or_else(|e| e.into_inner())
+}
 
 fn settings(schedule: Schedule) -> RenderSettings {
     RenderSettings {
@@ -46,6 +53,7 @@ fn bits(frame: &FrameImage) -> Vec<u32> {
 
 #[test]
 fn moving_light_frames_in_flight_stay_validation_clean_and_match_a_serial_render() {
+    let _one_at_a_time = exclusive();
     let scene = bundled::resolve(Some("cornell-box")).expect("scene");
     const FRAMES: usize = 100;
     let gpu = common::gpu();
@@ -86,6 +94,7 @@ fn moving_light_frames_in_flight_stay_validation_clean_and_match_a_serial_render
 
 #[test]
 fn logical_transfer_queue_renders_what_the_single_queue_renders() {
+    let _one_at_a_time = exclusive();
     let scene = bundled::resolve(Some("glass-sphere")).expect("scene");
     let mut images = Vec::new();
     for mode in [QueueMode::Single, QueueMode::SplitTransfer] {
@@ -114,6 +123,7 @@ fn logical_transfer_queue_renders_what_the_single_queue_renders() {
 
 #[test]
 fn renderer_refuses_lights_it_was_not_made_for() {
+    let _one_at_a_time = exclusive();
     let scene = bundled::resolve(Some("cornell-box")).expect("scene");
     let gpu = common::gpu();
     let mut renderer = Renderer::new(&gpu, &scene, settings(Schedule::Overlapped)).expect("new");
@@ -155,6 +165,7 @@ fn overlap(a: &ispm::timing::Span, b: &ispm::timing::Span) -> bool {
 /// runs during any CPU trace. Frame 0 (cold caches) is left out.
 #[test]
 fn cpu_trace_overlaps_gpu_work_only_in_the_overlapped_schedule() {
+    let _one_at_a_time = exclusive();
     const FRAMES: u64 = 4;
     for schedule in [Schedule::Overlapped, Schedule::Serial] {
         let spans = captured_frames(schedule, FRAMES);
