@@ -25,7 +25,9 @@ use crate::passes::direct::{DirectInputs, DirectPass};
 use crate::passes::eye_gbuffer::{EyeGBufferPass, GBuffer, View};
 use crate::passes::shadow_map::{self, ShadowMapPass};
 use crate::passes::tonemap::{self, Tonemap, TonemapPass};
+use crate::photon::bsdf::BsdfVariant;
 use crate::photon_frame::PhotonFrame;
+use crate::plan::Effects;
 use crate::scene::{Camera, Light, Scene};
 use crate::timing;
 use crate::translucent_frame::{TranslucentFrame, TranslucentResources};
@@ -83,6 +85,12 @@ pub struct RenderSettings {
     /// Photon volumes at 1/N resolution, upsampled (1: full resolution, no upsampling).
     pub subsample: u32,
     pub schedule: Schedule,
+    /// `Auto`: the effects plan (`plan::EffectsPlan`) may skip what the scene does not need;
+    /// `All`: every pass and shader variant runs (`--effects all`, for comparison).
+    pub effects: Effects,
+    /// The über-BSDF lobes compiled into every shader that evaluates it (default: all).
+    /// `EffectsPlan::bsdf_variant` is the smallest one a scene renders exactly with.
+    pub bsdf_variant: BsdfVariant,
 }
 
 impl Default for RenderSettings {
@@ -100,6 +108,8 @@ impl Default for RenderSettings {
             exposure_ev: 0.0,
             subsample: 1,
             schedule: Schedule::Overlapped,
+            effects: Effects::Auto,
+            bsdf_variant: BsdfVariant::ALL,
         }
     }
 }
@@ -284,6 +294,7 @@ impl Renderer {
                 shadow_atlas: &shadow_atlas,
             },
             &radiance,
+            settings.bsdf_variant,
         )?;
         let tonemap = TonemapPass::new(gpu, &radiance, &display)?;
         let photons = match settings.method {
@@ -310,6 +321,7 @@ impl Renderer {
             },
             gbuffer.depth.format,
             radiance.format,
+            settings.bsdf_variant,
         )?;
         let slots = (0..FRAMES_IN_FLIGHT)
             .map(|i| {

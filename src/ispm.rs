@@ -16,7 +16,7 @@
 
 use crate::layout::{BounceView, FrameUniforms, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
 use crate::lighting::LightSetup;
-use crate::photon::emit::{photon_budget, spot_falloff, spot_falloff_integral};
+use crate::photon::emit::{photon_budget_among, spot_falloff, spot_falloff_integral};
 use crate::photon::rng::hash_vec3;
 use crate::photon::trace::PhotonState;
 use crate::photon::types::BounceMapPhoton;
@@ -60,15 +60,39 @@ fn texel_ndc(x: u32, y: u32, res: u32) -> DVec2 {
 impl BouncePlan {
     /// Plans `photons` photons over the lights of `scene` for a camera at `camera`.
     pub fn new(scene: &Scene, camera: DVec3, bounds: &Aabb, photons: usize) -> BouncePlan {
+        Self::active(
+            scene,
+            &vec![true; scene.lights.len()],
+            camera,
+            bounds,
+            photons,
+        )
+    }
+
+    /// [`BouncePlan::new`] over the lights with `active[i]` only (the effects plan's photon
+    /// mask, `plan::EffectsPlan::photon_mask`): the others get no views, no light G-buffer
+    /// layer and no bounce-map texels, and the whole budget is split over the active ones by
+    /// power. A light missing from `active` is inactive.
+    pub fn active(
+        scene: &Scene,
+        active: &[bool],
+        camera: DVec3,
+        bounds: &Aabb,
+        photons: usize,
+    ) -> BouncePlan {
         // Shadow views are the light G-buffer's views; with resolution 1 their texel parameter
         // is the full window: 2·tan(fov/2) (perspective) or 2·radius (orthographic).
         let setup = LightSetup::new(&scene.lights, camera, bounds, 1, 0);
-        let budget = photon_budget(scene, photons);
+        let budget = photon_budget_among(scene, photons, active);
         let mut plan = BouncePlan {
             camera,
             ..Default::default()
         };
-        for ((light, gpu_light), &n) in scene.lights.iter().zip(&setup.lights).zip(&budget) {
+        let lights = scene.lights.iter().zip(&setup.lights).zip(&budget);
+        for (i, ((light, gpu_light), &n)) in lights.enumerate() {
+            if active.get(i) != Some(&true) {
+                continue;
+            }
             let first = gpu_light.shadow.y as usize;
             let count = gpu_light.shadow.z as usize;
             let res = if n == 0 || count == 0 {
@@ -201,6 +225,7 @@ impl BouncePlan {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::photon::emit::photon_budget;
     use crate::scene::{Light, Scene};
     use glam::Vec3;
 
@@ -213,8 +238,8 @@ mod tests {
         s
     }
 
-    #[test]
-    fn photon_budget_sets_view_resolutions_and_texel_offsets() {
+    /// A point light (6 views) and a spot light (1 view) ten times as intense, at the origin.
+    fn point_and_spot() -> Scene {
         let point = Light {
             name: "p".into(),
             kind: LightKind::Point,
@@ -231,7 +256,12 @@ mod tests {
             intensity: Vec3::splat(30.0),
             ..point.clone()
         };
-        let scene = scene_with(vec![point, spot]);
+        scene_with(vec![point, spot])
+    }
+
+    #[test]
+    fn photon_budget_sets_view_resolutions_and_texel_offsets() {
+        let scene = point_and_spot();
         let plan = BouncePlan::new(&scene, DVec3::new(0.0, 0.0, 5.0), &scene.bounds(), 60_000);
         assert_eq!(plan.views.len(), 7);
         // Every light gets about its share; the realised texels are at least the budget.
@@ -254,6 +284,24 @@ mod tests {
             offset += (v.texels.x * v.texels.x) as usize;
         }
         assert_eq!(plan.texels, offset);
+    }
+
+    #[test]
+    fn inactive_lights_get_no_views_and_their_budget_goes_to_the_others() {
+        let scene = point_and_spot();
+        let camera = DVec3::new(0.0, 0.0, 5.0);
+        let all = BouncePlan::new(&scene, camera, &scene.bounds(), 60_000);
+        let spot_only = BouncePlan::active(&scene, &[false, true], camera, &scene.bounds(), 60_000);
+        assert_eq!(spot_only.views.len(), 1);
+        let res = spot_only.resolutions[0];
+        assert!(res * res >= 60_000, "{res}² < the whole budget");
+        assert!(res > all.resolutions[6], "the spot got no more photons");
+        // The same light, the same seed and window: only the resolution changed.
+        assert_eq!(spot_only.views[0].texels.w, all.views[6].texels.w);
+        assert_eq!(spot_only.view_matrices[0], all.view_matrices[6]);
+        assert_eq!(spot_only.texels, (res * res) as usize);
+        let none = BouncePlan::active(&scene, &[], camera, &scene.bounds(), 60_000);
+        assert!(none.views.is_empty() && none.texels == 0);
     }
 
     #[test]

@@ -7,6 +7,8 @@
 //! - [`reference`]: CPU reference renderers; no Vulkan.
 //! - [`gpu`]: the only place raw `ash` lives.
 //! - [`passes`]: one explicit GPU pass per file.
+//! - [`plan`]: scene analysis → which effects, passes, lights and shader variants a frame
+//!   needs; no Vulkan.
 //! - [`timing`]: CPU and GPU spans on one host clock, Chrome trace JSON.
 
 pub mod frame;
@@ -19,6 +21,7 @@ pub mod output;
 pub mod passes;
 pub mod photon;
 pub mod photon_frame;
+pub mod plan;
 pub mod reference;
 pub mod scene;
 pub mod stats;

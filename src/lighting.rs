@@ -72,9 +72,36 @@ impl LightSetup {
         resolution: u32,
         margin: u32,
     ) -> LightSetup {
+        Self::active(
+            lights,
+            &vec![true; lights.len()],
+            camera,
+            bounds,
+            resolution,
+            margin,
+        )
+    }
+
+    /// [`LightSetup::new`] for the lights with `active[i]` only (the effects plan's direct-light
+    /// mask, `plan::EffectsPlan::direct_mask`): the others get no [`GpuLight`] and no shadow
+    /// views, so the shadow pass draws nothing for them and the direct pass does not loop over
+    /// them. A light missing from `active` is inactive.
+    pub fn active(
+        lights: &[Light],
+        active: &[bool],
+        camera: DVec3,
+        bounds: &Aabb,
+        resolution: u32,
+        margin: u32,
+    ) -> LightSetup {
         let mut setup = LightSetup::default();
         let res = f64::from(resolution.max(1));
-        for light in lights {
+        let active_lights = lights
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| active.get(*i) == Some(&true))
+            .map(|(_, light)| light);
+        for light in active_lights {
             let pos = light.position.as_dvec3();
             let dir = light.direction.normalize_or(Vec3::NEG_Y).as_dvec3();
             let first = setup.views.len() as u32;
@@ -178,9 +205,9 @@ mod tests {
         }
     }
 
-    #[test]
-    fn each_light_kind_gets_the_views_that_cover_it() {
-        let lights = [
+    /// A point light, a narrow spot (one view), a wide spot (a cube) and a directional light.
+    fn every_kind() -> [Light; 4] {
+        [
             light(LightKind::Point),
             light(LightKind::Spot {
                 inner_cone_angle: 0.3,
@@ -191,13 +218,42 @@ mod tests {
                 outer_cone_angle: 1.5,
             }),
             light(LightKind::Directional),
-        ];
+        ]
+    }
+
+    #[test]
+    fn each_light_kind_gets_the_views_that_cover_it() {
+        let lights = every_kind();
         let s = LightSetup::new(&lights, DVec3::ZERO, &unit_bounds(), 256, 3);
         let counts: Vec<u32> = s.lights.iter().map(|l| l.shadow.z).collect();
         assert_eq!(counts, vec![6, 1, 6, 1]);
         assert_eq!(s.views.len(), 14);
         let firsts: Vec<u32> = s.lights.iter().map(|l| l.shadow.y).collect();
         assert_eq!(firsts, vec![0, 6, 7, 13]);
+    }
+
+    #[test]
+    fn inactive_lights_get_no_light_and_no_views() {
+        let [point, narrow_spot, _, directional] = every_kind();
+        let lights = [point, narrow_spot, directional];
+        let all = LightSetup::new(&lights, DVec3::ZERO, &unit_bounds(), 256, 3);
+        let some = LightSetup::active(
+            &lights,
+            &[false, true, true],
+            DVec3::ZERO,
+            &unit_bounds(),
+            256,
+            3,
+        );
+        assert_eq!(some.lights.len(), 2);
+        assert_eq!(some.views.len(), 2);
+        // The remaining lights are the same, their views renumbered from 0.
+        assert_eq!(some.lights[0].intensity, all.lights[1].intensity);
+        assert_eq!(some.lights[0].shadow.y, 0);
+        assert_eq!(some.lights[1].shadow.y, 1);
+        assert_eq!(some.view_matrices[1], all.view_matrices[7]);
+        let none = LightSetup::active(&lights, &[], DVec3::ZERO, &unit_bounds(), 256, 3);
+        assert!(none.lights.is_empty() && none.views.is_empty());
     }
 
     #[test]

@@ -30,6 +30,32 @@ enum Command {
     Render(RenderArgs),
     /// Print the Vulkan devices, the driver, and the queues the renderer uses.
     Info,
+    /// Print the effects plan of a scene: which passes, shader variants, lights and bounces a
+    /// frame needs, one line per decision with its reason (no GPU needed).
+    Plan(PlanArgs),
+}
+
+#[derive(clap::Args)]
+struct PlanArgs {
+    /// A .gltf/.glb file or a bundled scene name (default: the bundled cornell-box).
+    scene: Option<String>,
+    /// Image size, WIDTHxHEIGHT (the view's aspect ratio).
+    #[arg(long, default_value = "640x480", value_parser = parse_size)]
+    size: (u32, u32),
+    #[arg(long, value_enum, default_value = "ispm")]
+    method: ispm::frame::Method,
+    /// Photons emitted per frame, split over the active lights by power.
+    #[arg(long, default_value_t = 100_000)]
+    photons: usize,
+    /// Most scattering events per photon.
+    #[arg(long, default_value_t = 8)]
+    bounces: u32,
+    /// Photon volumes at 1/N resolution.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    subsample: u32,
+    /// `auto`: plan; `all`: every pass, variant, light and bounce (the unplanned frame).
+    #[arg(long, value_enum, default_value = "auto")]
+    effects: ispm::plan::Effects,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -196,6 +222,7 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
         exposure_ev: args.exposure,
         subsample: args.subsample,
         schedule: args.schedule,
+        ..Default::default()
     };
     if args.trace.is_some() {
         ispm::timing::start_capture();
@@ -288,6 +315,23 @@ fn render_reference(
     Ok(())
 }
 
+fn plan(args: PlanArgs) -> anyhow::Result<()> {
+    let scene = load_scene(args.scene.as_deref())?;
+    let settings = RenderSettings {
+        method: args.method,
+        photons: args.photons,
+        bounces: args.bounces,
+        width: args.size.0,
+        height: args.size.1,
+        subsample: args.subsample,
+        effects: args.effects,
+        ..Default::default()
+    };
+    let plan = ispm::plan::EffectsPlan::analyse(&scene, &settings, &scene.camera);
+    print!("{plan}");
+    Ok(())
+}
+
 fn info(device: Option<usize>) -> anyhow::Result<()> {
     let devices = ispm::gpu::list_devices().context("cannot start Vulkan")?;
     println!("Vulkan devices:");
@@ -356,6 +400,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(args) => render(args, cli.device),
         Command::Info => info(cli.device),
+        Command::Plan(args) => plan(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

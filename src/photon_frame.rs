@@ -134,6 +134,7 @@ impl PhotonFrame {
                 light_gbuffer: &light_gbuffer,
                 bounce_map: &bounce_map,
             },
+            settings.bsdf_variant,
         )?;
         let (staging, photons) = photon_buffers(gpu, 1)?;
         let subsample = subsample_factor(settings);
@@ -146,6 +147,7 @@ impl PhotonFrame {
                 gbuffer,
             },
             subsample,
+            settings.bsdf_variant,
         )?;
         let (indirect, subsampled) = if subsample == 1 {
             let indirect = photon_volumes::target(gpu, radiance.width, radiance.height)?;
@@ -159,7 +161,8 @@ impl PhotonFrame {
                 gbuffer,
                 low: &low,
             };
-            let upsample = UpsamplePass::new(gpu, &inputs, &indirect, subsample)?;
+            let upsample =
+                UpsamplePass::new(gpu, &inputs, &indirect, subsample, settings.bsdf_variant)?;
             (indirect, Some(Subsampled { low, upsample }))
         };
         let composite = CompositePass::new(gpu, &indirect, radiance)?;

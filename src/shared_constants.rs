@@ -29,3 +29,11 @@ pub const BSDF_MIN_COS: f32 = 1.0e-7;
 // Largest finite glossy exponent σ (a lobe about 0.1° wide); larger finite values are clamped to
 // it so that f stays finite in f32 even at grazing angles. σ = ∞ is the perfect mirror.
 pub const GLOSSY_EXPONENT_MAX: f32 = 1.0e6;
+
+// Specialisation-constant ids of the über-BSDF's optional lobes (`layout(constant_id = …)` in
+// bsdf.glsl; `photon::bsdf::BsdfVariant` gives their values). A lobe whose constant is false is
+// compiled out: its reflectance is zero and its sampling and evaluation code is dead.
+// Finite-exponent glossy lobe.
+pub const SPEC_ID_GLOSSY_LOBE: u32 = 0;
+// Delta lobes: perfect mirror and refraction.
+pub const SPEC_ID_DELTA_LOBES: u32 = 1;

@@ -8,6 +8,7 @@ use crate::gpu_scene::{Draw, GpuScene};
 use crate::layout::{EnvironmentUniforms, FrameUniforms};
 use crate::passes::environment::{EnvironmentInputs, EnvironmentPass};
 use crate::passes::translucent::{TranslucentInputs, TranslucentPass};
+use crate::photon::bsdf::BsdfVariant;
 use crate::scene::{Aabb, Scene};
 use glam::DVec3;
 use std::sync::Arc;
@@ -35,7 +36,7 @@ pub struct TranslucentFrame {
 
 impl TranslucentFrame {
     /// `None` when no instance has a delta material: the pass does not run and no cube map is
-    /// allocated.
+    /// allocated. Both passes compile in the über-BSDF lobes of `variant`.
     pub fn new(
         gpu: &Arc<Gpu>,
         scene: &Scene,
@@ -43,6 +44,7 @@ impl TranslucentFrame {
         resources: &TranslucentResources,
         depth_format: vk::Format,
         radiance_format: vk::Format,
+        variant: BsdfVariant,
     ) -> anyhow::Result<Option<Self>> {
         let delta = gpu_scene.delta_bounds(scene);
         if delta.is_empty() {
@@ -63,6 +65,7 @@ impl TranslucentFrame {
                 shadow_views: resources.shadow_views,
                 shadow_atlas: resources.shadow_atlas,
             },
+            variant,
         )?;
         let pass = TranslucentPass::new(
             gpu,
@@ -78,6 +81,7 @@ impl TranslucentFrame {
             },
             radiance_format,
             depth_format,
+            variant,
         )?;
         let bounds = gpu_scene.bounds;
         Ok(Some(Self {

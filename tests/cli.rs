@@ -112,3 +112,65 @@ fn info_names_the_device_and_the_queues_used() {
         assert!(stdout.contains(needle), "{needle} missing from:\n{stdout}");
     }
 }
+
+fn plan_stdout(args: &[&str]) -> String {
+    let out = ispm(args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+#[test]
+fn plan_prints_one_line_per_decision_naming_the_material_or_light_behind_it() {
+    let stdout = plan_stdout(&["plan", "caustic-ring"]);
+    for needle in [
+        "effects: auto\n",
+        "translucent pass + environment map: yes — instance 'ring' has the mirror or \
+         transmissive material 'mirror-metal'\n",
+        "mirror/refraction lobes (shaders, caustic paths): yes — material 'mirror-metal' is a \
+         perfect mirror\n",
+        "glossy lobe (shaders): no — no material has a finite-exponent glossy lobe\n",
+        "light 0 'sun': direct + 100000 photons",
+        "pass upsample: skip — --subsample 1",
+    ] {
+        assert!(
+            stdout.contains(needle),
+            "{needle:?} missing from:\n{stdout}"
+        );
+    }
+    for stage in ispm::stats::STAGES.iter().filter(|s| **s != "frame") {
+        assert!(
+            stdout.contains(&format!("pass {stage}: ")),
+            "{stage} missing from:\n{stdout}"
+        );
+    }
+    assert!(
+        stdout.lines().skip(1).all(|l| l.contains(" — ")),
+        "{stdout}"
+    );
+
+    let direct = plan_stdout(&["plan", "cornell-box", "--method", "direct"]);
+    assert!(
+        direct.contains("indirect light (photons): no — --method direct\n")
+            && direct.contains("pass bounce_map: skip — --method direct\n"),
+        "{direct}"
+    );
+    let all = plan_stdout(&["plan", "--effects", "all", "--bounces", "3"]);
+    assert!(
+        all.starts_with("effects: all\n") && all.contains("max bounces: 3 — --effects all"),
+        "{all}"
+    );
+}
+
+#[test]
+fn plan_of_a_missing_file_fails_with_one_line_naming_it() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let missing = dir.path().join("nope.glb");
+    let out = ispm(&["plan", missing.to_str().expect("utf8")]);
+    // `plan` writes no file; the output path only has to stay absent.
+    assert_clean_failure(&out, "nope.glb", &dir.path().join("out.png"));
+    assert!(out.stdout.is_empty());
+}

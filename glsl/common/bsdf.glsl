@@ -8,10 +8,18 @@
 //   Fresnel (optional): S = (F - F0)/(1 - F0); c_S = rhoS + (1 - rhoS) S, c_L, c_T *= 1 - S.
 // Inputs are assumed sanitised (bsdf_make does what Bsdf::new does); GPUs may not honour NaN
 // semantics, so do not rely on the isnan checks for garbage input.
+// Variants: the specialisation constants BSDF_GLOSSY_LOBE and BSDF_DELTA_LOBES (ids in
+// shared_constants.glsl, values from photon::bsdf::BsdfVariant, both true unless a pipeline
+// sets them) compile the finite glossy lobe and the delta lobes out: a lobe that is off has
+// zero reflectance and its sampling and evaluation code is dead. For a material without that
+// lobe the result is the same either way (docs/effects.md).
 #ifndef ISPM_BSDF_GLSL
 #define ISPM_BSDF_GLSL
 
 #include "shared_constants.glsl"
+
+layout(constant_id = SPEC_ID_GLOSSY_LOBE) const bool BSDF_GLOSSY_LOBE = true;
+layout(constant_id = SPEC_ID_DELTA_LOBES) const bool BSDF_DELTA_LOBES = true;
 
 const uint LOBE_LAMBERTIAN = 0u;
 const uint LOBE_GLOSSY = 1u;
@@ -218,9 +226,9 @@ void bsdf_lobe_reflectances(Bsdf bsdf, BsdfOriented o, out vec3 c[4]) {
     vec3 specular = bsdf.glossy + (vec3(1.0) - bsdf.glossy) * s;
     bool mirror = bsdf_is_mirror(bsdf);
     c[LOBE_LAMBERTIAN] = bsdf.lambertian * (1.0 - s);
-    c[LOBE_GLOSSY] = mirror ? vec3(0.0) : specular;
-    c[LOBE_MIRROR] = mirror ? specular : vec3(0.0);
-    c[LOBE_REFRACTION] = bsdf.transmission * (1.0 - s);
+    c[LOBE_GLOSSY] = (BSDF_GLOSSY_LOBE && !mirror) ? specular : vec3(0.0);
+    c[LOBE_MIRROR] = (BSDF_DELTA_LOBES && mirror) ? specular : vec3(0.0);
+    c[LOBE_REFRACTION] = BSDF_DELTA_LOBES ? bsdf.transmission * (1.0 - s) : vec3(0.0);
 }
 
 vec4 bsdf_weights_of(vec3 c[4]) {
@@ -270,7 +278,7 @@ void bsdf_eval_and_pdf_oriented(Bsdf bsdf, BsdfOriented o, vec3 c[4], vec4 w, ve
     }
     f = c[LOBE_LAMBERTIAN] * (1.0 / PI);
     pdf = w[LOBE_LAMBERTIAN] * cosine_hemisphere_pdf(cos_i);
-    if (w[LOBE_GLOSSY] > 0.0) {
+    if (BSDF_GLOSSY_LOBE && w[LOBE_GLOSSY] > 0.0) {
         vec2 glossy = bsdf_glossy_shape_and_pdf(bsdf, o, wi, cos_i);
         f += c[LOBE_GLOSSY] * glossy.x;
         pdf += w[LOBE_GLOSSY] * glossy.y;
@@ -324,16 +332,16 @@ bool bsdf_sample_direction(Bsdf bsdf, uint lobe, BsdfOriented o, vec2 u, out vec
     vec3 w;
     if (lobe == LOBE_LAMBERTIAN) {
         w = frame_to_world(o, cosine_hemisphere(u));
-    } else if (lobe == LOBE_GLOSSY) {
+    } else if (BSDF_GLOSSY_LOBE && lobe == LOBE_GLOSSY) {
         vec3 h = frame_to_world(o, blinn_phong_half_vector(u, bsdf.exponent));
         float wo_h = dot(o.wo, h);
         if (wo_h <= 0.0) {
             return false;
         }
         w = 2.0 * wo_h * h - o.wo;
-    } else if (lobe == LOBE_MIRROR) {
+    } else if (BSDF_DELTA_LOBES && lobe == LOBE_MIRROR) {
         w = bsdf_reflect(o.wo, o.n);
-    } else {
+    } else if (BSDF_DELTA_LOBES && lobe == LOBE_REFRACTION) {
         if (o.eta == 1.0) {
             wi = -o.wo;
             return true;
@@ -349,6 +357,8 @@ bool bsdf_sample_direction(Bsdf bsdf, uint lobe, BsdfOriented o, vec2 u, out vec
         }
         eta = o.eta;
         return dot(wi, o.ng) < 0.0;
+    } else {
+        return false;
     }
     if (!bsdf_unit(w, wi)) {
         return false;
@@ -380,7 +390,7 @@ bool bsdf_sample_lobe(Bsdf bsdf, uint lobe, vec3 wo, vec3 n_s, vec3 n_g, vec2 u,
     float pdf = 1.0;
     if (lobe == LOBE_LAMBERTIAN) {
         pdf = cosine_hemisphere_pdf(dot(wi, o.n));
-    } else if (lobe == LOBE_GLOSSY) {
+    } else if (BSDF_GLOSSY_LOBE && lobe == LOBE_GLOSSY) {
         float cos_i = min(dot(wi, o.n), 1.0);
         pdf = bsdf_glossy_shape_and_pdf(bsdf, o, wi, cos_i).y;
         weight = c * (cos_i / max(o.cos_o, cos_i));
@@ -431,7 +441,7 @@ bool bsdf_sample(Bsdf bsdf, vec3 wo, vec3 n_s, vec3 n_g, vec3 u, out BsdfSample 
         return false;
     }
     float density = path_density_factor(lobe, c[lobe]);
-    if (lobe == LOBE_MIRROR || lobe == LOBE_REFRACTION) {
+    if (BSDF_DELTA_LOBES && (lobe == LOBE_MIRROR || lobe == LOBE_REFRACTION)) {
         float p = w[lobe] / total;
         s = BsdfSample(wi, c[lobe] / p, p, lobe, eta, density);
         return true;

@@ -7,7 +7,7 @@
 //! | `resources.rs` | RAII [`Buffer`], [`Image`], [`Sampler`] with debug names |
 //! | `access.rs` | the [`Access`] vocabulary and its table of sync2 stages/accesses/layouts |
 //! | `cmd.rs` | [`Recording`] and [`Cmd`]: every `vkCmd*` the passes use; submission, waits |
-//! | `pipeline.rs` | descriptor layouts and sets, graphics and compute [`Pipeline`]s |
+//! | `pipeline.rs` | descriptor layouts and sets, graphics and compute [`Pipeline`]s, specialisation constants |
 //! | `timestamps.rs` | GPU timestamp scopes per queue, read as host-clock spans |
 //! | `clock.rs` | device ticks → the host clock (calibrated timestamps, or a measured offset) |
 //! | `transfer.rs` | one-shot uploads and readbacks |
@@ -40,7 +40,7 @@ pub use error::{GpuError, GpuResult};
 pub use instance::validation_requested;
 pub use pipeline::{
     Binding, BindingKind, Blend, ComputeDesc, Depth, DescriptorLayout, DescriptorSet, GraphicsDesc,
-    Pipeline, VertexAttribute, Write,
+    Pipeline, SpecConstant, VertexAttribute, Write,
 };
 pub use resources::{Buffer, Filter, Image, ImageDesc, MemoryLocation, Sampler, ViewKind};
 pub use shaders::{table as shader_table, Shader, Stage};

@@ -1,6 +1,11 @@
 //! Descriptor set layouts, descriptor sets and pipelines (graphics with dynamic rendering, and
 //! compute). A pass describes what it needs in plain structs; this file turns them into Vulkan
 //! objects.
+//!
+//! Shader variants are specialisation constants: a pipeline description lists
+//! [`SpecConstant`]s (id, 32-bit value), and every stage of the pipeline receives all of them.
+//! An id a stage does not declare is ignored (Vulkan 1.3 §10.8: a map entry whose
+//! `constantID` the module does not use has no effect), so one list serves every stage.
 
 use super::device::{Gpu, Retired};
 use super::error::{vk_err, GpuResult};
@@ -222,6 +227,58 @@ impl Drop for DescriptorLayout {
     }
 }
 
+/// One specialisation constant: `layout(constant_id = id)` in GLSL gets `value` (a `bool`
+/// constant reads 0 as false and anything else as true; 32-bit `int`/`uint`/`float` constants
+/// read the bits).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SpecConstant {
+    pub id: u32,
+    pub value: u32,
+}
+
+impl SpecConstant {
+    /// A `bool` constant (`VkBool32`).
+    pub fn bool(id: u32, value: bool) -> Self {
+        Self {
+            id,
+            value: u32::from(value),
+        }
+    }
+}
+
+/// The map entries and data of a `VkSpecializationInfo` for `constants`: entry i reads the
+/// 4 bytes at offset 4·i of the data.
+struct Specialization {
+    entries: Vec<vk::SpecializationMapEntry>,
+    data: Vec<u8>,
+}
+
+impl Specialization {
+    fn new(constants: &[SpecConstant]) -> Self {
+        let entries = constants
+            .iter()
+            .enumerate()
+            .map(|(i, c)| vk::SpecializationMapEntry {
+                constant_id: c.id,
+                offset: (i * size_of::<u32>()) as u32,
+                size: size_of::<u32>(),
+            })
+            .collect();
+        let data = constants
+            .iter()
+            .flat_map(|c| c.value.to_ne_bytes())
+            .collect();
+        Self { entries, data }
+    }
+
+    /// The info to chain into a stage; borrows `self`.
+    fn info(&self) -> vk::SpecializationInfo<'_> {
+        vk::SpecializationInfo::default()
+            .map_entries(&self.entries)
+            .data(&self.data)
+    }
+}
+
 /// Colour blending of a graphics pipeline.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Blend {
@@ -262,6 +319,8 @@ pub struct GraphicsDesc<'a> {
     pub cull: vk::CullModeFlags,
     pub set_layouts: &'a [&'a DescriptorLayout],
     pub push_constant_size: u32,
+    /// Specialisation constants of both stages (empty: every constant keeps its default).
+    pub specialization: &'a [SpecConstant],
 }
 
 /// A compute pipeline description.
@@ -270,6 +329,8 @@ pub struct ComputeDesc<'a> {
     pub shader: &'a Shader,
     pub set_layouts: &'a [&'a DescriptorLayout],
     pub push_constant_size: u32,
+    /// Specialisation constants (empty: every constant keeps its default).
+    pub specialization: &'a [SpecConstant],
 }
 
 /// A pipeline and its layout.
@@ -321,16 +382,20 @@ impl Pipeline {
         let layout_guard = LayoutGuard(gpu, layout);
         let vs = Module::new(gpu, desc.vertex)?;
         let fs = desc.fragment.map(|f| Module::new(gpu, f)).transpose()?;
+        let specialization = Specialization::new(desc.specialization);
+        let specialization_info = specialization.info();
         let mut stages = vec![vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::VERTEX)
             .module(vs.raw)
-            .name(c"main")];
+            .name(c"main")
+            .specialization_info(&specialization_info)];
         if let Some(fs) = &fs {
             stages.push(
                 vk::PipelineShaderStageCreateInfo::default()
                     .stage(vk::ShaderStageFlags::FRAGMENT)
                     .module(fs.raw)
-                    .name(c"main"),
+                    .name(c"main")
+                    .specialization_info(&specialization_info),
             );
         }
         let vb = [vk::VertexInputBindingDescription {
@@ -414,7 +479,8 @@ impl Pipeline {
             .layout(layout)
             .push_next(&mut rendering);
         // SAFETY: every referenced object (modules, layout) is live; the create info is
-        // complete for dynamic rendering (no render pass).
+        // complete for dynamic rendering (no render pass); the specialisation data outlives
+        // the call and every map entry lies inside it (4 bytes at 4·i).
         let raw = unsafe {
             gpu.raw()
                 .create_graphics_pipelines(vk::PipelineCache::null(), &[info], None)
@@ -443,14 +509,18 @@ impl Pipeline {
         )?;
         let layout_guard = LayoutGuard(gpu, layout);
         let module = Module::new(gpu, desc.shader)?;
+        let specialization = Specialization::new(desc.specialization);
+        let specialization_info = specialization.info();
         let stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module.raw)
-            .name(c"main");
+            .name(c"main")
+            .specialization_info(&specialization_info);
         let info = vk::ComputePipelineCreateInfo::default()
             .stage(stage)
             .layout(layout);
-        // SAFETY: module and layout are live objects of this device.
+        // SAFETY: module and layout are live objects of this device; the specialisation data
+        // outlives the call and every map entry lies inside it (4 bytes at 4·i).
         let raw = unsafe {
             gpu.raw()
                 .create_compute_pipelines(vk::PipelineCache::null(), &[info], None)

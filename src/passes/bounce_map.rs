@@ -5,6 +5,7 @@
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
 use crate::gpu::{Access, BindingKind, Buffer, Cmd, Filter, Gpu, Sampler, Write};
+use crate::photon::bsdf::BsdfVariant;
 use std::sync::Arc;
 
 #[repr(C)]
@@ -29,7 +30,8 @@ pub struct BounceMapIo<'a> {
 }
 
 impl BounceMapPass {
-    pub fn new(gpu: &Arc<Gpu>, io: &BounceMapIo) -> anyhow::Result<Self> {
+    /// The pass with the über-BSDF lobes of `variant` compiled in.
+    pub fn new(gpu: &Arc<Gpu>, io: &BounceMapIo, variant: BsdfVariant) -> anyhow::Result<Self> {
         let kinds = [
             BindingKind::StorageBuffer,
             BindingKind::StorageBuffer,
@@ -60,6 +62,7 @@ impl BounceMapPass {
                 image(&g.material),
                 Write::Buffer(io.bounce_map),
             ],
+            &super::bsdf_constants(variant),
         )?;
         Ok(Self {
             kernel,

@@ -33,6 +33,7 @@ impl CompositePass {
                 },
                 Write::StorageImage(radiance),
             ],
+            &[],
         )?;
         Ok(Self {
             kernel,

@@ -5,6 +5,7 @@
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
 use crate::gpu::{Access, BindingKind, Buffer, Cmd, Filter, Gpu, Image, Sampler, Write};
+use crate::photon::bsdf::BsdfVariant;
 use std::sync::Arc;
 
 /// The buffers the direct pass reads.
@@ -24,7 +25,13 @@ pub struct DirectPass {
 }
 
 impl DirectPass {
-    pub fn new(gpu: &Arc<Gpu>, inputs: &DirectInputs, radiance: &Image) -> anyhow::Result<Self> {
+    /// The pass with the über-BSDF lobes of `variant` compiled in.
+    pub fn new(
+        gpu: &Arc<Gpu>,
+        inputs: &DirectInputs,
+        radiance: &Image,
+        variant: BsdfVariant,
+    ) -> anyhow::Result<Self> {
         let kinds = [
             BindingKind::UniformBuffer,
             BindingKind::StorageBuffer,
@@ -74,6 +81,7 @@ impl DirectPass {
             &kinds,
             0,
             &writes,
+            &super::bsdf_constants(variant),
         )?;
         Ok(Self {
             kernel,

@@ -23,6 +23,7 @@ use crate::gpu::{
 };
 use crate::gpu_scene::{Draw, GpuScene};
 use crate::layout::{DrawPush, FrameUniforms, Vertex};
+use crate::photon::bsdf::BsdfVariant;
 use glam::{Mat4, Vec3, Vec4};
 use std::sync::Arc;
 
@@ -71,10 +72,12 @@ pub fn face_view_proj(face: usize, centre: Vec3, near: f32) -> Mat4 {
 }
 
 impl EnvironmentPass {
+    /// The pass with the über-BSDF lobes of `variant` compiled into its forward shading.
     pub fn new(
         gpu: &Arc<Gpu>,
         scene: &GpuScene,
         inputs: &EnvironmentInputs,
+        variant: BsdfVariant,
     ) -> anyhow::Result<Self> {
         let graphics = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         let kinds = [
@@ -161,6 +164,7 @@ impl EnvironmentPass {
                 cull: vk::CullModeFlags::NONE,
                 set_layouts: &[&frame_layout, &texture_layout],
                 push_constant_size: size_of::<DrawPush>() as u32,
+                specialization: &super::bsdf_constants(variant),
             },
         )?;
         Ok(Self {

@@ -164,6 +164,7 @@ impl GBufferPass {
                 cull: vk::CullModeFlags::NONE,
                 set_layouts: &[&frame_layout, &texture_layout],
                 push_constant_size: size_of::<DrawPush>() as u32,
+                specialization: &[],
             },
         )?;
         Ok(Self {

@@ -1,6 +1,8 @@
 //! One explicit GPU pass per file. Each pass is a struct with `new` (pipelines and descriptor
 //! sets) and `record` (its commands, inside a scope named after the pass, which is both its
-//! debug label and its timestamp scope). Inputs are taken by `&`, outputs by `&mut`.
+//! debug label and its timestamp scope). Inputs are taken by `&`, outputs by `&mut`. Passes
+//! whose shaders evaluate the über-BSDF take a [`crate::photon::bsdf::BsdfVariant`] in `new`:
+//! the lobes compiled in (specialisation constants, `docs/effects.md`).
 //!
 //! | pass | queue | reads | writes |
 //! |---|---|---|---|
@@ -28,6 +30,16 @@ pub mod tonemap;
 pub mod translucent;
 pub mod upsample;
 
+/// The specialisation constants that select `variant`'s lobes in every shader including
+/// `bsdf.glsl`.
+pub(crate) fn bsdf_constants(
+    variant: crate::photon::bsdf::BsdfVariant,
+) -> [crate::gpu::SpecConstant; 2] {
+    variant
+        .constants()
+        .map(|(id, on)| crate::gpu::SpecConstant::bool(id, on))
+}
+
 /// The vertex layout every raster pass reads (see [`crate::layout::Vertex`]).
 pub(crate) fn vertex_attributes() -> [crate::gpu::VertexAttribute; 3] {
     use crate::gpu::{vk, VertexAttribute};
@@ -51,8 +63,9 @@ pub(crate) fn vertex_attributes() -> [crate::gpu::VertexAttribute; 3] {
 }
 
 /// What every compute pass owns: its pipeline and its one descriptor set, whose bindings are
-/// 0, 1, 2… in the order of `kinds` (the order the shader declares them in). The pass keeps its
-/// samplers itself, since the writes borrow them.
+/// 0, 1, 2… in the order of `kinds` (the order the shader declares them in), and the
+/// pipeline's specialisation constants. The pass keeps its samplers itself, since the writes
+/// borrow them.
 pub(crate) struct ComputeKernel {
     pipeline: crate::gpu::Pipeline,
     _layout: crate::gpu::DescriptorLayout,
@@ -67,6 +80,7 @@ impl ComputeKernel {
         kinds: &[crate::gpu::BindingKind],
         push_constant_size: u32,
         writes: &[crate::gpu::Write],
+        specialization: &[crate::gpu::SpecConstant],
     ) -> anyhow::Result<Self> {
         use crate::gpu::{vk, Binding, ComputeDesc, DescriptorLayout, Pipeline};
         let bindings = Binding::sequence(kinds, vk::ShaderStageFlags::COMPUTE);
@@ -79,6 +93,7 @@ impl ComputeKernel {
                 shader,
                 set_layouts: &[&layout],
                 push_constant_size,
+                specialization,
             },
         )?;
         Ok(Self {

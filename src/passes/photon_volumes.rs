@@ -22,6 +22,7 @@ use crate::gpu::{
     DescriptorSet, Filter, Gpu, GraphicsDesc, Image, ImageDesc, Load, Pipeline, Sampler,
     VertexAttribute, ViewKind, Write,
 };
+use crate::photon::bsdf::BsdfVariant;
 use crate::photon::kernel::KernelSettings;
 use std::sync::Arc;
 
@@ -110,11 +111,13 @@ pub struct PhotonVolumesPass {
 }
 
 impl PhotonVolumesPass {
-    /// The full-resolution pass at `subsample` 1, else the 1/`subsample` one.
+    /// The full-resolution pass at `subsample` 1, else the 1/`subsample` one, with the
+    /// über-BSDF lobes of `variant` compiled in.
     pub fn new(
         gpu: &Arc<Gpu>,
         inputs: &PhotonVolumeInputs,
         subsample: u32,
+        variant: BsdfVariant,
     ) -> anyhow::Result<Self> {
         let graphics = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         let kinds = [
@@ -182,6 +185,7 @@ impl PhotonVolumesPass {
                 cull: vk::CullModeFlags::FRONT,
                 set_layouts: &[&layout],
                 push_constant_size: size_of::<Push>() as u32,
+                specialization: &super::bsdf_constants(variant),
             },
         )?;
         Ok(Self {

@@ -55,6 +55,7 @@ impl ShadowMapPass {
                 cull: vk::CullModeFlags::NONE,
                 set_layouts: &[],
                 push_constant_size: size_of::<DrawPush>() as u32,
+                specialization: &[],
             },
         )?;
         Ok(Self { pipeline })

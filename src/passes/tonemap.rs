@@ -78,6 +78,7 @@ impl TonemapPass {
                 },
                 Write::StorageImage(ldr),
             ],
+            &[],
         )?;
         Ok(Self {
             kernel,

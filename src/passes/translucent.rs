@@ -14,6 +14,7 @@ use crate::gpu::{
 };
 use crate::gpu_scene::{Draw, GpuScene};
 use crate::layout::{DrawPush, Vertex};
+use crate::photon::bsdf::BsdfVariant;
 use std::sync::Arc;
 
 /// What the translucent shader reads.
@@ -39,12 +40,15 @@ pub struct TranslucentPass {
 }
 
 impl TranslucentPass {
+    /// The pass with the über-BSDF lobes of `variant` compiled in (delta lobes must be on:
+    /// they are what it draws).
     pub fn new(
         gpu: &Arc<Gpu>,
         scene: &GpuScene,
         inputs: &TranslucentInputs,
         radiance_format: vk::Format,
         depth_format: vk::Format,
+        variant: BsdfVariant,
     ) -> anyhow::Result<Self> {
         let graphics = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         let kinds = [
@@ -102,6 +106,7 @@ impl TranslucentPass {
                 cull: vk::CullModeFlags::NONE,
                 set_layouts: &[&layout, &texture_layout],
                 push_constant_size: size_of::<DrawPush>() as u32,
+                specialization: &super::bsdf_constants(variant),
             },
         )?;
         Ok(Self {

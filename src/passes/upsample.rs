@@ -34,6 +34,7 @@ use super::ComputeKernel;
 use crate::gpu::{
     vk, Access, BindingKind, Buffer, Cmd, Filter, Gpu, Image, ImageDesc, Sampler, ViewKind, Write,
 };
+use crate::photon::bsdf::BsdfVariant;
 use std::sync::Arc;
 
 /// Exponent of the normal-similarity weight.
@@ -97,6 +98,7 @@ impl UpsamplePass {
         inputs: &UpsampleInputs,
         indirect: &Image,
         subsample: u32,
+        variant: BsdfVariant,
     ) -> anyhow::Result<Self> {
         let kinds = [
             BindingKind::StorageBuffer,
@@ -130,6 +132,7 @@ impl UpsamplePass {
                 image(&inputs.low[1]),
                 Write::StorageImage(indirect),
             ],
+            &super::bsdf_constants(variant),
         )?;
         Ok(Self {
             kernel,

@@ -45,8 +45,11 @@
 
 #[cfg(test)]
 mod chi_square;
+mod lobes;
 #[cfg(test)]
 mod tests;
+
+pub use lobes::{bounce_albedo, BsdfVariant, MaterialLobes};
 
 use super::sampling::{
     blinn_phong_half_vector, blinn_phong_half_vector_pdf, cosine_hemisphere, cosine_hemisphere_pdf,

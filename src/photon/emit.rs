@@ -114,11 +114,24 @@ fn mean(v: Vec3) -> f32 {
 
 /// How many of `photons` each light emits: ∝ its mean flux, rounded.
 pub fn photon_budget(scene: &Scene, photons: usize) -> Vec<usize> {
+    photon_budget_among(scene, photons, &vec![true; scene.lights.len()])
+}
+
+/// [`photon_budget`] over the lights with `active[i]` only: the others get 0 and their share
+/// goes to the active ones, still ∝ mean flux. A light missing from `active` is inactive.
+pub fn photon_budget_among(scene: &Scene, photons: usize, active: &[bool]) -> Vec<usize> {
     let bounds = scene.bounds();
     let flux: Vec<f32> = scene
         .lights
         .iter()
-        .map(|l| mean(light_flux(l, &bounds)))
+        .enumerate()
+        .map(|(i, l)| {
+            if active.get(i) == Some(&true) {
+                mean(light_flux(l, &bounds))
+            } else {
+                0.0
+            }
+        })
         .collect();
     let total: f32 = flux.iter().sum();
     if !(total > 0.0 && total.is_finite()) {
@@ -304,6 +317,12 @@ mod tests {
             light(LightKind::Point, Vec3::ZERO),
         ]);
         assert_eq!(photon_budget(&s, 1000), vec![250, 750, 0]);
+        // Skipping the brighter light gives its share to the other one.
+        assert_eq!(
+            photon_budget_among(&s, 1000, &[true, false, true]),
+            vec![1000, 0, 0]
+        );
+        assert_eq!(photon_budget_among(&s, 1000, &[false]), vec![0, 0, 0]);
         let dark = scene_with(vec![light(LightKind::Point, Vec3::ZERO)]);
         assert!(emit_photons(&dark, 100, 1).is_empty());
     }

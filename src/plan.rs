@@ -1,0 +1,612 @@
+//! Scene analysis → the effects plan (issue #9): which light-transport effects a scene and
+//! view call for, and so which passes, shader variants, lights and bounces a frame needs, each
+//! with the reason (the material or light that caused it). No Vulkan: `frame.rs` reads the
+//! plan; `ispm plan` prints it. Every rule and why it is safe: `docs/effects.md`.
+//!
+//! ```text
+//!   materials ──► lobes ──► translucent pass, delta and glossy shader variants,
+//!                           indirect (a scatterer and a receiver), bounce depth (albedo)
+//!   lights ──► power, cone vs scene / visible box, closed opaque surfaces ──► per light:
+//!              direct (shadow views) and photons (budget re-split over the active ones)
+//!   ──► passes(): every pass of the frame, run or skipped, and why
+//! ```
+//!
+//! A rule only ever removes work whose result is provably zero (or, for the bounce depth,
+//! below a stated fraction of the emitted power); every doubt keeps the work on.
+//! [`Effects::All`] reproduces the unplanned frame: every variant, light and pass.
+
+mod enclosure;
+mod reach;
+#[cfg(test)]
+mod tests;
+
+pub use enclosure::{Enclosures, Probe};
+
+use crate::frame::{Method, RenderSettings};
+use crate::photon::bsdf::{bounce_albedo, BsdfVariant, MaterialLobes};
+use crate::photon::emit::{photon_budget, photon_budget_among};
+use crate::scene::{Aabb, Camera, LightKind, Material, Scene};
+use glam::Vec3;
+use std::fmt;
+
+/// Power, relative to the emitted power, that the photons beyond the suggested bounce depth
+/// may carry at most (in expectation, at the scene's brightest material's albedo).
+pub const BOUNCE_POWER_CUTOFF: f64 = 1e-3;
+
+/// `--effects`: plan the frame, or force everything on.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Effects {
+    /// Skip the passes, shader variants, lights and bounces the scene does not need.
+    #[default]
+    Auto,
+    /// Every pass, variant, light and bounce, as without a plan (for comparison).
+    All,
+}
+
+/// One decision and why it was taken.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Decision {
+    pub needed: bool,
+    pub reason: String,
+}
+
+impl Decision {
+    fn yes(reason: impl Into<String>) -> Self {
+        Self {
+            needed: true,
+            reason: reason.into(),
+        }
+    }
+
+    fn no(reason: impl Into<String>) -> Self {
+        Self {
+            needed: false,
+            reason: reason.into(),
+        }
+    }
+}
+
+/// What one light contributes to the frame.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct LightPlan {
+    pub name: String,
+    /// Its direct light can reach something a viewer (the camera, or the environment cube
+    /// when the translucent pass runs) sees: it gets shadow views and the direct pass sums it.
+    pub direct: bool,
+    /// Photons it emits (0: no light G-buffer views, no bounce-map texels).
+    pub photons: usize,
+    pub reason: String,
+}
+
+impl LightPlan {
+    /// The light takes part in the frame at all.
+    pub fn active(&self) -> bool {
+        self.direct || self.photons > 0
+    }
+}
+
+/// One pass of the frame (named as its GPU timestamp scope, `stats::STAGES`), run or skipped.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PassPlan {
+    pub name: &'static str,
+    pub run: bool,
+    pub reason: String,
+}
+
+/// What a frame of one scene, seen from one camera, needs.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct EffectsPlan {
+    pub effects: Effects,
+    /// The translucent pass and its environment cube map (instances with a delta material,
+    /// `Material::has_delta_lobe`, leave the eye G-buffer for it).
+    pub translucent: Decision,
+    /// Mirror and refraction code in the shaders (the [`BsdfVariant::delta`] switch), and
+    /// caustic paths in the CPU trace.
+    pub delta: Decision,
+    /// The finite-exponent glossy lobe in the shaders ([`BsdfVariant::glossy`]).
+    pub glossy: Decision,
+    /// Photon-mapped indirect light: light G-buffers, bounce map, readback, CPU trace, upload,
+    /// photon volumes (+ upsample) and composite.
+    pub indirect: Decision,
+    /// One entry per `Scene::lights`, in order.
+    pub lights: Vec<LightPlan>,
+    /// The most bounces a photon needs (0 without indirect light), at most `--bounces`.
+    pub max_bounces: u32,
+    pub max_bounces_reason: String,
+    /// The subsample factor the frame uses (upsample runs above 1).
+    pub subsample: u32,
+}
+
+/// A material in use (by an instance), with its lobes.
+struct Used {
+    material: Material,
+    lobes: MaterialLobes,
+}
+
+/// The materials instances use (the default material for a missing one, as `GpuScene` does).
+fn used_materials(scene: &Scene) -> Vec<Used> {
+    let mut ids: Vec<usize> = scene
+        .instances
+        .iter()
+        .map(|i| scene.meshes[i.mesh].material)
+        .collect();
+    ids.sort_unstable();
+    ids.dedup();
+    ids.into_iter()
+        .map(|id| {
+            let material = scene.materials.get(id).cloned().unwrap_or_default();
+            Used {
+                lobes: MaterialLobes::of(&material),
+                material,
+            }
+        })
+        .collect()
+}
+
+fn lobe_decision(
+    used: &[Used],
+    has: impl Fn(&MaterialLobes) -> bool,
+    why: impl Fn(&Material, &MaterialLobes) -> String,
+    none: &str,
+) -> Decision {
+    match used.iter().find(|u| has(&u.lobes)) {
+        Some(u) => Decision::yes(why(&u.material, &u.lobes)),
+        None => Decision::no(none),
+    }
+}
+
+/// All world vertices lie on one plane: a photon leaving the surface never meets it again.
+fn planar(scene: &Scene, bounds: &Aabb) -> bool {
+    let triangles = scene.world_triangles();
+    let Some(normal) = triangles.iter().find_map(|(t, _)| {
+        let n = (t[1] - t[0]).as_dvec3().cross((t[2] - t[0]).as_dvec3());
+        (n.length() > 0.0).then(|| n.normalize())
+    }) else {
+        return true;
+    };
+    let origin = triangles[0].0[0].as_dvec3();
+    let tolerance = 1e-6 * f64::from(bounds.extent().length()).max(1e-30);
+    triangles
+        .iter()
+        .flat_map(|(t, _)| t.iter())
+        .all(|p| (p.as_dvec3() - origin).dot(normal).abs() <= tolerance)
+}
+
+fn show(v: Vec3) -> String {
+    format!("({:.3}, {:.3}, {:.3})", v.x, v.y, v.z)
+}
+
+impl EffectsPlan {
+    /// Analyses `scene` rendered with `settings` from `camera`.
+    pub fn analyse(scene: &Scene, settings: &RenderSettings, camera: &Camera) -> Self {
+        let used = used_materials(scene);
+        let bounds = scene.bounds();
+        let subsample = crate::photon_frame::subsample_factor(settings);
+        let delta_instance = scene.instances.iter().find_map(|i| {
+            let m = scene.materials.get(scene.meshes[i.mesh].material)?;
+            m.has_delta_lobe()
+                .then_some((i.name.as_str(), m.name.as_str()))
+        });
+        let translucent = match delta_instance {
+            Some((instance, material)) => Decision::yes(format!(
+                "instance '{instance}' has the mirror or transmissive material '{material}'"
+            )),
+            None => Decision::no("no instance has a mirror or transmissive material"),
+        };
+        if settings.effects == Effects::All {
+            return Self::all(scene, settings, translucent, subsample);
+        }
+        let delta = lobe_decision(
+            &used,
+            MaterialLobes::delta,
+            |m, l| {
+                if l.refraction {
+                    format!(
+                        "material '{}' refracts (transmission {})",
+                        m.name,
+                        show(m.transmission)
+                    )
+                } else {
+                    format!("material '{}' is a perfect mirror", m.name)
+                }
+            },
+            "no material has a mirror or refraction lobe",
+        );
+        let glossy = lobe_decision(
+            &used,
+            |l| l.glossy,
+            |m, _| {
+                if m.glossy.max_element() > 0.0 {
+                    format!(
+                        "material '{}' is glossy (reflectance {}, exponent {})",
+                        m.name,
+                        show(m.glossy),
+                        m.exponent
+                    )
+                } else {
+                    format!(
+                        "material '{}' has a Fresnel glossy lobe (exponent {}, ior {})",
+                        m.name, m.exponent, m.ior
+                    )
+                }
+            },
+            "no material has a finite-exponent glossy lobe",
+        );
+        let mut indirect = Self::indirect_possible(scene, settings, &used, &bounds);
+        let lights = Self::plan_lights(
+            scene,
+            settings,
+            camera,
+            &bounds,
+            translucent.needed,
+            indirect.needed,
+        );
+        if indirect.needed && lights.iter().all(|l| l.photons == 0) {
+            indirect = Decision::no(if scene.lights.is_empty() {
+                "the scene has no lights".to_string()
+            } else {
+                "no light emits photons that reach the scene".to_string()
+            });
+        }
+        let (max_bounces, max_bounces_reason) = if indirect.needed {
+            Self::bounce_depth(&used, settings.bounces)
+        } else {
+            (0, "no indirect light".to_string())
+        };
+        Self {
+            effects: Effects::Auto,
+            translucent,
+            delta,
+            glossy,
+            indirect,
+            lights,
+            max_bounces,
+            max_bounces_reason,
+            subsample,
+        }
+    }
+
+    /// `--effects all`: the unplanned frame.
+    fn all(
+        scene: &Scene,
+        settings: &RenderSettings,
+        translucent: Decision,
+        subsample: u32,
+    ) -> Self {
+        let forced = |what: &str| Decision::yes(format!("--effects all ({what})"));
+        let ispm = settings.method == Method::Ispm;
+        let budget = if ispm {
+            photon_budget(scene, settings.photons)
+        } else {
+            vec![0; scene.lights.len()]
+        };
+        let lights = scene
+            .lights
+            .iter()
+            .zip(budget)
+            .map(|(l, photons)| LightPlan {
+                name: l.name.clone(),
+                direct: true,
+                photons,
+                reason: "--effects all: every light, photons by power".to_string(),
+            })
+            .collect();
+        Self {
+            effects: Effects::All,
+            translucent: Decision {
+                reason: format!("--effects all: {}", translucent.reason),
+                ..translucent
+            },
+            delta: forced("every lobe compiled in"),
+            glossy: forced("every lobe compiled in"),
+            indirect: if ispm {
+                forced("--method ispm")
+            } else {
+                Decision::no("--method direct")
+            },
+            lights,
+            max_bounces: if ispm { settings.bounces.max(1) } else { 0 },
+            max_bounces_reason: "--effects all: --bounces (at least 1)".to_string(),
+            subsample,
+        }
+    }
+
+    /// Indirect light before looking at the lights: the settings ask for it, some material
+    /// scatters light, some material can show stored photons, and the geometry is not one
+    /// plane.
+    fn indirect_possible(
+        scene: &Scene,
+        settings: &RenderSettings,
+        used: &[Used],
+        bounds: &Aabb,
+    ) -> Decision {
+        if settings.method == Method::Direct {
+            return Decision::no("--method direct");
+        }
+        if settings.bounces == 0 {
+            return Decision::no("--bounces 0");
+        }
+        if settings.photons == 0 {
+            return Decision::no("--photons 0");
+        }
+        if scene.instances.is_empty() {
+            return Decision::no("the scene has no geometry");
+        }
+        if !used.iter().any(|u| u.lobes.scatters()) {
+            return Decision::no("every material is black: no light is reflected or refracted");
+        }
+        let Some(receiver) = used.iter().find(|u| u.lobes.finite()) else {
+            return Decision::no(
+                "no material has a Lambertian or glossy lobe to store photons on and show them",
+            );
+        };
+        if planar(scene, bounds) {
+            return Decision::no(
+                "all geometry lies in one plane: light leaving it never meets it again",
+            );
+        }
+        // Name another scatterer where there is one: a material cannot light itself alone.
+        let scatterer = used
+            .iter()
+            .filter(|u| u.lobes.scatters())
+            .find(|u| u.material.name != receiver.material.name)
+            .unwrap_or(receiver);
+        Decision::yes(format!(
+            "material '{}' scatters light and material '{}' shows the photons stored on it",
+            scatterer.material.name, receiver.material.name
+        ))
+    }
+
+    /// Per light: direct and photons, with the budget re-split over the photon lights.
+    fn plan_lights(
+        scene: &Scene,
+        settings: &RenderSettings,
+        camera: &Camera,
+        bounds: &Aabb,
+        translucent: bool,
+        indirect: bool,
+    ) -> Vec<LightPlan> {
+        if scene.lights.is_empty() {
+            return Vec::new();
+        }
+        let aspect = settings.width.max(1) as f32 / settings.height.max(1) as f32;
+        let visible = reach::visible_box(camera, aspect, bounds);
+        let diag = bounds.extent().length().max(1e-6);
+        let mut viewers = vec![Probe {
+            position: camera.position(),
+            clearance: reach::near_reach(camera, aspect),
+        }];
+        if translucent {
+            // The environment cube sees the whole scene from the delta instances' centre.
+            let mut delta = Aabb::EMPTY;
+            for inst in &scene.instances {
+                let mesh = &scene.meshes[inst.mesh];
+                if scene
+                    .materials
+                    .get(mesh.material)
+                    .is_some_and(Material::has_delta_lobe)
+                {
+                    for &p in &mesh.positions {
+                        delta.grow(inst.transform.transform_point3(p));
+                    }
+                }
+            }
+            viewers.push(Probe {
+                position: delta.center(),
+                clearance: (1e-3 * diag).max(1e-4),
+            });
+        }
+        // What viewers can see: the camera's visible box, or all of it for the cube.
+        let seen = if translucent { *bounds } else { visible };
+        let enclosures = Enclosures::new(scene);
+        let mut plans: Vec<LightPlan> = scene
+            .lights
+            .iter()
+            .map(|light| {
+                let named = |direct, reason: String| LightPlan {
+                    name: light.name.clone(),
+                    direct,
+                    photons: 0,
+                    reason,
+                };
+                let power = reach::light_power(light, bounds);
+                if power.is_nan() || power <= 0.0 {
+                    return named(false, "zero power".to_string());
+                }
+                let position = match light.kind {
+                    // Light from outside everything: a point beyond the scene's bounds.
+                    LightKind::Directional => {
+                        bounds.center() - light.direction.normalize_or(Vec3::NEG_Y) * 2.0 * diag
+                    }
+                    _ => light.position,
+                };
+                let source = Probe {
+                    position,
+                    clearance: 1e-4 * diag,
+                };
+                let walls: Vec<&str> = viewers
+                    .iter()
+                    .filter_map(|v| enclosures.separating(&source, v))
+                    .collect();
+                if walls.len() == viewers.len() {
+                    return named(
+                        false,
+                        format!(
+                            "enclosed: the closed opaque surface '{}' separates it from the camera",
+                            walls[0]
+                        ),
+                    );
+                }
+                if !reach::light_reaches(light, reach::sphere_of(bounds)) {
+                    return named(false, "its cone misses the scene".to_string());
+                }
+                let direct =
+                    !seen.is_empty() && reach::light_reaches(light, reach::sphere_of(&seen));
+                let photons = indirect;
+                let unseen = if seen.is_empty() {
+                    "nothing of the scene is in view"
+                } else {
+                    "its cone misses the visible scene"
+                };
+                let reason = match (direct, photons) {
+                    (true, true) => "lights the visible scene and emits photons".to_string(),
+                    (true, false) => "lights the visible scene (no indirect light)".to_string(),
+                    (false, true) => format!("{unseen}: photons only, no shadow map"),
+                    (false, false) => format!("{unseen}, and there is no indirect light"),
+                };
+                LightPlan {
+                    photons: usize::from(photons),
+                    ..named(direct, reason)
+                }
+            })
+            .collect();
+        let mask: Vec<bool> = plans.iter().map(|l| l.photons > 0).collect();
+        let budget = photon_budget_among(scene, settings.photons, &mask);
+        for (plan, n) in plans.iter_mut().zip(budget) {
+            plan.photons = n;
+        }
+        plans
+    }
+
+    /// The suggested bounce cap: the smallest K with a^(K+1)/(1 − a) < [`BOUNCE_POWER_CUTOFF`]
+    /// for the brightest material's [`bounce_albedo`] a (the expected power of all photons past
+    /// bounce K, relative to the emitted power), at least 1, at most `--bounces`.
+    fn bounce_depth(used: &[Used], bounces: u32) -> (u32, String) {
+        let brightest = used
+            .iter()
+            .map(|u| (&u.material, bounce_albedo(&u.material)))
+            .max_by(|a, b| a.1.total_cmp(&b.1));
+        let Some((material, albedo)) = brightest else {
+            return (bounces, "no materials".to_string());
+        };
+        let a = f64::from(albedo);
+        let tail = |k: u32| a.powi(k as i32 + 1) / (1.0 - a);
+        let cap = (1..bounces).find(|&k| a < 1.0 && tail(k) < BOUNCE_POWER_CUTOFF);
+        match cap {
+            Some(k) => (
+                k,
+                format!(
+                    "brightest material '{}' keeps {albedo:.3} per bounce: photons past bounce {k} \
+                     carry < {BOUNCE_POWER_CUTOFF:e} of the emitted power",
+                    material.name
+                ),
+            ),
+            _ => (
+                bounces,
+                format!(
+                    "--bounces {bounces} (brightest material '{}' keeps {albedo:.3} per bounce)",
+                    material.name
+                ),
+            ),
+        }
+    }
+
+    /// The über-BSDF lobes the shaders need.
+    pub fn bsdf_variant(&self) -> BsdfVariant {
+        BsdfVariant {
+            glossy: self.glossy.needed,
+            delta: self.delta.needed,
+        }
+    }
+
+    /// Per light: gets shadow views and direct light (`LightSetup::active`).
+    pub fn direct_mask(&self) -> Vec<bool> {
+        self.lights.iter().map(|l| l.direct).collect()
+    }
+
+    /// Per light: emits photons (`BouncePlan::active`).
+    pub fn photon_mask(&self) -> Vec<bool> {
+        self.lights.iter().map(|l| l.photons > 0).collect()
+    }
+
+    /// Every pass of the frame, in frame order, run or skipped, and why.
+    pub fn passes(&self) -> Vec<PassPlan> {
+        let pass = |name, run, reason: &str| PassPlan {
+            name,
+            run,
+            reason: reason.to_string(),
+        };
+        let indirect = &self.indirect;
+        let photon = |name| pass(name, indirect.needed, &indirect.reason);
+        let shadows = match self.lights.iter().find(|l| l.direct) {
+            Some(l) => pass(
+                "shadow_maps",
+                true,
+                &format!("light '{}' lights the view", l.name),
+            ),
+            None if self.lights.is_empty() => pass("shadow_maps", false, "no lights"),
+            None => pass("shadow_maps", false, "no light reaches anything in view"),
+        };
+        let upsample = if !indirect.needed {
+            photon("upsample")
+        } else if self.subsample > 1 {
+            pass("upsample", true, &format!("--subsample {}", self.subsample))
+        } else {
+            pass(
+                "upsample",
+                false,
+                "--subsample 1: full-resolution photon volumes",
+            )
+        };
+        let translucent = |name| pass(name, self.translucent.needed, &self.translucent.reason);
+        vec![
+            photon("light_gbuffers"),
+            photon("bounce_map"),
+            photon("readback"),
+            photon("cpu_trace"),
+            photon("upload"),
+            shadows,
+            pass("eye_gbuffer", true, "every frame: the camera's view"),
+            pass("direct", true, "every frame: direct light and emission"),
+            photon("photon_volumes"),
+            upsample,
+            photon("composite"),
+            translucent("environment"),
+            translucent("translucent"),
+            pass("tonemap", true, "every frame: the display image"),
+        ]
+    }
+}
+
+impl fmt::Display for EffectsPlan {
+    /// One line per decision: `what: yes|no — reason`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let yes = |b: bool| if b { "yes" } else { "no" };
+        let effects = match self.effects {
+            Effects::Auto => "auto",
+            Effects::All => "all",
+        };
+        writeln!(f, "effects: {effects}")?;
+        for (what, d) in [
+            ("translucent pass + environment map", &self.translucent),
+            (
+                "mirror/refraction lobes (shaders, caustic paths)",
+                &self.delta,
+            ),
+            ("glossy lobe (shaders)", &self.glossy),
+            ("indirect light (photons)", &self.indirect),
+        ] {
+            writeln!(f, "{what}: {} — {}", yes(d.needed), d.reason)?;
+        }
+        writeln!(
+            f,
+            "max bounces: {} — {}",
+            self.max_bounces, self.max_bounces_reason
+        )?;
+        for (i, l) in self.lights.iter().enumerate() {
+            let what = match (l.direct, l.photons) {
+                (false, 0) => "skipped".to_string(),
+                (true, 0) => "direct".to_string(),
+                (false, n) => format!("{n} photons"),
+                (true, n) => format!("direct + {n} photons"),
+            };
+            writeln!(f, "light {i} '{}': {what} — {}", l.name, l.reason)?;
+        }
+        for p in self.passes() {
+            let run = if p.run { "run" } else { "skip" };
+            writeln!(f, "pass {}: {run} — {}", p.name, p.reason)?;
+        }
+        Ok(())
+    }
+}
