@@ -1,18 +1,26 @@
-//! The frame, as an ordered script of passes.
+//! The frame, as a short script of named steps on timeline semaphores (the paper's Figure 3).
 //!
 //! ```text
-//!  photons (--method ispm):
-//!   light_gbuffers ──► bounce_map ──► readback ══► cpu_trace (all cores) ══► upload
-//!  every method:
-//!   shadow_maps ──► eye_gbuffer ──► direct ──► photon_volumes ──► composite ──►
-//!                   (opaque only)              (ispm only)        (ispm only)
-//!     environment ──► translucent ──► tonemap
-//!     (cached cube)   (glass, mirrors; scenes with delta materials only)
+//!  host   ─ prepare ─ record A ─ record B ─ wait(readback) ─ cpu_trace ─ record upload, D ─► next frame
+//!                        │           │            ▲                 │           │
+//!  graphics queue    [ box A ]──┐ [ box B ] ......│.................│......[ box D ]
+//!                    constants, │ shadow maps,    │                 │      photon volumes,
+//!                    light      │ eye G-buffer,   │                 │      upsample, composite,
+//!                    G-buffers, │ direct          │                 │      translucent, tonemap
+//!                    bounce map │                 │                 │          ▲
+//!  transfer queue               └─►[ readback ]───┘                 └─►[ upload ]
 //! ```
 //!
-//! The photon steps are one command buffer; the host waits for it, traces, and the rest of the
-//! frame follows in a second one, everything on the graphics queue and timed per pass. This is
-//! the serial order; the overlapped schedule of the paper's Figure 3 reorders the same steps.
+//! [`Renderer::submit_frame`] issues box A, the bounce map's copy to the host, and box B; then
+//! the host waits for the copy only and traces the photons on every core (box C) while the GPU
+//! draws box B; then it issues the photon map's upload and box D, which waits for it. Every
+//! cross-queue dependency is a wait on a queue's timeline; the bounce map and the photon buffer
+//! change queue-family ownership with release/acquire barriers where the transfer queue is a
+//! family of its own (`Cmd::release_buffer`). Per-frame constants go through the command stream
+//! (`Cmd::update_buffer`), so [`FRAMES_IN_FLIGHT`] frames can be in flight without the host
+//! writing memory an earlier frame still reads; a frame slot's timestamps are read when the
+//! slot comes round again (or in [`Renderer::finish`]). [`Schedule::Serial`] waits after every
+//! submission: the same work strictly in order, the baseline `ispm bench` compares against.
 
 use crate::gpu::{
     vk, Buffer, Cmd, Gpu, Image, ImageDesc, QueueRole, Recording, Span, TimelinePoint, Timestamps,
@@ -485,14 +493,7 @@ impl Renderer {
 
     /// Waits for every frame in flight and reads back the last one.
     pub fn finish(&mut self) -> anyhow::Result<FrameImage> {
-        anyhow::ensure!(self.frame_index > 0, "no frame was submitted");
-        let last = ((self.frame_index - 1) % FRAMES_IN_FLIGHT as u64) as usize;
-        for slot in 0..FRAMES_IN_FLIGHT {
-            if slot != last {
-                self.retire_slot(slot)?;
-            }
-        }
-        let (gpu_spans, mut stats) = self.retire_slot(last)?.unwrap_or_default();
+        let (gpu_spans, mut stats) = self.drain()?;
         stats.passes_run = gpu_spans.iter().map(|s| s.name.clone()).collect();
         stats.passes_run.dedup();
         stats.subsample = crate::photon_frame::subsample_factor(&self.settings);
@@ -509,6 +510,22 @@ impl Renderer {
             gpu_spans,
             stats,
         })
+    }
+
+    /// Waits for every frame in flight (oldest first) without reading images back; returns
+    /// the last frame's GPU spans and stats.
+    pub fn drain(&mut self) -> anyhow::Result<(Vec<Span>, FrameStats)> {
+        anyhow::ensure!(self.frame_index > 0, "no frame was submitted");
+        let mut last = None;
+        for k in (0..FRAMES_IN_FLIGHT as u64).rev() {
+            if k < self.frame_index {
+                let slot = ((self.frame_index - 1 - k) % FRAMES_IN_FLIGHT as u64) as usize;
+                if let Some(retired) = self.retire_slot(slot)? {
+                    last = Some(retired);
+                }
+            }
+        }
+        last.ok_or_else(|| anyhow::anyhow!("the last frame was already retired"))
     }
 
     /// Submits `rec`; in the serial schedule, also waits for it.

@@ -11,6 +11,7 @@
 //!   needs; no Vulkan.
 //! - [`timing`]: CPU and GPU spans on one host clock, Chrome trace JSON.
 
+pub mod bench;
 pub mod frame;
 pub mod gpu;
 pub mod gpu_scene;

@@ -33,6 +33,42 @@ enum Command {
     /// Print the effects plan of a scene: which passes, shader variants, lights and bounces a
     /// frame needs, one line per decision with its reason (no GPU needed).
     Plan(PlanArgs),
+    /// Measure the frame per stage, the overlapped schedule against the serial one and the
+    /// direct-only frame, side by side in one run.
+    Bench(BenchArgs),
+}
+
+#[derive(clap::Args)]
+struct BenchArgs {
+    /// A .gltf/.glb file or a bundled scene name (default: the bundled cornell-box).
+    scene: Option<String>,
+    /// Image size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "1280x720", value_parser = parse_size)]
+    size: (u32, u32),
+    /// Measured frames per configuration (after warm-up).
+    #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..))]
+    frames: u32,
+    /// Warm-up frames per configuration.
+    #[arg(long, default_value_t = 2)]
+    warmup: u32,
+    /// Chunks the frames are split into, alternating the configurations.
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
+    chunks: u32,
+    /// Photons emitted per frame.
+    #[arg(long, default_value_t = 100_000)]
+    photons: usize,
+    /// Estimate indirect light at 1/N resolution.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    subsample: u32,
+    /// Shadow-map resolution per light view.
+    #[arg(long, default_value_t = 1024)]
+    shadow_resolution: u32,
+    /// Write the figures as JSON.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Write an SVG of the last overlapped chunk's schedule (the paper's Figure 3).
+    #[arg(long)]
+    figure: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -170,6 +206,53 @@ fn check_validation(gpu: &Gpu) -> anyhow::Result<()> {
         "the Vulkan validation layer reported {} message(s)",
         messages.len()
     )
+}
+
+fn bench(args: BenchArgs, device: Option<usize>) -> anyhow::Result<()> {
+    for path in [args.json.as_ref(), args.figure.as_ref()]
+        .into_iter()
+        .flatten()
+    {
+        ispm::output::check_writable(path)?;
+    }
+    let scene = load_scene(args.scene.as_deref())?;
+    let scene_name = args.scene.as_deref().unwrap_or("cornell-box");
+    let gpu = gpu(device)?;
+    let (width, height) = args.size;
+    let settings = ispm::bench::BenchSettings {
+        render: RenderSettings {
+            photons: args.photons,
+            width,
+            height,
+            subsample: args.subsample,
+            shadow_resolution: args.shadow_resolution.clamp(16, 8192),
+            ..Default::default()
+        },
+        frames: args.frames,
+        warmup: args.warmup,
+        chunks: args.chunks,
+    };
+    let report = ispm::bench::run(&gpu, &scene, scene_name, &settings, |step| {
+        log::info!("bench: {step}")
+    })?;
+    check_validation(&gpu)?;
+    print!("{}", report.table());
+    if let Some(path) = &args.json {
+        ispm::output::write_atomically(path, |f| {
+            serde_json::to_writer_pretty(f, &report)
+                .with_context(|| format!("{}: cannot write JSON", path.display()))
+        })?;
+    }
+    if let Some(path) = &args.figure {
+        let title = format!("{scene_name}, {width}x{height}, overlapped schedule");
+        let svg = ispm::bench::schedule_svg(&report.last_overlapped_spans, &title);
+        ispm::output::write_atomically(path, |f| {
+            use std::io::Write;
+            f.write_all(svg.as_bytes())
+                .with_context(|| format!("{}: cannot write SVG", path.display()))
+        })?;
+    }
+    Ok(())
 }
 
 fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
@@ -401,6 +484,7 @@ fn main() -> ExitCode {
         Command::Render(args) => render(args, cli.device),
         Command::Info => info(cli.device),
         Command::Plan(args) => plan(args),
+        Command::Bench(args) => bench(args, cli.device),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
