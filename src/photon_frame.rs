@@ -243,6 +243,9 @@ impl PhotonFrame {
     pub fn record_emission(&mut self, cmd: &Cmd, scene: &GpuScene) {
         let plan = &self.plan;
         if plan.texels == 0 {
+            // No photons this frame (the lights went dark): nothing to upload or draw, so the
+            // photon buffer's hand-offs stay paired.
+            self.count = 0;
             return;
         }
         self.light_pass.update(cmd, &plan.uniforms);
