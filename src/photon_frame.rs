@@ -27,6 +27,8 @@ pub struct PhotonFrame {
     plan: BouncePlan,
     /// Photons per frame and the scene's bounds: what the plan is made from.
     budget: usize,
+    /// The plan the light G-buffer, bounce map and readback were sized for.
+    capacity: BouncePlan,
     bounds: crate::scene::Aabb,
     trace: TraceSettings,
     kernel: KernelSettings,
@@ -185,6 +187,7 @@ impl PhotonFrame {
                 scene.camera.yfov,
                 upsample::low_size(radiance.width, radiance.height, subsample).1,
             ),
+            capacity: plan.clone(),
             plan,
             budget: settings.photons,
             bounds: gpu_scene.bounds,
@@ -214,9 +217,10 @@ impl PhotonFrame {
         let mut scene = self.scene.clone();
         scene.lights = lights.to_vec();
         let plan = BouncePlan::new(&scene, self.plan.camera, &self.bounds, self.budget);
-        let fits = plan.views.len() <= self.plan.views.len().max(1)
-            && plan.texels <= self.plan.texels.max(1)
-            && plan.max_resolution <= self.plan.max_resolution.max(1);
+        let cap = &self.capacity;
+        let fits = plan.views.len() <= cap.views.len().max(1)
+            && plan.texels <= cap.texels.max(1)
+            && plan.max_resolution <= cap.max_resolution.max(1);
         anyhow::ensure!(
             fits,
             "the moved lights need {} light views of up to {}² texels ({} in all), more than the \
@@ -224,9 +228,9 @@ impl PhotonFrame {
             plan.views.len(),
             plan.max_resolution,
             plan.texels,
-            self.plan.views.len(),
-            self.plan.max_resolution,
-            self.plan.texels
+            cap.views.len(),
+            cap.max_resolution,
+            cap.texels
         );
         self.scene.lights = scene.lights;
         self.plan = plan;

@@ -200,3 +200,31 @@ fn cpu_trace_overlaps_gpu_work_only_in_the_overlapped_schedule() {
         }
     }
 }
+
+/// Lights going dark and coming back between frames in flight: the dark frames draw no photons
+/// (the photon buffer's queue hand-offs stay paired) and the lit ones after them are the same
+/// as before.
+#[test]
+fn lights_going_dark_and_back_between_frames_stay_validation_clean() {
+    let _one_at_a_time = exclusive();
+    let scene = bundled::resolve(Some("glass-sphere")).expect("scene");
+    let gpu = common::gpu();
+    let mut renderer = Renderer::new(&gpu, &scene, settings(Schedule::Overlapped)).expect("new");
+    let lit = renderer.render().expect("lit");
+    let mut dark = scene.lights.clone();
+    for l in &mut dark {
+        l.intensity = glam::Vec3::ZERO;
+    }
+    renderer.set_lights(&dark).expect("dark");
+    renderer.submit_frame().expect("dark frame");
+    let black = renderer.render().expect("dark frame");
+    assert_eq!(black.stats.stored_photons, 0);
+    renderer.set_lights(&scene.lights).expect("lit again");
+    renderer.submit_frame().expect("lit frame");
+    let again = renderer.render().expect("lit frame");
+    common::assert_validation_clean(&gpu);
+    assert!(
+        bits(&lit) == bits(&again),
+        "the relit frame differs from the first"
+    );
+}
