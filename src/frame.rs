@@ -698,6 +698,11 @@ impl Renderer {
         self.scene.triangles
     }
 
+    /// The tonemapped image the last submitted frame draws (RGBA8, sRGB-encoded values).
+    pub fn display(&self) -> &Image {
+        &self.display
+    }
+
     /// The photon part of the frame (`--method ispm` only).
     pub fn photons(&self) -> Option<&PhotonFrame> {
         self.photons.as_ref()

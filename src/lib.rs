@@ -28,6 +28,7 @@ pub mod scene;
 pub mod stats;
 pub mod timing;
 pub mod translucent_frame;
+pub mod viewer;
 
 /// Constants shared with GLSL (generated into `shared_constants.glsl` by `build.rs`).
 pub mod shared_constants {

@@ -36,6 +36,42 @@ enum Command {
     /// Measure the frame per stage, the overlapped schedule against the serial one and the
     /// direct-only frame, side by side in one run.
     Bench(BenchArgs),
+    /// Open a window and render the scene live (Esc quits).
+    View(ViewArgs),
+}
+
+#[derive(clap::Args)]
+struct ViewArgs {
+    /// A .gltf/.glb file or a bundled scene name (default: the bundled cornell-box).
+    scene: Option<String>,
+    /// Window (and render) size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "960x540", value_parser = parse_size)]
+    size: (u32, u32),
+    /// Photons emitted per frame.
+    #[arg(long, default_value_t = 100_000)]
+    photons: usize,
+    /// Estimate indirect light at 1/N resolution.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    subsample: u32,
+    /// Render N frames, write --screenshot of the last and exit (the viewer's smoke test).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    frames: Option<u32>,
+    /// Where --frames writes the last frame (PNG).
+    #[arg(long, requires = "frames")]
+    screenshot: Option<PathBuf>,
+    /// Resize the window after FRAME frames to WxH (FRAME:WxH; tests drive a resize).
+    #[arg(long, hide = true, value_parser = parse_resize)]
+    resize_at: Option<(u32, (u32, u32))>,
+}
+
+fn parse_resize(s: &str) -> Result<(u32, (u32, u32)), String> {
+    let (frame, size) = s
+        .split_once(':')
+        .ok_or_else(|| format!("{s:?} is not FRAME:WxH"))?;
+    let frame = frame
+        .parse()
+        .map_err(|_| format!("{s:?} is not FRAME:WxH"))?;
+    Ok((frame, parse_size(size)?))
 }
 
 #[derive(clap::Args)]
@@ -206,6 +242,45 @@ fn check_validation(gpu: &Gpu) -> anyhow::Result<()> {
         "the Vulkan validation layer reported {} message(s)",
         messages.len()
     )
+}
+
+fn view(args: ViewArgs, device: Option<usize>) -> anyhow::Result<()> {
+    if let Some(path) = &args.screenshot {
+        anyhow::ensure!(
+            OutputFormat::from_path(path)? == OutputFormat::Png,
+            "{}: the screenshot is a PNG",
+            path.display()
+        );
+        ispm::output::check_writable(path)?;
+    }
+    let scene = load_scene(args.scene.as_deref())?;
+    let (width, height) = args.size;
+    let settings = ispm::viewer::ViewSettings {
+        render: RenderSettings {
+            photons: args.photons,
+            width,
+            height,
+            subsample: args.subsample,
+            ..Default::default()
+        },
+        device_index: device,
+        frames: args.frames,
+        screenshot: args.screenshot,
+        resize_at: args.resize_at,
+    };
+    let report = ispm::viewer::run(scene, settings)?;
+    log::info!(
+        "{} frames, {} swapchain(s) recreated",
+        report.frames,
+        report.recreated
+    );
+    if !report.validation_messages.is_empty() {
+        for m in &report.validation_messages {
+            eprintln!("{m}");
+        }
+        anyhow::bail!("{} validation message(s)", report.validation_messages.len());
+    }
+    Ok(())
 }
 
 fn bench(args: BenchArgs, device: Option<usize>) -> anyhow::Result<()> {
@@ -485,6 +560,7 @@ fn main() -> ExitCode {
         Command::Info => info(cli.device),
         Command::Plan(args) => plan(args),
         Command::Bench(args) => bench(args, cli.device),
+        Command::View(args) => view(args, cli.device),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -97,7 +97,19 @@ impl Gpu {
     /// Ends `rec`, submits it to its queue after `waits`, and returns the timeline point its
     /// completion signals. A CPU span `submit` covers the call (the GPU cannot start the work
     /// before it does).
-    pub fn submit(&self, mut rec: Recording, waits: &[Wait]) -> GpuResult<TimelinePoint> {
+    pub fn submit(&self, rec: Recording, waits: &[Wait]) -> GpuResult<TimelinePoint> {
+        self.submit_with_binary(rec, waits, &[], &[])
+    }
+
+    /// [`Gpu::submit`] that also waits for binary semaphores (`(semaphore, stage)`, e.g. a
+    /// swapchain image's acquisition) and signals binary ones (e.g. for presentation).
+    pub(super) fn submit_with_binary(
+        &self,
+        mut rec: Recording,
+        waits: &[Wait],
+        binary_waits: &[(vk::Semaphore, vk::PipelineStageFlags2)],
+        binary_signals: &[vk::Semaphore],
+    ) -> GpuResult<TimelinePoint> {
         let _span = crate::timing::span("submit");
         let queue_index = self.queue_index(rec.role);
         let queue = &self.queues[queue_index];
@@ -111,14 +123,27 @@ impl Gpu {
                     .value(w.point.value)
                     .stage_mask(w.stage)
             })
+            .chain(binary_waits.iter().map(|&(semaphore, stage)| {
+                vk::SemaphoreSubmitInfo::default()
+                    .semaphore(semaphore)
+                    .stage_mask(stage)
+            }))
             .collect();
         let cmd_infos = [vk::CommandBufferSubmitInfo::default().command_buffer(rec.raw)];
         let guard = queue.raw();
         let value = queue.next_value();
-        let signal = [vk::SemaphoreSubmitInfo::default()
-            .semaphore(queue.timeline)
-            .value(value)
-            .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)];
+        let signal: Vec<_> = std::iter::once(
+            vk::SemaphoreSubmitInfo::default()
+                .semaphore(queue.timeline)
+                .value(value)
+                .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS),
+        )
+        .chain(binary_signals.iter().map(|&semaphore| {
+            vk::SemaphoreSubmitInfo::default()
+                .semaphore(semaphore)
+                .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
+        }))
+        .collect();
         let submit = vk::SubmitInfo2::default()
             .wait_semaphore_infos(&wait_infos)
             .command_buffer_infos(&cmd_infos)
@@ -676,5 +701,86 @@ impl<'a> Cmd<'a> {
             unsafe { self.device().cmd_pipeline_barrier2(self.raw, &dep) };
         }
         *last = to;
+    }
+
+    /// Blits all of `src` (in [`Access::BlitSrc`]) onto the swapchain image `dst` of `extent`,
+    /// scaled with a linear filter, leaving `dst` ready to present. The submission waits for the
+    /// image's acquisition at the transfer stages.
+    pub(super) fn blit_to_swapchain(&self, src: &Image, dst: vk::Image, extent: vk::Extent2D) {
+        let range = vk::ImageSubresourceRange {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            base_mip_level: 0,
+            level_count: 1,
+            base_array_layer: 0,
+            layer_count: 1,
+        };
+        let to_dst = vk::ImageMemoryBarrier2::default()
+            .src_stage_mask(vk::PipelineStageFlags2::ALL_TRANSFER)
+            .src_access_mask(vk::AccessFlags2::NONE)
+            .dst_stage_mask(vk::PipelineStageFlags2::BLIT)
+            .dst_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+            .old_layout(vk::ImageLayout::UNDEFINED)
+            .new_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
+            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .image(dst)
+            .subresource_range(range);
+        let barriers = [to_dst];
+        let dep = vk::DependencyInfo::default().image_memory_barriers(&barriers);
+        // SAFETY: recording state; `dst` is an acquired swapchain image whose acquisition the
+        // submission waits for at ALL_TRANSFER (chained by this barrier's source scope).
+        unsafe { self.device().cmd_pipeline_barrier2(self.raw, &dep) };
+        let e = src.extent();
+        let corner = |w: u32, h: u32| {
+            [
+                vk::Offset3D { x: 0, y: 0, z: 0 },
+                vk::Offset3D {
+                    x: w as i32,
+                    y: h as i32,
+                    z: 1,
+                },
+            ]
+        };
+        let layers = vk::ImageSubresourceLayers {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: 1,
+        };
+        let region = vk::ImageBlit {
+            src_subresource: layers,
+            src_offsets: corner(e.width, e.height),
+            dst_subresource: layers,
+            dst_offsets: corner(extent.width, extent.height),
+        };
+        // SAFETY: recording state; `src` is in TRANSFER_SRC_OPTIMAL (BlitSrc), `dst` in
+        // TRANSFER_DST_OPTIMAL; both regions lie inside their images; both formats support
+        // linear blits (8-bit UNORM colour formats).
+        unsafe {
+            self.device().cmd_blit_image(
+                self.raw,
+                src.raw,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                dst,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &[region],
+                vk::Filter::LINEAR,
+            )
+        };
+        let to_present = vk::ImageMemoryBarrier2::default()
+            .src_stage_mask(vk::PipelineStageFlags2::BLIT)
+            .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+            .dst_stage_mask(vk::PipelineStageFlags2::NONE)
+            .dst_access_mask(vk::AccessFlags2::NONE)
+            .old_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
+            .new_layout(vk::ImageLayout::PRESENT_SRC_KHR)
+            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .image(dst)
+            .subresource_range(range);
+        let barriers = [to_present];
+        let dep = vk::DependencyInfo::default().image_memory_barriers(&barriers);
+        // SAFETY: recording state; the image was just written by the blit above.
+        unsafe { self.device().cmd_pipeline_barrier2(self.raw, &dep) };
     }
 }

@@ -36,6 +36,9 @@ pub struct GpuOptions {
     /// Put GPU timestamps on the host clock by a measured offset even where calibrated
     /// timestamps are available (tests compare the two).
     pub measured_clock: bool,
+    /// The display the renderer will present to (`ispm view`): enables the surface instance
+    /// extensions it needs and `VK_KHR_swapchain`.
+    pub display: Option<raw_window_handle::RawDisplayHandle>,
 }
 
 /// Which device queues serve the [`QueueRole`]s.
@@ -122,6 +125,7 @@ pub(super) enum Retired {
 pub struct Gpu {
     pub(super) debug_utils: ash::ext::debug_utils::Device,
     pub(super) device: ash::Device,
+    pub(super) physical: vk::PhysicalDevice,
     pub properties: DeviceProperties,
     /// Distinct queues; roles index into this.
     pub(super) queues: Vec<Queue>,
@@ -192,7 +196,16 @@ impl Gpu {
         let validation = options.validation || super::instance::validation_requested();
         // Every `?` below drops what was created so far: `parts` tears down the instance,
         // `guard` the device and its semaphores.
-        let parts = create_instance(validation, &[])?;
+        let surface_extensions: Vec<&CStr> = match options.display {
+            Some(display) => ash_window::enumerate_required_extensions(display)
+                .map_err(vk_err("the window system's surface extensions"))?
+                .iter()
+                // SAFETY: ash-window returns pointers to its static, NUL-terminated names.
+                .map(|&p| unsafe { CStr::from_ptr(p) })
+                .collect(),
+            None => Vec::new(),
+        };
+        let parts = create_instance(validation, &surface_extensions)?;
         let instance = &parts.instance;
         let (physical, properties) = choose_device(instance, options.device_index)?;
 
@@ -256,6 +269,9 @@ impl Gpu {
         };
         if let Some(c) = calibration {
             extensions.push(c.extension);
+        }
+        if options.display.is_some() {
+            extensions.push(ash::khr::swapchain::NAME);
         }
         let extension_ptrs: Vec<_> = extensions.iter().map(|e| e.as_ptr()).collect();
         let features = vk::PhysicalDeviceFeatures::default().fragment_stores_and_atomics(true);
@@ -348,6 +364,7 @@ impl Gpu {
             graveyard: Mutex::new(Vec::new()),
             clock,
             validation,
+            physical,
             instance: parts,
         });
         for (i, q) in gpu.queues.iter().enumerate() {
@@ -363,6 +380,11 @@ impl Gpu {
             }
         }
         Ok(gpu)
+    }
+
+    /// The instance and loader (for code inside `gpu/`: surfaces).
+    pub(super) fn instance(&self) -> (&ash::Entry, &ash::Instance) {
+        (&self.instance.entry, &self.instance.instance)
     }
 
     /// The raw `ash` device (for code inside `gpu/`).

@@ -25,6 +25,7 @@ mod instance;
 mod pipeline;
 mod resources;
 pub mod shaders;
+mod swapchain;
 mod timestamps;
 mod transfer;
 
@@ -44,5 +45,6 @@ pub use pipeline::{
 };
 pub use resources::{Buffer, Filter, Image, ImageDesc, MemoryLocation, Sampler, ViewKind};
 pub use shaders::{table as shader_table, Shader, Stage};
+pub use swapchain::{Presented, Swapchain};
 pub use timestamps::Timestamps;
 pub use transfer::texel_size;
