@@ -13,6 +13,11 @@
 //! The photon steps are one command buffer; the host waits for it, traces, and the rest of the
 //! frame follows in a second one, everything on the graphics queue and timed per pass. This is
 //! the serial order; the overlapped schedule of the paper's Figure 3 reorders the same steps.
+//!
+//! The effects plan (`plan.rs`, issue #9) decides which of these steps exist, which lights they
+//! cover and which BSDF lobes their shaders compile; while no light changes, frames after the
+//! first reuse its photon map (no light G-buffers, bounce map, readback, trace or upload).
+//! `docs/effects.md`: the rules and the measured equivalence with `--effects all`.
 
 use crate::gpu::{
     vk, Buffer, Cmd, Gpu, Image, ImageDesc, QueueRole, Recording, Span, TimelinePoint, Timestamps,
