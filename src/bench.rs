@@ -184,6 +184,8 @@ pub fn run(
         let render = RenderSettings {
             method,
             schedule,
+            // Every frame traces: a planned frame of a static scene reuses its photon map.
+            effects: crate::plan::Effects::All,
             ..settings.render.clone()
         };
         Ok::<_, anyhow::Error>(Config {

@@ -21,6 +21,11 @@
 //! writing memory an earlier frame still reads; a frame slot's timestamps are read when the
 //! slot comes round again (or in [`Renderer::finish`]). [`Schedule::Serial`] waits after every
 //! submission: the same work strictly in order, the baseline `ispm bench` compares against.
+//!
+//! The effects plan (`plan.rs`, issue #9) decides which of these steps exist, which lights they
+//! cover and which BSDF lobes their shaders compile; while no light changes, frames after the
+//! first reuse its photon map (no light G-buffers, bounce map, readback, trace or upload).
+//! `docs/effects.md`: the rules and the measured equivalence with `--effects all`.
 
 use crate::gpu::{
     vk, Buffer, Cmd, Gpu, Image, ImageDesc, QueueRole, Recording, Span, TimelinePoint, Timestamps,
@@ -34,8 +39,8 @@ use crate::passes::eye_gbuffer::{EyeGBufferPass, GBuffer, View};
 use crate::passes::shadow_map::{self, ShadowMapPass};
 use crate::passes::tonemap::{self, Tonemap, TonemapPass};
 use crate::photon::bsdf::BsdfVariant;
-use crate::photon_frame::PhotonFrame;
-use crate::plan::Effects;
+use crate::photon_frame::{PhotonFrame, PhotonTargets};
+use crate::plan::{Effects, EffectsPlan};
 use crate::scene::{Camera, Light, Scene};
 use crate::timing;
 use crate::translucent_frame::{TranslucentFrame, TranslucentResources};
@@ -151,9 +156,28 @@ pub struct FrameStats {
     /// frame period.
     pub frame_ms: f64,
     pub passes_run: Vec<String>,
+    /// The passes of the frame that did not run, in frame order, each with the effects plan's
+    /// reason (or the photon-map reuse's: nothing moved and no light changed).
+    pub passes_skipped: Vec<SkippedPass>,
     /// The subsample factor the frame used (after clamping to the image size).
     pub subsample: u32,
 }
+
+/// A pass a frame did not run, and why.
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct SkippedPass {
+    pub name: String,
+    pub reason: String,
+}
+
+/// The photon passes a frame that reuses the last photon map skips.
+const REUSE_SKIPS: &[&str] = &[
+    "light_gbuffers",
+    "bounce_map",
+    "readback",
+    "cpu_trace",
+    "upload",
+];
 
 /// Renders frames of one scene at one size.
 pub struct Renderer {
@@ -161,6 +185,14 @@ pub struct Renderer {
     settings: RenderSettings,
     camera: Camera,
     lights: Vec<Light>,
+    /// The scene as loaded, with the current lights (the plan is re-made from it when they
+    /// change).
+    source: Scene,
+    /// What the frame needs (`settings.effects == All`: everything).
+    plan: EffectsPlan,
+    /// The frame whose photon map the photon buffer holds, and its stats, while that map is
+    /// still valid (no light changed since; never under `--effects all`).
+    photon_map: Option<(u64, FrameStats)>,
     scene: GpuScene,
     frame_uniforms: Buffer,
     light_buffer: Buffer,
@@ -234,7 +266,18 @@ impl Renderer {
             settings.width,
             settings.height
         );
+        let plan = EffectsPlan::analyse(scene, &settings, &scene.camera);
+        log::info!("{plan}");
+        let mut settings = settings;
+        // The planned lobes, within the ones the settings allow (with `--effects all` the plan
+        // needs every lobe).
+        let planned = plan.bsdf_variant();
+        settings.bsdf_variant = BsdfVariant {
+            glossy: settings.bsdf_variant.glossy && planned.glossy,
+            delta: settings.bsdf_variant.delta && planned.delta,
+        };
         let gpu_scene = GpuScene::new(gpu, scene)?;
+        // Sized for every light: a light the plan skips may come back after `set_lights`.
         let setup = LightSetup::new(
             &scene.lights,
             scene.camera.position().as_dvec3(),
@@ -305,32 +348,41 @@ impl Renderer {
             settings.bsdf_variant,
         )?;
         let tonemap = TonemapPass::new(gpu, &radiance, &display)?;
-        let photons = match settings.method {
-            Method::Ispm => Some(PhotonFrame::new(
+        // Without indirect light (`--method direct`, `--bounces 0`, nothing to store photons on,
+        // no light that emits any, ...) there is no photon part of the frame at all.
+        let photons = if plan.indirect.needed {
+            Some(PhotonFrame::new(
                 gpu,
                 scene,
                 &gpu_scene,
-                &settings,
-                &frame_uniforms,
-                &gbuffer,
-                &radiance,
-            )?),
-            Method::Direct => None,
+                (&settings, &plan),
+                &PhotonTargets {
+                    frame: &frame_uniforms,
+                    gbuffer: &gbuffer,
+                    radiance: &radiance,
+                },
+            )?)
+        } else {
+            None
         };
-        let translucent = TranslucentFrame::new(
-            gpu,
-            scene,
-            &gpu_scene,
-            &TranslucentResources {
-                frame: &frame_uniforms,
-                lights: &light_buffer,
-                shadow_views: &view_buffer,
-                shadow_atlas: &shadow_atlas,
-            },
-            gbuffer.depth.format,
-            radiance.format,
-            settings.bsdf_variant,
-        )?;
+        let translucent = if plan.translucent.needed {
+            TranslucentFrame::new(
+                gpu,
+                scene,
+                &gpu_scene,
+                &TranslucentResources {
+                    frame: &frame_uniforms,
+                    lights: &light_buffer,
+                    shadow_views: &view_buffer,
+                    shadow_atlas: &shadow_atlas,
+                },
+                gbuffer.depth.format,
+                radiance.format,
+                settings.bsdf_variant,
+            )?
+        } else {
+            None
+        };
         let slots = (0..FRAMES_IN_FLIGHT)
             .map(|i| {
                 Ok(FrameSlot {
@@ -344,6 +396,9 @@ impl Renderer {
             settings,
             camera: scene.camera,
             lights: scene.lights.clone(),
+            source: scene.clone(),
+            plan,
+            photon_map: None,
             scene: gpu_scene,
             frame_uniforms,
             light_buffer,
@@ -379,7 +434,9 @@ impl Renderer {
     }
 
     /// Moves the scene's lights (the same lights in the same order, with new transforms or
-    /// powers) for the next frame.
+    /// powers) for the next frame. The effects plan's light decisions are made again for them;
+    /// a change of lights also makes the next frame trace a new photon map. Fails when the moved
+    /// lights call for indirect light this renderer was planned without (create a new one).
     pub fn set_lights(&mut self, lights: &[Light]) -> anyhow::Result<()> {
         anyhow::ensure!(
             lights.len() == self.lights.len(),
@@ -387,14 +444,38 @@ impl Renderer {
             lights.len(),
             self.lights.len()
         );
+        if lights == self.lights.as_slice() {
+            return Ok(()); // nothing changed: the photon map stays valid
+        }
+        let mut source = self.source.clone();
+        source.lights = lights.to_vec();
+        let plan = EffectsPlan::analyse(&source, &self.settings, &self.camera);
+        anyhow::ensure!(
+            !plan.indirect.needed || self.photons.is_some(),
+            "the moved lights need indirect light ({}), which this renderer was planned without \
+             ({}): create a new renderer",
+            plan.indirect.reason,
+            self.plan.indirect.reason
+        );
         if let Some(photons) = &mut self.photons {
-            photons.set_lights(lights)?;
+            photons.set_lights(lights, &plan.photon_mask())?;
         }
         if let Some(translucent) = &mut self.translucent {
             translucent.invalidate(); // the cube map holds direct light
         }
+        if plan != self.plan {
+            log::info!("{plan}");
+        }
         self.lights = lights.to_vec();
+        self.source = source;
+        self.plan = plan;
+        self.photon_map = None;
         Ok(())
+    }
+
+    /// The effects plan the frames follow (for the lights as they are now).
+    pub fn plan(&self) -> &EffectsPlan {
+        &self.plan
     }
 
     /// The scene's lights as the next frame uses them.
@@ -423,6 +504,30 @@ impl Renderer {
         let timestamps = self.slots[slot].timestamps.clone();
         timestamps.reset(self.frame_index);
         let frame = self.prepare();
+        // Nothing moved and no light changed since the photon map was traced: draw it again
+        // (issue #9), without light G-buffers, bounce map, readback, trace or upload.
+        let reuse = match &self.photon_map {
+            Some((from, stats)) if self.settings.effects == Effects::Auto => Some((*from, stats)),
+            _ => None,
+        };
+        let mut stats = FrameStats::default();
+        if let Some((from, traced)) = reuse {
+            let reason = format!(
+                "photon map of frame {from} reused: nothing moved and no light changed since"
+            );
+            stats = FrameStats {
+                cpu_trace_ms: 0.0,
+                passes_skipped: REUSE_SKIPS
+                    .iter()
+                    .map(|name| SkippedPass {
+                        name: (*name).to_string(),
+                        reason: reason.clone(),
+                    })
+                    .collect(),
+                ..traced.clone()
+            };
+        }
+        let reuse = reuse.is_some();
 
         // Box A (graphics): per-frame constants, light G-buffers, bounce map.
         let a = gpu.record(QueueRole::Graphics, "box A", Some(timestamps.clone()))?;
@@ -430,13 +535,15 @@ impl Renderer {
             let cmd = a.cmd();
             self.record_constants(&cmd, &frame);
             if let Some(photons) = &mut self.photons {
-                photons.record_emission(&cmd, &self.scene);
+                if !reuse {
+                    photons.record_emission(&cmd, &self.scene);
+                }
             }
         }
         let a_done = self.submit(a, &[])?;
 
         // The bounce map's GPU→CPU copy (transfer queue).
-        let emits = self.photons.as_ref().is_some_and(PhotonFrame::emits);
+        let emits = !reuse && self.photons.as_ref().is_some_and(PhotonFrame::emits);
         let readback_done = match &self.photons {
             Some(photons) if emits => {
                 let rec = gpu.record(QueueRole::Transfer, "readback", Some(timestamps.clone()))?;
@@ -452,23 +559,33 @@ impl Renderer {
         let b_done = self.submit(b, &[])?;
 
         // Box C (host, all cores): trace the bounce map's photons while box B runs.
-        let mut stats = FrameStats::default();
         let mut upload_done = None;
-        if let (Some(photons), Some(readback)) = (&mut self.photons, readback_done) {
-            timing::timed("readback wait", || gpu.wait(readback))?;
-            if let Some(previous) = self.last_upload.take() {
-                gpu.wait(previous)?; // the staging buffer is free again (long done by now)
+        if let (Some(photons), false) = (&mut self.photons, reuse) {
+            if let Some(readback) = readback_done {
+                timing::timed("readback wait", || gpu.wait(readback))?;
+                if let Some(previous) = self.last_upload.take() {
+                    gpu.wait(previous)?; // the staging buffer is free again (long done by now)
+                }
             }
+            // Without photons to emit (every light's mask off) the map is emptied.
             stats = photons.trace()?;
             // The photon map's CPU→GPU copy (transfer queue), after the previous frame's
-            // photon volumes stopped reading the photon buffer.
+            // photon volumes stopped reading the photon buffer and box A handed it over.
             if photons.has_photons() {
                 let rec = gpu.record(QueueRole::Transfer, "upload", Some(timestamps.clone()))?;
                 photons.record_upload(&rec.cmd());
-                let waits: Vec<Wait> = self.last_frame_done.map(after).into_iter().collect();
+                let waits: Vec<Wait> = self
+                    .last_frame_done
+                    .into_iter()
+                    .chain([a_done])
+                    .map(after)
+                    .collect();
                 let done = self.submit(rec, &waits)?;
                 upload_done = Some(done);
                 self.last_upload = Some(done);
+            }
+            if self.settings.effects == Effects::Auto {
+                self.photon_map = Some((self.frame_index, stats.clone()));
             }
         }
 
@@ -496,6 +613,7 @@ impl Renderer {
         let (gpu_spans, mut stats) = self.drain()?;
         stats.passes_run = gpu_spans.iter().map(|s| s.name.clone()).collect();
         stats.passes_run.dedup();
+        stats.passes_skipped = self.skipped_passes(&stats);
         stats.subsample = crate::photon_frame::subsample_factor(&self.settings);
         let gpu = self.gpu.clone();
         let hdr_bytes = gpu.read_image(&self.radiance)?;
@@ -526,6 +644,28 @@ impl Renderer {
             }
         }
         last.ok_or_else(|| anyhow::anyhow!("the last frame was already retired"))
+    }
+
+    /// The passes `stats`' frame did not run, in frame order: the photon-map reuse's (already
+    /// in `stats`), then the plan's (those that really did not run).
+    fn skipped_passes(&self, stats: &FrameStats) -> Vec<SkippedPass> {
+        let ran = |name: &str| match name {
+            "cpu_trace" => stats.cpu_trace_ms > 0.0,
+            _ => stats.passes_run.iter().any(|p| p == name),
+        };
+        self.plan
+            .passes()
+            .into_iter()
+            .filter_map(|p| {
+                if let Some(reused) = stats.passes_skipped.iter().find(|s| s.name == p.name) {
+                    return Some(reused.clone());
+                }
+                (!p.run && !ran(p.name)).then(|| SkippedPass {
+                    name: p.name.to_string(),
+                    reason: p.reason,
+                })
+            })
+            .collect()
     }
 
     /// Submits `rec`; in the serial schedule, also waits for it.
@@ -560,8 +700,9 @@ impl Renderer {
     /// The host's part of a frame before any recording: light set-up and the frame constants.
     fn prepare(&self) -> FrameSetup {
         let camera_pos = self.camera.position().as_dvec3();
-        let setup = LightSetup::new(
+        let setup = LightSetup::active(
             &self.lights,
+            &self.plan.direct_mask(),
             camera_pos,
             &self.scene.bounds,
             self.settings.shadow_resolution,
@@ -629,12 +770,15 @@ impl Renderer {
 
     /// Box B: shadow maps, the eye G-buffer and direct light.
     fn record_eye_and_direct(&mut self, cmd: &Cmd, frame: &FrameSetup) {
-        self.shadow_maps.record(
-            cmd,
-            &self.scene,
-            &frame.shadow_draws,
-            &mut self.shadow_atlas,
-        );
+        if !frame.shadow_draws.is_empty() {
+            // No light lights the view (the plan): no shadow views, no shadow pass.
+            self.shadow_maps.record(
+                cmd,
+                &self.scene,
+                &frame.shadow_draws,
+                &mut self.shadow_atlas,
+            );
+        }
         let view = View {
             index: 0,
             draws: &frame.eye_draws,

@@ -179,6 +179,10 @@ struct RenderArgs {
     /// Seed of every random choice.
     #[arg(long, default_value_t = 0)]
     seed: u32,
+    /// GPU methods: `auto` skips the passes, shader variants, lights and bounces the scene
+    /// does not need (`ispm plan` prints why); `all` runs everything (the unplanned frame).
+    #[arg(long, value_enum, default_value = "auto")]
+    effects: ispm::plan::Effects,
     /// Write the frame's statistics (the paper's Table 2 columns) as JSON.
     #[arg(long)]
     stats: Option<PathBuf>,
@@ -380,6 +384,7 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
         exposure_ev: args.exposure,
         subsample: args.subsample,
         schedule: args.schedule,
+        effects: args.effects,
         ..Default::default()
     };
     if args.trace.is_some() {

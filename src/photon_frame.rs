@@ -16,6 +16,7 @@ use crate::photon::bvh::SceneBvh;
 use crate::photon::kernel::KernelSettings;
 use crate::photon::trace::{trace_photons, TraceSettings};
 use crate::photon::types::{BounceMapPhoton, Photon};
+use crate::plan::EffectsPlan;
 use crate::scene::Scene;
 use crate::timing;
 use std::sync::Arc;
@@ -25,10 +26,10 @@ pub struct PhotonFrame {
     scene: Scene,
     bvh: SceneBvh,
     plan: BouncePlan,
+    /// The light views, texels and light-G-buffer resolution the buffers hold.
+    capacity: (usize, usize, u32),
     /// Photons per frame and the scene's bounds: what the plan is made from.
     budget: usize,
-    /// The plan the light G-buffer, bounce map and readback were sized for.
-    capacity: BouncePlan,
     bounds: crate::scene::Aabb,
     trace: TraceSettings,
     kernel: KernelSettings,
@@ -42,6 +43,9 @@ pub struct PhotonFrame {
     photons: Buffer,
     count: u32,
     rebind: bool,
+    /// The photon buffer was last used by the graphics queue (the photon volumes), which must
+    /// hand it to the transfer queue before the next upload.
+    photons_on_graphics: bool,
     photon_pass: PhotonVolumesPass,
     /// `--subsample N > 1`: the low-resolution targets and the pass that upsamples them.
     subsampled: Option<Subsampled>,
@@ -59,6 +63,13 @@ struct Subsampled {
 
 /// The subsample factor a frame uses: at least 1, at most the image's larger side (beyond it
 /// the low-resolution image stays 1×1).
+/// The frame's buffers and images the photon part reads and writes.
+pub struct PhotonTargets<'a> {
+    pub frame: &'a Buffer,
+    pub gbuffer: &'a GBuffer,
+    pub radiance: &'a Image,
+}
+
 pub fn subsample_factor(settings: &RenderSettings) -> u32 {
     settings
         .subsample
@@ -85,19 +96,31 @@ fn photon_buffers(gpu: &Arc<Gpu>, capacity: usize) -> anyhow::Result<(Buffer, Bu
 }
 
 impl PhotonFrame {
+    /// The photon part of `settings`' frame of `scene`, emitting from the lights of
+    /// `effects`' photon mask, tracing at most `effects.max_bounces` bounces.
     pub fn new(
         gpu: &Arc<Gpu>,
         scene: &Scene,
         gpu_scene: &GpuScene,
-        settings: &RenderSettings,
-        frame: &Buffer,
-        gbuffer: &GBuffer,
-        radiance: &Image,
+        (settings, effects): (&RenderSettings, &EffectsPlan),
+        targets: &PhotonTargets,
     ) -> anyhow::Result<Self> {
+        let PhotonTargets {
+            frame,
+            gbuffer,
+            radiance,
+        } = *targets;
         let camera = scene.camera.position().as_dvec3();
-        let plan = BouncePlan::new(scene, camera, &gpu_scene.bounds, settings.photons);
-        let views = plan.views.len().max(1);
-        let res = plan.max_resolution.max(1);
+        let active = effects.photon_mask();
+        let plan = BouncePlan::active(scene, &active, camera, &gpu_scene.bounds, settings.photons);
+        // Room for every light too: `set_lights` may bring back a light the plan skips now.
+        let every = BouncePlan::new(scene, camera, &gpu_scene.bounds, settings.photons);
+        let capacity = (
+            plan.views.len().max(every.views.len()).max(1),
+            plan.texels.max(every.texels).max(1),
+            plan.max_resolution.max(every.max_resolution).max(1),
+        );
+        let (views, texels, res) = capacity;
         let light_gbuffer = GBuffer::new(
             gpu,
             "light_gbuffer",
@@ -113,7 +136,7 @@ impl PhotonFrame {
             (views * size_of::<crate::layout::BounceView>()) as u64,
             vk::BufferUsageFlags::STORAGE_BUFFER,
         )?;
-        let bounce_bytes = (plan.texels.max(1) * size_of::<BounceMapPhoton>()) as u64;
+        let bounce_bytes = (texels * size_of::<BounceMapPhoton>()) as u64;
         let bounce_map = Buffer::new(
             gpu,
             "bounce_map",
@@ -173,7 +196,7 @@ impl PhotonFrame {
             scene: scene.clone(),
             bvh: SceneBvh::new(scene),
             trace: TraceSettings {
-                max_bounces: settings.bounces.max(1),
+                max_bounces: effects.max_bounces,
                 seed: settings.seed,
             },
             // The footprint floor of the image the estimate is made at (the low one when
@@ -187,8 +210,8 @@ impl PhotonFrame {
                 scene.camera.yfov,
                 upsample::low_size(radiance.width, radiance.height, subsample).1,
             ),
-            capacity: plan.clone(),
             plan,
+            capacity,
             budget: settings.photons,
             bounds: gpu_scene.bounds,
             light_gbuffer,
@@ -201,6 +224,7 @@ impl PhotonFrame {
             photons,
             count: 0,
             rebind: false,
+            photons_on_graphics: false,
             photon_pass,
             subsampled,
             indirect,
@@ -210,17 +234,21 @@ impl PhotonFrame {
         })
     }
 
-    /// Moves the lights (same lights, new transforms or powers): the next frame's bounce map
-    /// starts from them. Fails if the new lights need more light views, texels or a larger
-    /// light G-buffer than the renderer was created with.
-    pub fn set_lights(&mut self, lights: &[crate::scene::Light]) -> anyhow::Result<()> {
+    /// Moves the lights (same lights, new transforms or powers; `active`: the effects plan's
+    /// photon mask for them): the next frame's bounce map starts from them. Fails if the new
+    /// lights need more light views, texels or a larger light G-buffer than the renderer was
+    /// created with.
+    pub fn set_lights(
+        &mut self,
+        lights: &[crate::scene::Light],
+        active: &[bool],
+    ) -> anyhow::Result<()> {
         let mut scene = self.scene.clone();
         scene.lights = lights.to_vec();
-        let plan = BouncePlan::new(&scene, self.plan.camera, &self.bounds, self.budget);
-        let cap = &self.capacity;
-        let fits = plan.views.len() <= cap.views.len().max(1)
-            && plan.texels <= cap.texels.max(1)
-            && plan.max_resolution <= cap.max_resolution.max(1);
+        let plan = BouncePlan::active(&scene, active, self.plan.camera, &self.bounds, self.budget);
+        let (views, texels, resolution) = self.capacity;
+        let fits =
+            plan.views.len() <= views && plan.texels <= texels && plan.max_resolution <= resolution;
         anyhow::ensure!(
             fits,
             "the moved lights need {} light views of up to {}² texels ({} in all), more than the \
@@ -228,9 +256,9 @@ impl PhotonFrame {
             plan.views.len(),
             plan.max_resolution,
             plan.texels,
-            cap.views.len(),
-            cap.max_resolution,
-            cap.texels
+            views,
+            resolution,
+            texels
         );
         self.scene.lights = scene.lights;
         self.plan = plan;
@@ -243,7 +271,9 @@ impl PhotonFrame {
     }
 
     /// Box A: the light views' uniforms, the light G-buffers and the bounce map; hands the
-    /// bounce map to the transfer queue for [`Self::record_readback`].
+    /// bounce map to the transfer queue for [`Self::record_readback`], and the photon buffer
+    /// (kept by the graphics queue while frames reuse the photon map) for
+    /// [`Self::record_upload`]: the upload must wait for this submission.
     pub fn record_emission(&mut self, cmd: &Cmd, scene: &GpuScene) {
         let plan = &self.plan;
         if plan.texels == 0 {
@@ -251,6 +281,10 @@ impl PhotonFrame {
             // photon buffer's hand-offs stay paired.
             self.count = 0;
             return;
+        }
+        if self.photons_on_graphics {
+            cmd.release_buffer(&self.photons, QueueRole::Transfer);
+            self.photons_on_graphics = false;
         }
         self.light_pass.update(cmd, &plan.uniforms);
         cmd.update_buffer(&self.views, 0, bytemuck::cast_slice(&plan.views));
@@ -363,7 +397,9 @@ impl PhotonFrame {
     }
 
     /// Photon volumes into the indirect buffer (at 1/N resolution and upsampled, at
-    /// `--subsample N > 1`), then radiance += indirect.
+    /// `--subsample N > 1`), then radiance += indirect. Takes the photon buffer over from the
+    /// transfer queue after an upload (a no-op in a frame that reuses the photon map) and keeps
+    /// it until the next [`Self::record_emission`].
     pub fn record_estimate(
         &mut self,
         cmd: &Cmd,
@@ -378,6 +414,7 @@ impl PhotonFrame {
                 QueueRole::Transfer,
                 Access::GraphicsStorageRead,
             );
+            self.photons_on_graphics = true;
         }
         if self.plan.texels > 0 {
             // Back from the readback, for the next frame's bounce map.
@@ -417,9 +454,6 @@ impl PhotonFrame {
             }
         }
         self.composite.record(cmd, &self.indirect, radiance);
-        if self.count > 0 {
-            cmd.release_buffer(&self.photons, QueueRole::Transfer);
-        }
     }
 
     /// The last frame's bounce map, one record per light-G-buffer texel.

@@ -7,6 +7,7 @@ mod common;
 
 use ispm::frame::{FrameImage, Method, RenderSettings, Renderer, Schedule};
 use ispm::gpu::{Gpu, GpuOptions, QueueMode, QueueRole};
+use ispm::plan::Effects;
 use ispm::scene::{bundled, Light, Scene};
 use std::sync::{Arc, Mutex, MutexGuard};
 
@@ -101,8 +102,12 @@ fn logical_transfer_queue_renders_what_the_single_queue_renders() {
         let gpu = gpu(mode);
         let split = gpu.queue_index(QueueRole::Transfer) != gpu.queue_index(QueueRole::Graphics);
         assert_eq!(split, mode == QueueMode::SplitTransfer, "{mode:?}");
-        let mut renderer =
-            Renderer::new(&gpu, &scene, settings(Schedule::Overlapped)).expect("renderer");
+        // Every frame traces and uploads (a planned frame would reuse the static photon map).
+        let all = RenderSettings {
+            effects: Effects::All,
+            ..settings(Schedule::Overlapped)
+        };
+        let mut renderer = Renderer::new(&gpu, &scene, all).expect("renderer");
         for _ in 0..3 {
             renderer.submit_frame().expect("frame");
         }
@@ -142,6 +147,8 @@ fn captured_frames(schedule: Schedule, frames: u64) -> Vec<ispm::timing::Span> {
         height: 192,
         shadow_resolution: 512,
         schedule,
+        // Every frame traces (a planned frame would reuse the static photon map).
+        effects: Effects::All,
         ..Default::default()
     };
     let mut renderer = Renderer::new(&gpu, &scene, settings).expect("renderer");

@@ -128,6 +128,9 @@ fn cli_run() -> &'static (Trace, Value) {
             "128",
             "--frames",
             &frames,
+            // Every frame traces (a planned frame would reuse the static photon map).
+            "--effects",
+            "all",
             "-o",
             &path(&png),
             "--trace",
@@ -504,6 +507,8 @@ fn measured_clock_still_orders_gpu_passes_around_host_work() {
         width: 48,
         height: 32,
         shadow_resolution: 128,
+        // Every frame traces (a planned frame would reuse the static photon map).
+        effects: ispm::plan::Effects::All,
         ..Default::default()
     };
     ispm::timing::start_capture();
