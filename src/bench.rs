@@ -89,15 +89,17 @@ struct Config {
     last_chunk: Vec<Span>,
 }
 
-/// The value at quantile `q` (0..=1) of `values` (sorted copy, nearest rank).
+/// The value at quantile `q` (0..=1) of `values`, interpolated linearly between the closest
+/// ranks (the median of an even count is the mean of the middle two).
 pub fn quantile(values: &[f64], q: f64) -> f64 {
     if values.is_empty() {
         return 0.0;
     }
     let mut v = values.to_vec();
     v.sort_by(f64::total_cmp);
-    let i = ((v.len() - 1) as f64 * q.clamp(0.0, 1.0)).round() as usize;
-    v[i]
+    let pos = (v.len() - 1) as f64 * q.clamp(0.0, 1.0);
+    let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
+    v[lo] + (v[hi] - v[lo]) * (pos - lo as f64)
 }
 
 /// Per-frame totals of each stage: `gpu.NAME` sums a frame's top-level GPU passes of that name,
@@ -120,15 +122,21 @@ fn per_frame(spans: &[Span]) -> BTreeMap<String, Vec<f64>> {
     out
 }
 
-/// The GPU's busy time per frame: the sum of its outermost passes.
+/// The GPU stage per frame: the busiest queue's sum of outermost passes (queues run side by
+/// side, so their times do not add up).
 fn gpu_per_frame(spans: &[Span]) -> Vec<f64> {
-    let mut totals: BTreeMap<u64, f64> = BTreeMap::new();
+    let mut totals: BTreeMap<(u64, String), f64> = BTreeMap::new();
     for s in spans.iter().filter(|s| s.is_gpu() && s.depth == 0) {
-        if let Some(f) = s.frame {
-            *totals.entry(f).or_default() += s.ms();
+        if let (Some(f), crate::timing::Track::Gpu { queue, .. }) = (s.frame, &s.track) {
+            *totals.entry((f, queue.to_string())).or_default() += s.ms();
         }
     }
-    totals.into_values().collect()
+    let mut per_frame: BTreeMap<u64, f64> = BTreeMap::new();
+    for ((f, _), ms) in totals {
+        let busiest = per_frame.entry(f).or_default();
+        *busiest = busiest.max(ms);
+    }
+    per_frame.into_values().collect()
 }
 
 fn result(config: &Config) -> ConfigResult {
@@ -208,7 +216,9 @@ pub fn run(
     let chunks = settings.chunks.clamp(1, settings.frames.max(1));
     for k in 0..chunks {
         // Spread the frames over the chunks as evenly as integers allow.
-        let n = settings.frames * (k + 1) / chunks - settings.frames * k / chunks;
+        let frames = u64::from(settings.frames);
+        let n = (frames * u64::from(k + 1) / u64::from(chunks)
+            - frames * u64::from(k) / u64::from(chunks)) as u32;
         for c in &mut configs {
             progress(&format!("chunk {}/{chunks}: {}", k + 1, c.name));
             let (ms, spans) = chunk(&mut c.renderer, n.max(1))?;
@@ -358,13 +368,18 @@ mod tests {
     use super::*;
 
     #[test]
-    fn quantiles_pick_nearest_ranks() {
+    fn quantiles_interpolate_between_ranks() {
         let v = [5.0, 1.0, 3.0, 2.0, 4.0];
         assert_eq!(quantile(&v, 0.5), 3.0);
         assert_eq!(quantile(&v, 0.0), 1.0);
         assert_eq!(quantile(&v, 1.0), 5.0);
-        assert_eq!(quantile(&v, 0.1), 1.0);
-        assert_eq!(quantile(&v, 0.9), 5.0);
+        assert!((quantile(&v, 0.1) - 1.4).abs() < 1e-12);
+        assert!((quantile(&v, 0.9) - 4.6).abs() < 1e-12);
+        assert_eq!(
+            quantile(&[2.0, 4.0], 0.5),
+            3.0,
+            "even count: mean of the middle two"
+        );
         assert_eq!(quantile(&[], 0.5), 0.0);
     }
 }

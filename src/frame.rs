@@ -211,6 +211,8 @@ pub struct Renderer {
     slots: Vec<FrameSlot>,
     /// Frames submitted so far.
     frame_index: u64,
+    /// A frame failed half way through being issued ([`Renderer::submit_frame`]).
+    broken: bool,
     /// The last submitted frame's final point (its photon volumes read the photon buffer).
     last_frame_done: Option<TimelinePoint>,
     /// The last photon-map upload (it reads the staging buffer the next trace writes).
@@ -415,6 +417,7 @@ impl Renderer {
             translucent,
             slots,
             frame_index: 0,
+            broken: false,
             last_frame_done: None,
             last_upload: None,
         })
@@ -447,6 +450,23 @@ impl Renderer {
         if lights == self.lights.as_slice() {
             return Ok(()); // nothing changed: the photon map stays valid
         }
+        // The shadow views were sized for the scene's lights: a light that changes kind (or a
+        // spot whose cone needs a cube) may need more.
+        let views = LightSetup::new(
+            lights,
+            self.camera.position().as_dvec3(),
+            &self.scene.bounds,
+            self.settings.shadow_resolution,
+            SHADOW_FACE_MARGIN,
+        )
+        .views
+        .len();
+        let capacity = self.shadow_atlas.layers as usize;
+        anyhow::ensure!(
+            views <= capacity,
+            "the changed lights need {views} shadow views, this renderer has {capacity}: create a \
+             new renderer"
+        );
         let mut source = self.source.clone();
         source.lights = lights.to_vec();
         let plan = EffectsPlan::analyse(&source, &self.settings, &self.camera);
@@ -493,6 +513,14 @@ impl Renderer {
     /// At most [`FRAMES_IN_FLIGHT`] frames are in flight: the frame that last used this
     /// frame's slot is waited for first (in the steady state it has long finished).
     pub fn submit_frame(&mut self) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            !self.broken,
+            "the renderer stopped after an error in an earlier frame"
+        );
+        // Set until the frame is fully issued: an error half way leaves submissions, tracked
+        // resource states and a timestamp pool in use that the next frame cannot reason about,
+        // so the renderer refuses further frames (the GPU is drained on drop).
+        self.broken = true;
         let gpu = self.gpu.clone();
         let slot = (self.frame_index % FRAMES_IN_FLIGHT as u64) as usize;
         self.retire_slot(slot)?;
@@ -592,7 +620,13 @@ impl Renderer {
         // Box D (graphics): photon volumes, upsampling, composite, glass, tonemap.
         let d = gpu.record(QueueRole::Graphics, "box D", Some(timestamps.clone()))?;
         self.record_estimate_and_finish(&d.cmd(), &frame);
-        let waits: Vec<Wait> = upload_done.map(after).into_iter().collect();
+        // The upload (which itself follows the readback); the readback too, for frames whose
+        // trace stored nothing: box D takes the bounce map back from the transfer queue.
+        let waits: Vec<Wait> = upload_done
+            .into_iter()
+            .chain(readback_done)
+            .map(after)
+            .collect();
         let d_done = self.submit(d, &waits)?;
         let _ = b_done;
 
@@ -604,6 +638,7 @@ impl Renderer {
             index: self.frame_index,
         });
         self.frame_index += 1;
+        self.broken = false;
         drop(frame_span);
         Ok(())
     }

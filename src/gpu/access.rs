@@ -119,7 +119,9 @@ impl Access {
             ),
             Access::IndexInput => (S::INDEX_INPUT, A::INDEX_READ, L::UNDEFINED),
             Access::TransferSrc => (S::COPY, A::TRANSFER_READ, L::TRANSFER_SRC_OPTIMAL),
-            Access::TransferDst => (S::COPY, A::TRANSFER_WRITE, L::TRANSFER_DST_OPTIMAL),
+            // Every transfer stage: copies (COPY), and fill/update, which sync2 puts in the
+            // clear commands' stage (CLEAR).
+            Access::TransferDst => (S::ALL_TRANSFER, A::TRANSFER_WRITE, L::TRANSFER_DST_OPTIMAL),
             Access::BlitSrc => (S::BLIT, A::TRANSFER_READ, L::TRANSFER_SRC_OPTIMAL),
             Access::HostRead => (S::HOST, A::HOST_READ, L::GENERAL),
             Access::HostWrite => (S::HOST, A::HOST_WRITE, L::GENERAL),

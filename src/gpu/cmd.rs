@@ -316,6 +316,11 @@ impl<'a> Cmd<'a> {
     pub fn transition_buffer(&self, buffer: &Buffer, to: Access) {
         let mut last = buffer.access.lock().unwrap_or_else(|e| e.into_inner());
         let from = *last;
+        debug_assert!(
+            from != Access::Released,
+            "{} is used on a queue it was not acquired by (Cmd::acquire_buffer)",
+            buffer.name
+        );
         if (from == to && !to.writes()) || from == Access::Nothing {
             *last = to;
             return;
