@@ -1,21 +1,35 @@
-//! The frame, as an ordered script of passes.
+//! The frame, as a short script of named steps on timeline semaphores (the paper's Figure 3).
 //!
 //! ```text
-//!  photons (--method ispm):
-//!   light_gbuffers ──► bounce_map ──► readback ══► cpu_trace (all cores) ══► upload
-//!  every method:
-//!   shadow_maps ──► eye_gbuffer ──► direct ──► photon_volumes ──► composite ──►
-//!                   (opaque only)              (ispm only)        (ispm only)
-//!     environment ──► translucent ──► tonemap
-//!     (cached cube)   (glass, mirrors; scenes with delta materials only)
+//!  host   ─ prepare ─ record A ─ record B ─ wait(readback) ─ cpu_trace ─ record upload, D ─► next frame
+//!                        │           │            ▲                 │           │
+//!  graphics queue    [ box A ]──┐ [ box B ] ......│.................│......[ box D ]
+//!                    constants, │ shadow maps,    │                 │      photon volumes,
+//!                    light      │ eye G-buffer,   │                 │      upsample, composite,
+//!                    G-buffers, │ direct          │                 │      translucent, tonemap
+//!                    bounce map │                 │                 │          ▲
+//!  transfer queue               └─►[ readback ]───┘                 └─►[ upload ]
 //! ```
 //!
-//! The photon steps are one command buffer; the host waits for it, traces, and the rest of the
-//! frame follows in a second one, everything on the graphics queue and timed per pass. This is
-//! the serial order; the overlapped schedule of the paper's Figure 3 reorders the same steps.
+//! [`Renderer::submit_frame`] issues box A, the bounce map's copy to the host, and box B; then
+//! the host waits for the copy only and traces the photons on every core (box C) while the GPU
+//! draws box B; then it issues the photon map's upload and box D, which waits for it. Every
+//! cross-queue dependency is a wait on a queue's timeline; the bounce map and the photon buffer
+//! change queue-family ownership with release/acquire barriers where the transfer queue is a
+//! family of its own (`Cmd::release_buffer`). Per-frame constants go through the command stream
+//! (`Cmd::update_buffer`), so [`FRAMES_IN_FLIGHT`] frames can be in flight without the host
+//! writing memory an earlier frame still reads; a frame slot's timestamps are read when the
+//! slot comes round again (or in [`Renderer::finish`]). [`Schedule::Serial`] waits after every
+//! submission: the same work strictly in order, the baseline `ispm bench` compares against.
+//!
+//! The effects plan (`plan.rs`, issue #9) decides which of these steps exist, which lights they
+//! cover and which BSDF lobes their shaders compile; while no light changes, frames after the
+//! first reuse its photon map (no light G-buffers, bounce map, readback, trace or upload).
+//! `docs/effects.md`: the rules and the measured equivalence with `--effects all`.
 
 use crate::gpu::{
-    vk, Buffer, Gpu, Image, ImageDesc, MemoryLocation, QueueRole, Span, Timestamps, ViewKind,
+    vk, Buffer, Cmd, Gpu, Image, ImageDesc, QueueRole, Recording, Span, TimelinePoint, Timestamps,
+    ViewKind, Wait,
 };
 use crate::gpu_scene::GpuScene;
 use crate::layout::FrameUniforms;
@@ -25,8 +39,8 @@ use crate::passes::eye_gbuffer::{EyeGBufferPass, GBuffer, View};
 use crate::passes::shadow_map::{self, ShadowMapPass};
 use crate::passes::tonemap::{self, Tonemap, TonemapPass};
 use crate::photon::bsdf::BsdfVariant;
-use crate::photon_frame::PhotonFrame;
-use crate::plan::Effects;
+use crate::photon_frame::{PhotonFrame, PhotonTargets};
+use crate::plan::{Effects, EffectsPlan};
 use crate::scene::{Camera, Light, Scene};
 use crate::timing;
 use crate::translucent_frame::{TranslucentFrame, TranslucentResources};
@@ -35,6 +49,21 @@ use std::sync::Arc;
 
 /// Texels by which shadow cube faces overlap (normal offset 1.5 + PCF 1 + bilinear 0.5).
 const SHADOW_FACE_MARGIN: u32 = 3;
+
+/// Frames the host may issue before it waits for the oldest one to finish.
+pub const FRAMES_IN_FLIGHT: usize = 2;
+
+/// How the frame's steps are ordered in time.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Schedule {
+    /// The paper's Figure 3: the CPU trace runs while the GPU draws the eye G-buffer and
+    /// direct light; frames overlap.
+    #[default]
+    Overlapped,
+    /// Every step waits for the one before: the baseline the overlap is measured against.
+    Serial,
+}
 
 /// How the frame computes light.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
@@ -68,6 +97,7 @@ pub struct RenderSettings {
     pub exposure_ev: f32,
     /// Photon volumes at 1/N resolution, upsampled (1: full resolution, no upsampling).
     pub subsample: u32,
+    pub schedule: Schedule,
     /// `Auto`: the effects plan (`plan::EffectsPlan`) may skip what the scene does not need;
     /// `All`: every pass and shader variant runs (`--effects all`, for comparison).
     pub effects: Effects,
@@ -93,6 +123,7 @@ impl Default for RenderSettings {
             tonemap: Tonemap::default(),
             exposure_ev: 0.0,
             subsample: 1,
+            schedule: Schedule::Overlapped,
             effects: Effects::Auto,
             bsdf_variant: BsdfVariant::ALL,
             caustic_share: crate::ispm::CAUSTIC_SHARE,
@@ -124,12 +155,33 @@ pub struct FrameStats {
     /// Photons alive after each bounce (the paper's Figure 10).
     pub attrition: Vec<u64>,
     pub cpu_trace_ms: f64,
-    /// Host time from the frame's start to the end of its GPU work.
+    /// Host time from the frame's start (the host begins issuing it) to the end of its last
+    /// GPU pass. Under the overlapped schedule frames overlap, so this is latency, not the
+    /// frame period.
     pub frame_ms: f64,
     pub passes_run: Vec<String>,
+    /// The passes of the frame that did not run, in frame order, each with the effects plan's
+    /// reason (or the photon-map reuse's: nothing moved and no light changed).
+    pub passes_skipped: Vec<SkippedPass>,
     /// The subsample factor the frame used (after clamping to the image size).
     pub subsample: u32,
 }
+
+/// A pass a frame did not run, and why.
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct SkippedPass {
+    pub name: String,
+    pub reason: String,
+}
+
+/// The photon passes a frame that reuses the last photon map skips.
+const REUSE_SKIPS: &[&str] = &[
+    "light_gbuffers",
+    "bounce_map",
+    "readback",
+    "cpu_trace",
+    "upload",
+];
 
 /// Renders frames of one scene at one size.
 pub struct Renderer {
@@ -137,6 +189,14 @@ pub struct Renderer {
     settings: RenderSettings,
     camera: Camera,
     lights: Vec<Light>,
+    /// The scene as loaded, with the current lights (the plan is re-made from it when they
+    /// change).
+    source: Scene,
+    /// What the frame needs (`settings.effects == All`: everything).
+    plan: EffectsPlan,
+    /// The frame whose photon map the photon buffer holds, and its stats, while that map is
+    /// still valid (no light changed since; never under `--effects all`).
+    photon_map: Option<(u64, FrameStats)>,
     scene: GpuScene,
     frame_uniforms: Buffer,
     light_buffer: Buffer,
@@ -152,24 +212,56 @@ pub struct Renderer {
     photons: Option<PhotonFrame>,
     /// Glass and mirrors (scenes with delta materials only).
     translucent: Option<TranslucentFrame>,
-    timestamps: Arc<Timestamps>,
-    /// Index of the next frame (the `frame` of its spans).
+    slots: Vec<FrameSlot>,
+    /// Frames submitted so far.
     frame_index: u64,
+    /// A frame failed half way through being issued ([`Renderer::submit_frame`]).
+    broken: bool,
+    /// The last submitted frame's final point (its photon volumes read the photon buffer).
+    last_frame_done: Option<TimelinePoint>,
+    /// The last photon-map upload (it reads the staging buffer the next trace writes).
+    last_upload: Option<TimelinePoint>,
 }
 
-fn host_buffer(
+/// What one frame in flight keeps until it is retired.
+struct FrameSlot {
+    timestamps: Arc<Timestamps>,
+    pending: Option<PendingFrame>,
+}
+
+struct PendingFrame {
+    done: TimelinePoint,
+    stats: FrameStats,
+    /// When the host began issuing it ([`timing::now_ns`]).
+    start_ns: u64,
+    index: u64,
+}
+
+/// The host's set-up of one frame.
+struct FrameSetup {
+    camera_pos: glam::DVec3,
+    setup: LightSetup,
+    uniforms: FrameUniforms,
+    shadow_draws: Vec<Vec<crate::gpu_scene::Draw>>,
+    eye_draws: Vec<crate::gpu_scene::Draw>,
+    delta_draws: Vec<crate::gpu_scene::Draw>,
+}
+
+/// A wait for `point` before any work of the waiting submission.
+fn after(point: TimelinePoint) -> Wait {
+    Wait {
+        point,
+        stage: vk::PipelineStageFlags2::ALL_COMMANDS,
+    }
+}
+
+fn constants(
     gpu: &Arc<Gpu>,
     name: &str,
     size: usize,
     usage: vk::BufferUsageFlags,
 ) -> anyhow::Result<Buffer> {
-    Ok(Buffer::new(
-        gpu,
-        name,
-        size as u64,
-        usage,
-        MemoryLocation::CpuToGpu,
-    )?)
+    Ok(Buffer::constants(gpu, name, size as u64, usage)?)
 }
 
 impl Renderer {
@@ -180,7 +272,18 @@ impl Renderer {
             settings.width,
             settings.height
         );
+        let plan = EffectsPlan::analyse(scene, &settings, &scene.camera);
+        log::info!("{plan}");
+        let mut settings = settings;
+        // The planned lobes, within the ones the settings allow (with `--effects all` the plan
+        // needs every lobe).
+        let planned = plan.bsdf_variant();
+        settings.bsdf_variant = BsdfVariant {
+            glossy: settings.bsdf_variant.glossy && planned.glossy,
+            delta: settings.bsdf_variant.delta && planned.delta,
+        };
         let gpu_scene = GpuScene::new(gpu, scene)?;
+        // Sized for every light: a light the plan skips may come back after `set_lights`.
         let setup = LightSetup::new(
             &scene.lights,
             scene.camera.position().as_dvec3(),
@@ -188,19 +291,19 @@ impl Renderer {
             settings.shadow_resolution,
             SHADOW_FACE_MARGIN,
         );
-        let frame_uniforms = host_buffer(
+        let frame_uniforms = constants(
             gpu,
             "frame.uniforms",
             size_of::<FrameUniforms>(),
             vk::BufferUsageFlags::UNIFORM_BUFFER,
         )?;
-        let light_buffer = host_buffer(
+        let light_buffer = constants(
             gpu,
             "frame.lights",
             size_of::<crate::layout::GpuLight>() * setup.lights.len().max(1),
             vk::BufferUsageFlags::STORAGE_BUFFER,
         )?;
-        let view_buffer = host_buffer(
+        let view_buffer = constants(
             gpu,
             "frame.shadow_views",
             size_of::<crate::layout::ShadowView>() * setup.views.len().max(1),
@@ -251,38 +354,57 @@ impl Renderer {
             settings.bsdf_variant,
         )?;
         let tonemap = TonemapPass::new(gpu, &radiance, &display)?;
-        let photons = match settings.method {
-            Method::Ispm => Some(PhotonFrame::new(
+        // Without indirect light (`--method direct`, `--bounces 0`, nothing to store photons on,
+        // no light that emits any, ...) there is no photon part of the frame at all.
+        let photons = if plan.indirect.needed {
+            Some(PhotonFrame::new(
                 gpu,
                 scene,
                 &gpu_scene,
-                &settings,
-                &frame_uniforms,
-                &gbuffer,
-                &radiance,
-            )?),
-            Method::Direct => None,
+                (&settings, &plan),
+                &PhotonTargets {
+                    frame: &frame_uniforms,
+                    gbuffer: &gbuffer,
+                    radiance: &radiance,
+                },
+            )?)
+        } else {
+            None
         };
-        let translucent = TranslucentFrame::new(
-            gpu,
-            scene,
-            &gpu_scene,
-            &TranslucentResources {
-                frame: &frame_uniforms,
-                lights: &light_buffer,
-                shadow_views: &view_buffer,
-                shadow_atlas: &shadow_atlas,
-            },
-            gbuffer.depth.format,
-            radiance.format,
-            settings.bsdf_variant,
-        )?;
-        let timestamps = Timestamps::new(gpu, "frame.timestamps", 64)?;
+        let translucent = if plan.translucent.needed {
+            TranslucentFrame::new(
+                gpu,
+                scene,
+                &gpu_scene,
+                &TranslucentResources {
+                    frame: &frame_uniforms,
+                    lights: &light_buffer,
+                    shadow_views: &view_buffer,
+                    shadow_atlas: &shadow_atlas,
+                },
+                gbuffer.depth.format,
+                radiance.format,
+                settings.bsdf_variant,
+            )?
+        } else {
+            None
+        };
+        let slots = (0..FRAMES_IN_FLIGHT)
+            .map(|i| {
+                Ok(FrameSlot {
+                    timestamps: Timestamps::new(gpu, &format!("frame[{i}].timestamps"), 64)?,
+                    pending: None,
+                })
+            })
+            .collect::<anyhow::Result<Vec<_>>>()?;
         Ok(Self {
             gpu: gpu.clone(),
             settings,
             camera: scene.camera,
             lights: scene.lights.clone(),
+            source: scene.clone(),
+            plan,
+            photon_map: None,
             scene: gpu_scene,
             frame_uniforms,
             light_buffer,
@@ -297,8 +419,11 @@ impl Renderer {
             tonemap,
             photons,
             translucent,
-            timestamps,
+            slots,
             frame_index: 0,
+            broken: false,
+            last_frame_done: None,
+            last_upload: None,
         })
     }
 
@@ -315,13 +440,308 @@ impl Renderer {
         proj * rotation_only.inverse()
     }
 
+    /// Moves the scene's lights (the same lights in the same order, with new transforms or
+    /// powers) for the next frame. The effects plan's light decisions are made again for them;
+    /// a change of lights also makes the next frame trace a new photon map. Fails when the moved
+    /// lights call for indirect light this renderer was planned without (create a new one).
+    pub fn set_lights(&mut self, lights: &[Light]) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            lights.len() == self.lights.len(),
+            "{} lights given, the scene has {}",
+            lights.len(),
+            self.lights.len()
+        );
+        if lights == self.lights.as_slice() {
+            return Ok(()); // nothing changed: the photon map stays valid
+        }
+        // The shadow views were sized for the scene's lights: a light that changes kind (or a
+        // spot whose cone needs a cube) may need more.
+        let views = LightSetup::new(
+            lights,
+            self.camera.position().as_dvec3(),
+            &self.scene.bounds,
+            self.settings.shadow_resolution,
+            SHADOW_FACE_MARGIN,
+        )
+        .views
+        .len();
+        let capacity = self.shadow_atlas.layers as usize;
+        anyhow::ensure!(
+            views <= capacity,
+            "the changed lights need {views} shadow views, this renderer has {capacity}: create a \
+             new renderer"
+        );
+        let mut source = self.source.clone();
+        source.lights = lights.to_vec();
+        let plan = EffectsPlan::analyse(&source, &self.settings, &self.camera);
+        anyhow::ensure!(
+            !plan.indirect.needed || self.photons.is_some(),
+            "the moved lights need indirect light ({}), which this renderer was planned without \
+             ({}): create a new renderer",
+            plan.indirect.reason,
+            self.plan.indirect.reason
+        );
+        if let Some(photons) = &mut self.photons {
+            photons.set_lights(lights, &plan.photon_mask())?;
+        }
+        if let Some(translucent) = &mut self.translucent {
+            translucent.invalidate(); // the cube map holds direct light
+        }
+        if plan != self.plan {
+            log::info!("{plan}");
+        }
+        self.lights = lights.to_vec();
+        self.source = source;
+        self.plan = plan;
+        self.photon_map = None;
+        Ok(())
+    }
+
+    /// The effects plan the frames follow (for the lights as they are now).
+    pub fn plan(&self) -> &EffectsPlan {
+        &self.plan
+    }
+
+    /// The scene's lights as the next frame uses them.
+    pub fn lights(&self) -> &[Light] {
+        &self.lights
+    }
+
     /// Renders one frame, waits for it, and reads the images back.
     pub fn render(&mut self) -> anyhow::Result<FrameImage> {
-        let frame_span = timing::frame(self.frame_index);
+        self.submit_frame()?;
+        self.finish()
+    }
+
+    /// Issues one frame without waiting for the GPU to finish it (module docs: the schedule).
+    /// At most [`FRAMES_IN_FLIGHT`] frames are in flight: the frame that last used this
+    /// frame's slot is waited for first (in the steady state it has long finished).
+    pub fn submit_frame(&mut self) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            !self.broken,
+            "the renderer stopped after an error in an earlier frame"
+        );
+        // Set until the frame is fully issued: an error half way leaves submissions, tracked
+        // resource states and a timestamp pool in use that the next frame cannot reason about,
+        // so the renderer refuses further frames (the GPU is drained on drop).
+        self.broken = true;
         let gpu = self.gpu.clone();
+        let slot = (self.frame_index % FRAMES_IN_FLIGHT as u64) as usize;
+        self.retire_slot(slot)?;
+        // The span covers the host's part of this frame only, so frames' spans never overlap
+        // on the main thread's track.
+        let frame_span = timing::frame(self.frame_index);
+        let start_ns = timing::now_ns();
+        gpu.collect_garbage();
+        let timestamps = self.slots[slot].timestamps.clone();
+        timestamps.reset(self.frame_index);
+        let frame = self.prepare();
+        // Nothing moved and no light changed since the photon map was traced: draw it again
+        // (issue #9), without light G-buffers, bounce map, readback, trace or upload.
+        let reuse = match &self.photon_map {
+            Some((from, stats)) if self.settings.effects == Effects::Auto => Some((*from, stats)),
+            _ => None,
+        };
+        let mut stats = FrameStats::default();
+        if let Some((from, traced)) = reuse {
+            let reason = format!(
+                "photon map of frame {from} reused: nothing moved and no light changed since"
+            );
+            stats = FrameStats {
+                cpu_trace_ms: 0.0,
+                passes_skipped: REUSE_SKIPS
+                    .iter()
+                    .map(|name| SkippedPass {
+                        name: (*name).to_string(),
+                        reason: reason.clone(),
+                    })
+                    .collect(),
+                ..traced.clone()
+            };
+        }
+        let reuse = reuse.is_some();
+
+        // Box A (graphics): per-frame constants, light G-buffers, bounce map.
+        let a = gpu.record(QueueRole::Graphics, "box A", Some(timestamps.clone()))?;
+        {
+            let cmd = a.cmd();
+            self.record_constants(&cmd, &frame);
+            if let Some(photons) = &mut self.photons {
+                if !reuse {
+                    photons.record_emission(&cmd, &self.scene);
+                }
+            }
+        }
+        let a_done = self.submit(a, &[])?;
+
+        // The bounce map's GPU→CPU copy (transfer queue).
+        let emits = !reuse && self.photons.as_ref().is_some_and(PhotonFrame::emits);
+        let readback_done = match &self.photons {
+            Some(photons) if emits => {
+                let rec = gpu.record(QueueRole::Transfer, "readback", Some(timestamps.clone()))?;
+                photons.record_readback(&rec.cmd());
+                Some(self.submit(rec, &[after(a_done)])?)
+            }
+            _ => None,
+        };
+
+        // Box B (graphics): shadow maps, eye G-buffer, direct light.
+        let b = gpu.record(QueueRole::Graphics, "box B", Some(timestamps.clone()))?;
+        self.record_eye_and_direct(&b.cmd(), &frame);
+        let b_done = self.submit(b, &[])?;
+
+        // Box C (host, all cores): trace the bounce map's photons while box B runs.
+        let mut upload_done = None;
+        if let (Some(photons), false) = (&mut self.photons, reuse) {
+            if let Some(readback) = readback_done {
+                timing::timed("readback wait", || gpu.wait(readback))?;
+                if let Some(previous) = self.last_upload.take() {
+                    gpu.wait(previous)?; // the staging buffer is free again (long done by now)
+                }
+            }
+            // Without photons to emit (every light's mask off) the map is emptied.
+            stats = photons.trace()?;
+            // The photon map's CPU→GPU copy (transfer queue), after the previous frame's
+            // photon volumes stopped reading the photon buffer and box A handed it over.
+            if photons.has_photons() {
+                let rec = gpu.record(QueueRole::Transfer, "upload", Some(timestamps.clone()))?;
+                photons.record_upload(&rec.cmd());
+                let waits: Vec<Wait> = self
+                    .last_frame_done
+                    .into_iter()
+                    .chain([a_done])
+                    .map(after)
+                    .collect();
+                let done = self.submit(rec, &waits)?;
+                upload_done = Some(done);
+                self.last_upload = Some(done);
+            }
+            if self.settings.effects == Effects::Auto {
+                self.photon_map = Some((self.frame_index, stats.clone()));
+            }
+        }
+
+        // Box D (graphics): photon volumes, upsampling, composite, glass, tonemap.
+        let d = gpu.record(QueueRole::Graphics, "box D", Some(timestamps.clone()))?;
+        self.record_estimate_and_finish(&d.cmd(), &frame);
+        // The upload (which itself follows the readback); the readback too, for frames whose
+        // trace stored nothing: box D takes the bounce map back from the transfer queue.
+        let waits: Vec<Wait> = upload_done
+            .into_iter()
+            .chain(readback_done)
+            .map(after)
+            .collect();
+        let d_done = self.submit(d, &waits)?;
+        let _ = b_done;
+
+        self.last_frame_done = Some(d_done);
+        self.slots[slot].pending = Some(PendingFrame {
+            done: d_done,
+            stats,
+            start_ns,
+            index: self.frame_index,
+        });
+        self.frame_index += 1;
+        self.broken = false;
+        drop(frame_span);
+        Ok(())
+    }
+
+    /// Waits for every frame in flight and reads back the last one.
+    pub fn finish(&mut self) -> anyhow::Result<FrameImage> {
+        let (gpu_spans, mut stats) = self.drain()?;
+        stats.passes_run = gpu_spans.iter().map(|s| s.name.clone()).collect();
+        stats.passes_run.dedup();
+        stats.passes_skipped = self.skipped_passes(&stats);
+        stats.subsample = crate::photon_frame::subsample_factor(&self.settings);
+        let gpu = self.gpu.clone();
+        let hdr_bytes = gpu.read_image(&self.radiance)?;
+        let ldr = gpu.read_image(&self.display)?;
+        let hdr: Vec<f32> = bytemuck::pod_collect_to_vec(&hdr_bytes);
+        gpu.collect_garbage();
+        Ok(FrameImage {
+            width: self.settings.width,
+            height: self.settings.height,
+            hdr,
+            ldr,
+            gpu_spans,
+            stats,
+        })
+    }
+
+    /// Waits for every frame in flight (oldest first) without reading images back; returns
+    /// the last frame's GPU spans and stats.
+    pub fn drain(&mut self) -> anyhow::Result<(Vec<Span>, FrameStats)> {
+        anyhow::ensure!(self.frame_index > 0, "no frame was submitted");
+        let mut last = None;
+        for k in (0..FRAMES_IN_FLIGHT as u64).rev() {
+            if k < self.frame_index {
+                let slot = ((self.frame_index - 1 - k) % FRAMES_IN_FLIGHT as u64) as usize;
+                if let Some(retired) = self.retire_slot(slot)? {
+                    last = Some(retired);
+                }
+            }
+        }
+        last.ok_or_else(|| anyhow::anyhow!("the last frame was already retired"))
+    }
+
+    /// The passes `stats`' frame did not run, in frame order: the photon-map reuse's (already
+    /// in `stats`), then the plan's (those that really did not run).
+    fn skipped_passes(&self, stats: &FrameStats) -> Vec<SkippedPass> {
+        let ran = |name: &str| match name {
+            "cpu_trace" => stats.cpu_trace_ms > 0.0,
+            _ => stats.passes_run.iter().any(|p| p == name),
+        };
+        self.plan
+            .passes()
+            .into_iter()
+            .filter_map(|p| {
+                if let Some(reused) = stats.passes_skipped.iter().find(|s| s.name == p.name) {
+                    return Some(reused.clone());
+                }
+                (!p.run && !ran(p.name)).then(|| SkippedPass {
+                    name: p.name.to_string(),
+                    reason: p.reason,
+                })
+            })
+            .collect()
+    }
+
+    /// Submits `rec`; in the serial schedule, also waits for it.
+    fn submit(&self, rec: Recording, waits: &[Wait]) -> anyhow::Result<TimelinePoint> {
+        let done = self.gpu.submit(rec, waits)?;
+        if self.settings.schedule == Schedule::Serial {
+            self.gpu.wait(done)?;
+        }
+        Ok(done)
+    }
+
+    /// Waits for the frame in `slot` (if any) and returns its GPU spans and stats.
+    fn retire_slot(&mut self, slot: usize) -> anyhow::Result<Option<(Vec<Span>, FrameStats)>> {
+        let Some(pending) = self.slots[slot].pending.take() else {
+            return Ok(None);
+        };
+        {
+            let _wait = timing::span_in("host wait", Some(pending.index));
+            self.gpu.wait(pending.done)?;
+        }
+        let spans = self.slots[slot].timestamps.read()?;
+        let mut stats = pending.stats;
+        let end_ns = spans
+            .iter()
+            .map(|s| s.end_ns)
+            .max()
+            .unwrap_or(pending.start_ns);
+        stats.frame_ms = end_ns.saturating_sub(pending.start_ns) as f64 * 1e-6;
+        Ok(Some((spans, stats)))
+    }
+
+    /// The host's part of a frame before any recording: light set-up and the frame constants.
+    fn prepare(&self) -> FrameSetup {
         let camera_pos = self.camera.position().as_dvec3();
-        let setup = LightSetup::new(
+        let setup = LightSetup::active(
             &self.lights,
+            &self.plan.direct_mask(),
             camera_pos,
             &self.scene.bounds,
             self.settings.shadow_resolution,
@@ -346,16 +766,6 @@ impl Renderer {
             ),
             viewer: Vec4::new(0.0, 0.0, 0.0, 1.0),
         };
-        self.frame_uniforms
-            .write(0, bytemuck::bytes_of(&uniforms))?;
-        self.light_buffer
-            .write(0, bytemuck::cast_slice(&setup.lights))?;
-        self.view_buffer
-            .write(0, bytemuck::cast_slice(&setup.views))?;
-        if let Some(translucent) = &self.translucent {
-            translucent.update(&uniforms, camera_pos)?;
-        }
-
         let shadow_draws: Vec<_> = setup
             .view_matrices
             .iter()
@@ -368,85 +778,93 @@ impl Renderer {
             .draws(camera_pos, None)
             .into_iter()
             .partition(|d| self.scene.is_delta(d));
-
-        self.timestamps.reset(self.frame_index);
-        let mut stats = FrameStats::default();
-        if let Some(photons) = &mut self.photons {
-            stats = photons.emit_and_trace(&self.scene, &self.timestamps)?;
+        FrameSetup {
+            camera_pos,
+            setup,
+            uniforms,
+            shadow_draws,
+            eye_draws,
+            delta_draws,
         }
-        let rec = gpu.record(QueueRole::Graphics, "frame", Some(self.timestamps.clone()))?;
-        {
-            let cmd = rec.cmd();
-            let _frame = cmd.scope("frame");
-            if let Some(photons) = &self.photons {
-                photons.record_upload(&cmd);
-            }
-            self.shadow_maps
-                .record(&cmd, &self.scene, &shadow_draws, &mut self.shadow_atlas);
-            let view = View {
-                index: 0,
-                draws: &eye_draws,
-                layer: 0,
-                extent: (self.settings.width, self.settings.height),
-            };
-            self.eye_gbuffer
-                .record(&cmd, &self.scene, &view, &mut self.gbuffer);
-            let inputs = DirectInputs {
-                frame: &self.frame_uniforms,
-                materials: &self.scene.materials,
-                lights: &self.light_buffer,
-                shadow_views: &self.view_buffer,
-                gbuffer: &self.gbuffer,
-                shadow_atlas: &self.shadow_atlas,
-            };
-            self.direct.record(&cmd, &inputs, &mut self.radiance);
-            if let Some(photons) = &mut self.photons {
-                photons.record_estimate(
-                    &cmd,
-                    &self.frame_uniforms,
-                    &self.scene.materials,
-                    &self.gbuffer,
-                    &mut self.radiance,
-                );
-            }
-            if let Some(translucent) = &mut self.translucent {
-                translucent.record(
-                    &cmd,
-                    &self.scene,
-                    (&eye_draws, &delta_draws),
-                    &self.shadow_atlas,
-                    &mut self.gbuffer.depth,
-                    &mut self.radiance,
-                );
-            }
-            self.tonemap.record(
-                &cmd,
-                &self.radiance,
-                self.settings.tonemap,
-                self.settings.exposure_ev,
-                &mut self.display,
+    }
+
+    /// The frame's constants, written from the command stream so that frames in flight never
+    /// share host-written memory.
+    fn record_constants(&self, cmd: &Cmd, frame: &FrameSetup) {
+        cmd.update_buffer(&self.frame_uniforms, 0, bytemuck::bytes_of(&frame.uniforms));
+        cmd.update_buffer(
+            &self.light_buffer,
+            0,
+            bytemuck::cast_slice(&frame.setup.lights),
+        );
+        cmd.update_buffer(
+            &self.view_buffer,
+            0,
+            bytemuck::cast_slice(&frame.setup.views),
+        );
+        if let Some(translucent) = &self.translucent {
+            translucent.update(cmd, &frame.uniforms, frame.camera_pos);
+        }
+    }
+
+    /// Box B: shadow maps, the eye G-buffer and direct light.
+    fn record_eye_and_direct(&mut self, cmd: &Cmd, frame: &FrameSetup) {
+        if !frame.shadow_draws.is_empty() {
+            // No light lights the view (the plan): no shadow views, no shadow pass.
+            self.shadow_maps.record(
+                cmd,
+                &self.scene,
+                &frame.shadow_draws,
+                &mut self.shadow_atlas,
             );
         }
-        let done = gpu.submit(rec, &[])?;
-        timing::timed("host wait", || gpu.wait(done))?;
-        stats.frame_ms = frame_span.finish();
-        self.frame_index += 1;
-        let gpu_spans = self.timestamps.read()?;
-        stats.passes_run = gpu_spans.iter().map(|s| s.name.clone()).collect();
-        stats.passes_run.dedup();
-        stats.subsample = crate::photon_frame::subsample_factor(&self.settings);
-        let hdr_bytes = gpu.read_image(&self.radiance)?;
-        let ldr = gpu.read_image(&self.display)?;
-        let hdr: Vec<f32> = bytemuck::pod_collect_to_vec(&hdr_bytes);
-        gpu.collect_garbage();
-        Ok(FrameImage {
-            width: self.settings.width,
-            height: self.settings.height,
-            hdr,
-            ldr,
-            gpu_spans,
-            stats,
-        })
+        let view = View {
+            index: 0,
+            draws: &frame.eye_draws,
+            layer: 0,
+            extent: (self.settings.width, self.settings.height),
+        };
+        self.eye_gbuffer
+            .record(cmd, &self.scene, &view, &mut self.gbuffer);
+        let inputs = DirectInputs {
+            frame: &self.frame_uniforms,
+            materials: &self.scene.materials,
+            lights: &self.light_buffer,
+            shadow_views: &self.view_buffer,
+            gbuffer: &self.gbuffer,
+            shadow_atlas: &self.shadow_atlas,
+        };
+        self.direct.record(cmd, &inputs, &mut self.radiance);
+    }
+
+    /// Box D: photon volumes (+ upsampling and composite), glass and mirrors, tonemapping.
+    fn record_estimate_and_finish(&mut self, cmd: &Cmd, frame: &FrameSetup) {
+        if let Some(photons) = &mut self.photons {
+            photons.record_estimate(
+                cmd,
+                &self.frame_uniforms,
+                &self.scene.materials,
+                &self.gbuffer,
+                &mut self.radiance,
+            );
+        }
+        if let Some(translucent) = &mut self.translucent {
+            translucent.record(
+                cmd,
+                &self.scene,
+                (&frame.eye_draws, &frame.delta_draws),
+                &self.shadow_atlas,
+                &mut self.gbuffer.depth,
+                &mut self.radiance,
+            );
+        }
+        self.tonemap.record(
+            cmd,
+            &self.radiance,
+            self.settings.tonemap,
+            self.settings.exposure_ev,
+            &mut self.display,
+        );
     }
 
     pub fn gpu(&self) -> &Arc<Gpu> {
@@ -461,6 +879,11 @@ impl Renderer {
     /// The scene's triangle count (for statistics).
     pub fn triangles(&self) -> usize {
         self.scene.triangles
+    }
+
+    /// The tonemapped image the last submitted frame draws (RGBA8, sRGB-encoded values).
+    pub fn display(&self) -> &Image {
+        &self.display
     }
 
     /// The photon part of the frame (`--method ispm` only).

@@ -111,6 +111,39 @@ pub struct BouncePlan {
     pub caustic_texels: usize,
     /// The camera position the matrices are relative to.
     pub camera: DVec3,
+    /// What the plan's lights may need when they move: see [`BouncePlan::capacity`].
+    reserve: Capacity,
+}
+
+/// The most light views, bounce-map texels and light-G-buffer layer size (width, height) a
+/// renderer's buffers hold.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Capacity {
+    pub views: usize,
+    pub texels: usize,
+    pub extent: (u32, u32),
+}
+
+impl Capacity {
+    /// Room for both.
+    pub fn max(self, other: Capacity) -> Capacity {
+        Capacity {
+            views: self.views.max(other.views),
+            texels: self.texels.max(other.texels),
+            extent: (
+                self.extent.0.max(other.extent.0),
+                self.extent.1.max(other.extent.1),
+            ),
+        }
+    }
+
+    /// Whether `plan` fits.
+    pub fn holds(&self, plan: &BouncePlan) -> bool {
+        plan.views.len() <= self.views
+            && plan.texels <= self.texels
+            && plan.max_extent.0 <= self.extent.0
+            && plan.max_extent.1 <= self.extent.1
+    }
 }
 
 fn unproject(inverse: &DMat4, ndc: DVec2, z: f64) -> DVec3 {
@@ -216,6 +249,15 @@ fn caster_rect(m: &DMat4, casters: &[Caster], camera: DVec3) -> Option<(DVec2, D
     (lo.x < hi.x && lo.y < hi.y).then_some((lo, hi))
 }
 
+/// The lights a plan is made for.
+#[derive(Clone, Copy)]
+struct LightsToPlan<'a> {
+    scene: &'a Scene,
+    active: &'a [bool],
+    camera: DVec3,
+    bounds: &'a Aabb,
+}
+
 /// A caustic view's window: texels `[i0, i1) × [j0, j1)` of its parent view.
 #[derive(Clone, Copy, Debug)]
 struct Window {
@@ -269,6 +311,78 @@ impl BouncePlan {
         photons: usize,
         share: f32,
     ) -> BouncePlan {
+        let lights = LightsToPlan {
+            scene,
+            active,
+            camera,
+            bounds,
+        };
+        Self::plan(&lights, photons, share, MAX_CAUSTIC_SUBDIVISION)
+    }
+
+    /// [`BouncePlan::with_caustic_share`] for buffers of `capacity` (a renderer's, for lights
+    /// that moved): if the plan does not fit, its caustic views are subdivided less (k lowered
+    /// for every light) until it does, or dropped (their photons given to the main views if
+    /// those still fit, else not emitted). Fails if even the main views do not fit.
+    pub fn within(
+        scene: &Scene,
+        active: &[bool],
+        camera: DVec3,
+        bounds: &Aabb,
+        (photons, share): (usize, f32),
+        capacity: &Capacity,
+    ) -> anyhow::Result<BouncePlan> {
+        let lights = LightsToPlan {
+            scene,
+            active,
+            camera,
+            bounds,
+        };
+        for max_k in (2..=MAX_CAUSTIC_SUBDIVISION).rev() {
+            let plan = Self::plan(&lights, photons, share, max_k);
+            if capacity.holds(&plan) {
+                return Ok(plan);
+            }
+            if plan.caustic_texels == 0 {
+                break;
+            }
+        }
+        let plan = Self::plan(&lights, photons, 0.0, MAX_CAUSTIC_SUBDIVISION);
+        if capacity.holds(&plan) {
+            return Ok(plan);
+        }
+        let plan = Self::plan(&lights, photons, share, 0);
+        anyhow::ensure!(
+            capacity.holds(&plan),
+            "the lights need {} light views of up to {}×{} texels ({} in all), more than the {} \
+             views of {}×{} ({} texels) this renderer has",
+            plan.views.len(),
+            plan.max_extent.0,
+            plan.max_extent.1,
+            plan.texels,
+            capacity.views,
+            capacity.extent.0,
+            capacity.extent.1,
+            capacity.texels
+        );
+        Ok(plan)
+    }
+
+    /// What buffers for this plan need so that its lights can move without losing their caustic
+    /// views: every main view of a scene with mirrors or glass may gain one, holding at most
+    /// 16/9 of the light's caustic share (k is its density rounded, and at least 2), with 25 %
+    /// more width and height than its caustic views have now.
+    pub fn capacity(&self) -> Capacity {
+        self.reserve
+    }
+
+    fn plan(lights: &LightsToPlan, photons: usize, share: f32, max_k: u32) -> BouncePlan {
+        let LightsToPlan {
+            scene,
+            active,
+            camera,
+            bounds,
+        } = *lights;
         // Shadow views are the light G-buffer's views; with resolution 1 their texel parameter
         // is the full window: 2·tan(fov/2) (perspective) or 2·radius (orthographic).
         let setup = LightSetup::new(&scene.lights, camera, bounds, 1, 0);
@@ -380,16 +494,19 @@ impl BouncePlan {
                 .unwrap_or(1);
             let k = if window_texels > 0 {
                 let k = (wanted * n as f64 / window_texels as f64).sqrt().round() as u32;
-                k.clamp(1, MAX_CAUSTIC_SUBDIVISION)
+                k.clamp(1, max_k.clamp(1, MAX_CAUSTIC_SUBDIVISION))
                     .min(MAX_RESOLUTION / longest)
             } else {
                 0
             };
             if k < 2 && wanted > 0.0 {
                 // Casters that fill the light's view: its main views sample them densely
-                // enough, and get the whole budget.
+                // enough, and get the whole budget (unless `max_k` = 0 took the caustic views
+                // away to fit a renderer's buffers).
                 windows.clear();
-                res = main_res(0.0);
+                if max_k > 0 {
+                    res = main_res(0.0);
+                }
             }
 
             // The main views' per-texel weights, summed for the exact-flux normalisation.
@@ -489,9 +606,34 @@ impl BouncePlan {
                 let extent = ((w.i1 - w.i0) * k, (w.j1 - w.j0) * k);
                 plan.push(to_window * matrices[v], view, extent, viewer, index);
                 plan.caustic_texels += (extent.0 * extent.1) as usize;
+                let grown = |t: u32| (t + t.div_ceil(4)).min(MAX_RESOLUTION);
+                let reserve = &mut plan.reserve.extent;
+                *reserve = (
+                    reserve.0.max(grown(extent.0)),
+                    reserve.1.max(grown(extent.1)),
+                );
+            }
+            if !casters.is_empty() && n > 0 {
+                plan.reserve.views += count;
+                plan.reserve.texels += (16.0 / 9.0 * share * n as f64).ceil() as usize;
             }
         }
+        plan.reserve.views += plan.views.len() - plan.caustic_views();
+        plan.reserve.texels += plan.texels - plan.caustic_texels;
+        plan.reserve = plan.reserve.max(Capacity {
+            views: plan.views.len(),
+            texels: plan.texels,
+            extent: plan.max_extent,
+        });
         plan
+    }
+
+    /// How many of the views are caustic views.
+    pub fn caustic_views(&self) -> usize {
+        self.views
+            .iter()
+            .filter(|v| v.kind.y == BOUNCE_VIEW_CAUSTIC)
+            .count()
     }
 
     /// Appends a view: its bounce-map range, uniforms and bookkeeping.
@@ -889,5 +1031,61 @@ mod tests {
         let plan = BouncePlan::new(&scene, DVec3::ZERO, &scene.bounds(), 20_000);
         assert_eq!(plan.views.len(), 1, "{:?}", plan.extents);
         assert_eq!(plan.views[0].kind.y, BOUNCE_VIEW_WHOLE);
+    }
+
+    #[test]
+    fn moved_lights_keep_their_caustic_views_within_the_capacity_reserved_for_them() {
+        let scene = floor_and_mirror_ball(Vec3::new(0.3, 0.3, -0.2), 0.3, vec![sun()]);
+        let (camera, bounds, all) = (DVec3::ZERO, scene.bounds(), [true]);
+        let plan = BouncePlan::new(&scene, camera, &bounds, 50_000);
+        let capacity = plan.capacity();
+        assert!(capacity.holds(&plan));
+        // Room for a caustic view per main view, and for 16/9 of the caustic share.
+        assert_eq!(capacity.views, 2);
+        assert!(capacity.texels >= plan.texels - plan.caustic_texels + 44_444);
+        // The sun turns by a few degrees: the caustic view changes size, and still fits.
+        for degrees in [-6.0f32, -3.0, 3.0, 6.0] {
+            let mut moved = scene.clone();
+            let turn = glam::Quat::from_rotation_y(degrees.to_radians());
+            moved.lights[0].direction = turn * moved.lights[0].direction;
+            let free = BouncePlan::new(&moved, camera, &bounds, 50_000);
+            let within =
+                BouncePlan::within(&moved, &all, camera, &bounds, (50_000, 0.5), &capacity)
+                    .expect("fits");
+            assert!(capacity.holds(&free), "{degrees}°: {:?}", free.extents);
+            assert_eq!(within.extents, free.extents, "{degrees}°");
+        }
+        // Buffers with room for a quarter of the caustic view: k is lowered until it fits.
+        let main = plan.texels - plan.caustic_texels;
+        let small = Capacity {
+            texels: main + plan.caustic_texels / 4,
+            ..capacity
+        };
+        let fitted = BouncePlan::within(&scene, &all, camera, &bounds, (50_000, 0.5), &small)
+            .expect("fits with a smaller k");
+        assert!(small.holds(&fitted));
+        assert!(fitted.caustic_texels > 0 && fitted.caustic_texels <= plan.caustic_texels / 4);
+        assert_eq!(
+            fitted.extents[0], plan.extents[0],
+            "the main view is unchanged"
+        );
+        // No room for the caustic view at all: it goes, and the main view keeps its size (the
+        // whole budget would not fit either).
+        let tiny = Capacity {
+            texels: main,
+            ..capacity
+        };
+        let alone = BouncePlan::within(&scene, &all, camera, &bounds, (50_000, 0.5), &tiny)
+            .expect("the main view fits");
+        assert_eq!(alone.extents, vec![plan.extents[0]]);
+        assert_eq!(alone.views[0].kind.y, BOUNCE_VIEW_WHOLE);
+        // No room for the main view: an error naming the sizes.
+        let none = Capacity {
+            texels: main - 1,
+            ..capacity
+        };
+        let err = BouncePlan::within(&scene, &all, camera, &bounds, (50_000, 0.5), &none)
+            .expect_err("the main view needs more texels");
+        assert!(err.to_string().contains("light views"), "{err}");
     }
 }

@@ -11,6 +11,7 @@
 //!   needs; no Vulkan.
 //! - [`timing`]: CPU and GPU spans on one host clock, Chrome trace JSON.
 
+pub mod bench;
 pub mod frame;
 pub mod gpu;
 pub mod gpu_scene;
@@ -27,6 +28,7 @@ pub mod scene;
 pub mod stats;
 pub mod timing;
 pub mod translucent_frame;
+pub mod viewer;
 
 /// Constants shared with GLSL (generated into `shared_constants.glsl` by `build.rs`).
 pub mod shared_constants {

@@ -3,7 +3,7 @@
 
 use anyhow::Context;
 use clap::{Parser, Subcommand, ValueEnum};
-use ispm::frame::{RenderSettings, Renderer};
+use ispm::frame::{RenderSettings, Renderer, Schedule};
 use ispm::gpu::{Gpu, GpuOptions};
 use ispm::output::{write_exr, write_png, OutputFormat};
 use ispm::passes::tonemap::Tonemap;
@@ -33,6 +33,78 @@ enum Command {
     /// Print the effects plan of a scene: which passes, shader variants, lights and bounces a
     /// frame needs, one line per decision with its reason (no GPU needed).
     Plan(PlanArgs),
+    /// Measure the frame per stage, the overlapped schedule against the serial one and the
+    /// direct-only frame, side by side in one run.
+    Bench(BenchArgs),
+    /// Open a window and render the scene live (Esc quits).
+    View(ViewArgs),
+}
+
+#[derive(clap::Args)]
+struct ViewArgs {
+    /// A .gltf/.glb file or a bundled scene name (default: the bundled cornell-box).
+    scene: Option<String>,
+    /// Window (and render) size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "960x540", value_parser = parse_size)]
+    size: (u32, u32),
+    /// Photons emitted per frame.
+    #[arg(long, default_value_t = 100_000)]
+    photons: usize,
+    /// Estimate indirect light at 1/N resolution.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    subsample: u32,
+    /// Render N frames, write --screenshot of the last and exit (the viewer's smoke test).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    frames: Option<u32>,
+    /// Where --frames writes the last frame (PNG).
+    #[arg(long, requires = "frames")]
+    screenshot: Option<PathBuf>,
+    /// Resize the window after FRAME frames to WxH (FRAME:WxH; tests drive a resize).
+    #[arg(long, hide = true, value_parser = parse_resize)]
+    resize_at: Option<(u32, (u32, u32))>,
+}
+
+fn parse_resize(s: &str) -> Result<(u32, (u32, u32)), String> {
+    let (frame, size) = s
+        .split_once(':')
+        .ok_or_else(|| format!("{s:?} is not FRAME:WxH"))?;
+    let frame = frame
+        .parse()
+        .map_err(|_| format!("{s:?} is not FRAME:WxH"))?;
+    Ok((frame, parse_size(size)?))
+}
+
+#[derive(clap::Args)]
+struct BenchArgs {
+    /// A .gltf/.glb file or a bundled scene name (default: the bundled cornell-box).
+    scene: Option<String>,
+    /// Image size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "1280x720", value_parser = parse_size)]
+    size: (u32, u32),
+    /// Measured frames per configuration (after warm-up).
+    #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..))]
+    frames: u32,
+    /// Warm-up frames per configuration.
+    #[arg(long, default_value_t = 2)]
+    warmup: u32,
+    /// Chunks the frames are split into, alternating the configurations.
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
+    chunks: u32,
+    /// Photons emitted per frame.
+    #[arg(long, default_value_t = 100_000)]
+    photons: usize,
+    /// Estimate indirect light at 1/N resolution.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    subsample: u32,
+    /// Shadow-map resolution per light view.
+    #[arg(long, default_value_t = 1024)]
+    shadow_resolution: u32,
+    /// Write the figures as JSON.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Write an SVG of the last overlapped chunk's schedule (the paper's Figure 3).
+    #[arg(long)]
+    figure: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -96,13 +168,21 @@ struct RenderArgs {
     /// Eye samples per pixel (CPU references).
     #[arg(long, default_value_t = 16)]
     spp: u32,
-    /// Frames to render (GPU methods: the last one is written; default 1), or iterations of
-    /// progressive photon mapping (default 16).
+    /// GPU methods: frames to render, the image and stats are the last one's (default 1).
+    /// `progressive`: its iterations (default 16).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     frames: Option<u32>,
+    /// GPU methods: overlap the CPU photon trace with GPU work and keep frames in flight, or
+    /// run every step strictly after the one before.
+    #[arg(long, value_enum, default_value = "overlapped")]
+    schedule: Schedule,
     /// Seed of every random choice.
     #[arg(long, default_value_t = 0)]
     seed: u32,
+    /// GPU methods: `auto` skips the passes, shader variants, lights and bounces the scene
+    /// does not need (`ispm plan` prints why); `all` runs everything (the unplanned frame).
+    #[arg(long, value_enum, default_value = "auto")]
+    effects: ispm::plan::Effects,
     /// Write the frame's statistics (the paper's Table 2 columns) as JSON.
     #[arg(long)]
     stats: Option<PathBuf>,
@@ -181,6 +261,92 @@ fn check_validation(gpu: &Gpu) -> anyhow::Result<()> {
     )
 }
 
+fn view(args: ViewArgs, device: Option<usize>) -> anyhow::Result<()> {
+    if let Some(path) = &args.screenshot {
+        anyhow::ensure!(
+            OutputFormat::from_path(path)? == OutputFormat::Png,
+            "{}: the screenshot is a PNG",
+            path.display()
+        );
+        ispm::output::check_writable(path)?;
+    }
+    let scene = load_scene(args.scene.as_deref())?;
+    let (width, height) = args.size;
+    let settings = ispm::viewer::ViewSettings {
+        render: RenderSettings {
+            photons: args.photons,
+            width,
+            height,
+            subsample: args.subsample,
+            ..Default::default()
+        },
+        device_index: device,
+        frames: args.frames,
+        screenshot: args.screenshot,
+        resize_at: args.resize_at,
+    };
+    let report = ispm::viewer::run(scene, settings)?;
+    log::info!(
+        "{} frames, {} swapchain(s) recreated",
+        report.frames,
+        report.recreated
+    );
+    if !report.validation_messages.is_empty() {
+        for m in &report.validation_messages {
+            eprintln!("{m}");
+        }
+        anyhow::bail!("{} validation message(s)", report.validation_messages.len());
+    }
+    Ok(())
+}
+
+fn bench(args: BenchArgs, device: Option<usize>) -> anyhow::Result<()> {
+    for path in [args.json.as_ref(), args.figure.as_ref()]
+        .into_iter()
+        .flatten()
+    {
+        ispm::output::check_writable(path)?;
+    }
+    let scene = load_scene(args.scene.as_deref())?;
+    let scene_name = args.scene.as_deref().unwrap_or("cornell-box");
+    let gpu = gpu(device)?;
+    let (width, height) = args.size;
+    let settings = ispm::bench::BenchSettings {
+        render: RenderSettings {
+            photons: args.photons,
+            width,
+            height,
+            subsample: args.subsample,
+            shadow_resolution: args.shadow_resolution.clamp(16, 8192),
+            ..Default::default()
+        },
+        frames: args.frames,
+        warmup: args.warmup,
+        chunks: args.chunks,
+    };
+    let report = ispm::bench::run(&gpu, &scene, scene_name, &settings, |step| {
+        log::info!("bench: {step}")
+    })?;
+    check_validation(&gpu)?;
+    print!("{}", report.table());
+    if let Some(path) = &args.json {
+        ispm::output::write_atomically(path, |f| {
+            serde_json::to_writer_pretty(f, &report)
+                .with_context(|| format!("{}: cannot write JSON", path.display()))
+        })?;
+    }
+    if let Some(path) = &args.figure {
+        let title = format!("{scene_name}, {width}x{height}, overlapped schedule");
+        let svg = ispm::bench::schedule_svg(&report.last_overlapped_spans, &title);
+        ispm::output::write_atomically(path, |f| {
+            use std::io::Write;
+            f.write_all(svg.as_bytes())
+                .with_context(|| format!("{}: cannot write SVG", path.display()))
+        })?;
+    }
+    Ok(())
+}
+
 fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
     let format = OutputFormat::from_path(&args.output)?;
     // Outputs that cannot be written fail before any work, so none is left half done.
@@ -230,6 +396,8 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
         tonemap: args.tonemap,
         exposure_ev: args.exposure,
         subsample: args.subsample,
+        schedule: args.schedule,
+        effects: args.effects,
         caustic_share: args.caustic_share,
         ..Default::default()
     };
@@ -238,11 +406,10 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
     }
     let (frame, triangles) = {
         let mut renderer = Renderer::new(&gpu, &scene, settings)?;
-        let mut frame = renderer.render()?;
         for _ in 1..args.frames.unwrap_or(1) {
-            frame = renderer.render()?;
+            renderer.submit_frame()?;
         }
-        (frame, renderer.triangles())
+        (renderer.render()?, renderer.triangles())
     };
     let capture = ispm::timing::finish_capture();
     check_validation(&gpu)?;
@@ -411,6 +578,8 @@ fn main() -> ExitCode {
         Command::Render(args) => render(args, cli.device),
         Command::Info => info(cli.device),
         Command::Plan(args) => plan(args),
+        Command::Bench(args) => bench(args, cli.device),
+        Command::View(args) => view(args, cli.device),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -3,11 +3,9 @@
 //! and passes those steps use; `frame.rs` calls its three steps in order.
 
 use crate::frame::{FrameStats, RenderSettings};
-use crate::gpu::{
-    vk, Access, Buffer, Cmd, Gpu, Image, MemoryLocation, QueueRole, Timestamps, ViewKind,
-};
+use crate::gpu::{vk, Access, Buffer, Cmd, Gpu, Image, MemoryLocation, QueueRole, ViewKind};
 use crate::gpu_scene::GpuScene;
-use crate::ispm::BouncePlan;
+use crate::ispm::{BouncePlan, Capacity};
 use crate::passes::bounce_map::{BounceMapIo, BounceMapPass};
 use crate::passes::composite::CompositePass;
 use crate::passes::eye_gbuffer::GBuffer;
@@ -18,6 +16,7 @@ use crate::photon::bvh::SceneBvh;
 use crate::photon::kernel::KernelSettings;
 use crate::photon::trace::{trace_photons, TraceSettings};
 use crate::photon::types::{BounceMapPhoton, Photon};
+use crate::plan::EffectsPlan;
 use crate::scene::Scene;
 use crate::timing;
 use std::sync::Arc;
@@ -27,6 +26,12 @@ pub struct PhotonFrame {
     scene: Scene,
     bvh: SceneBvh,
     plan: BouncePlan,
+    /// The light views, texels and light-G-buffer layer size the buffers hold.
+    capacity: Capacity,
+    /// Photons per frame, the caustic views' share of them and the scene's bounds: what the
+    /// plan is made from.
+    budget: (usize, f32),
+    bounds: crate::scene::Aabb,
     trace: TraceSettings,
     kernel: KernelSettings,
     light_gbuffer: GBuffer,
@@ -39,6 +44,9 @@ pub struct PhotonFrame {
     photons: Buffer,
     count: u32,
     rebind: bool,
+    /// The photon buffer was last used by the graphics queue (the photon volumes), which must
+    /// hand it to the transfer queue before the next upload.
+    photons_on_graphics: bool,
     photon_pass: PhotonVolumesPass,
     /// `--subsample N > 1`: the low-resolution targets and the pass that upsamples them.
     subsampled: Option<Subsampled>,
@@ -56,6 +64,13 @@ struct Subsampled {
 
 /// The subsample factor a frame uses: at least 1, at most the image's larger side (beyond it
 /// the low-resolution image stays 1×1).
+/// The frame's buffers and images the photon part reads and writes.
+pub struct PhotonTargets<'a> {
+    pub frame: &'a Buffer,
+    pub gbuffer: &'a GBuffer,
+    pub radiance: &'a Image,
+}
+
 pub fn subsample_factor(settings: &RenderSettings) -> u32 {
     settings
         .subsample
@@ -82,42 +97,49 @@ fn photon_buffers(gpu: &Arc<Gpu>, capacity: usize) -> anyhow::Result<(Buffer, Bu
 }
 
 impl PhotonFrame {
+    /// The photon part of `settings`' frame of `scene`, emitting from the lights of
+    /// `effects`' photon mask, tracing at most `effects.max_bounces` bounces.
     pub fn new(
         gpu: &Arc<Gpu>,
         scene: &Scene,
         gpu_scene: &GpuScene,
-        settings: &RenderSettings,
-        frame: &Buffer,
-        gbuffer: &GBuffer,
-        radiance: &Image,
+        (settings, effects): (&RenderSettings, &EffectsPlan),
+        targets: &PhotonTargets,
     ) -> anyhow::Result<Self> {
+        let PhotonTargets {
+            frame,
+            gbuffer,
+            radiance,
+        } = *targets;
         let camera = scene.camera.position().as_dvec3();
-        let plan = BouncePlan::with_caustic_share(
-            scene,
-            &vec![true; scene.lights.len()],
-            camera,
-            &gpu_scene.bounds,
-            settings.photons,
-            settings.caustic_share,
-        );
-        let views = plan.views.len().max(1);
+        let active = effects.photon_mask();
+        let budget = (settings.photons, settings.caustic_share);
+        let plan_for = |active: &[bool]| {
+            let bounds = &gpu_scene.bounds;
+            BouncePlan::with_caustic_share(scene, active, camera, bounds, budget.0, budget.1)
+        };
+        let plan = plan_for(&active);
+        // Room for every light too: `set_lights` may bring back a light the plan skips now,
+        // and move lights (caustic views change size: `BouncePlan::capacity`).
+        let every = plan_for(&vec![true; scene.lights.len()]);
+        let capacity = plan.capacity().max(every.capacity());
+        let (views, texels) = (capacity.views.max(1), capacity.texels.max(1));
         let light_gbuffer = GBuffer::new(
             gpu,
             "light_gbuffer",
-            plan.max_extent.0.max(1),
-            plan.max_extent.1.max(1),
+            capacity.extent.0.max(1),
+            capacity.extent.1.max(1),
             views as u32,
             ViewKind::D2Array,
         )?;
         let light_pass = LightGBufferPass::new(gpu, gpu_scene, views)?;
-        let view_buffer = Buffer::new(
+        let view_buffer = Buffer::constants(
             gpu,
             "bounce_map.views",
             (views * size_of::<crate::layout::BounceView>()) as u64,
             vk::BufferUsageFlags::STORAGE_BUFFER,
-            MemoryLocation::CpuToGpu,
         )?;
-        let bounce_bytes = (plan.texels.max(1) * size_of::<BounceMapPhoton>()) as u64;
+        let bounce_bytes = (texels * size_of::<BounceMapPhoton>()) as u64;
         let bounce_map = Buffer::new(
             gpu,
             "bounce_map",
@@ -177,7 +199,7 @@ impl PhotonFrame {
             scene: scene.clone(),
             bvh: SceneBvh::new(scene),
             trace: TraceSettings {
-                max_bounces: settings.bounces.max(1),
+                max_bounces: effects.max_bounces,
                 seed: settings.seed,
             },
             // The footprint floor of the image the estimate is made at (the low one when
@@ -192,6 +214,9 @@ impl PhotonFrame {
                 upsample::low_size(radiance.width, radiance.height, subsample).1,
             ),
             plan,
+            capacity,
+            budget,
+            bounds: gpu_scene.bounds,
             light_gbuffer,
             light_pass,
             views: view_buffer,
@@ -202,6 +227,7 @@ impl PhotonFrame {
             photons,
             count: 0,
             rebind: false,
+            photons_on_graphics: false,
             photon_pass,
             subsampled,
             indirect,
@@ -211,13 +237,90 @@ impl PhotonFrame {
         })
     }
 
-    /// Light G-buffers and bounce map on the GPU, then the readback and the CPU trace; leaves
-    /// the photon map in the staging buffer for [`PhotonFrame::record_upload`].
-    pub fn emit_and_trace(
+    /// Moves the lights (same lights, new transforms or powers; `active`: the effects plan's
+    /// photon mask for them): the next frame's bounce map starts from them. Caustic views are
+    /// subdivided less if they would not fit the buffers (`BouncePlan::within`); fails if the
+    /// new lights' main views need more light views, texels or a larger light G-buffer than the
+    /// renderer was created with.
+    pub fn set_lights(
         &mut self,
-        scene: &GpuScene,
-        timestamps: &Arc<Timestamps>,
-    ) -> anyhow::Result<FrameStats> {
+        lights: &[crate::scene::Light],
+        active: &[bool],
+    ) -> anyhow::Result<()> {
+        let mut scene = self.scene.clone();
+        scene.lights = lights.to_vec();
+        let camera = self.plan.camera;
+        let bounds = &self.bounds;
+        let plan = BouncePlan::within(&scene, active, camera, bounds, self.budget, &self.capacity)?;
+        self.scene.lights = scene.lights;
+        self.plan = plan;
+        Ok(())
+    }
+
+    /// Whether this frame has photons to emit (a budget and a light with power).
+    pub fn emits(&self) -> bool {
+        self.plan.texels > 0
+    }
+
+    /// Box A: the light views' uniforms, the light G-buffers and the bounce map; hands the
+    /// bounce map to the transfer queue for [`Self::record_readback`], and the photon buffer
+    /// (kept by the graphics queue while frames reuse the photon map) for
+    /// [`Self::record_upload`]: the upload must wait for this submission.
+    pub fn record_emission(&mut self, cmd: &Cmd, scene: &GpuScene) {
+        let plan = &self.plan;
+        if plan.texels == 0 {
+            // No photons this frame (the lights went dark): nothing to upload or draw, so the
+            // photon buffer's hand-offs stay paired.
+            self.count = 0;
+            return;
+        }
+        if self.photons_on_graphics {
+            cmd.release_buffer(&self.photons, QueueRole::Transfer);
+            self.photons_on_graphics = false;
+        }
+        self.light_pass.update(cmd, &plan.uniforms);
+        cmd.update_buffer(&self.views, 0, bytemuck::cast_slice(&plan.views));
+        // Camera-relative models; each view's uniforms hold its light clip transform.
+        let relative = scene.draws(plan.camera, None);
+        let draws = vec![relative; plan.views.len()];
+        {
+            let _scope = cmd.scope("light_gbuffers");
+            self.light_pass
+                .record(cmd, scene, &draws, &plan.extents, &mut self.light_gbuffer);
+        }
+        let io = BounceMapIo {
+            materials: &scene.materials,
+            views: &self.views,
+            light_gbuffer: &self.light_gbuffer,
+            bounce_map: &self.bounce_map,
+        };
+        self.bounce_pass.record(
+            cmd,
+            &io,
+            plan.max_extent,
+            plan.views.len() as u32,
+            self.trace.seed,
+        );
+        cmd.release_buffer(&self.bounce_map, QueueRole::Transfer);
+    }
+
+    /// The GPU→CPU copy of the bounce map (on the transfer queue), handing it back to the
+    /// graphics queue.
+    pub fn record_readback(&self, cmd: &Cmd) {
+        if self.plan.texels == 0 {
+            return;
+        }
+        let _scope = cmd.scope("readback");
+        cmd.acquire_buffer(&self.bounce_map, QueueRole::Graphics, Access::TransferSrc);
+        cmd.copy_buffer(&self.bounce_map, &self.readback);
+        cmd.transition_buffer(&self.readback, Access::HostRead);
+        cmd.release_buffer(&self.bounce_map, QueueRole::Graphics);
+    }
+
+    /// Box C, on the host once the readback has completed: traces the bounce map's surviving
+    /// photons on every core and writes the photon map into the staging buffer for
+    /// [`Self::record_upload`]. The previous frame's upload must have completed.
+    pub fn trace(&mut self) -> anyhow::Result<FrameStats> {
         let plan = &self.plan;
         let mut stats = FrameStats {
             emitted_photons: plan.texels,
@@ -227,43 +330,6 @@ impl PhotonFrame {
             self.count = 0;
             return Ok(stats);
         }
-        self.light_pass.update(&plan.uniforms)?;
-        self.views.write(0, bytemuck::cast_slice(&plan.views))?;
-        // Camera-relative models; each view's uniforms hold its light clip transform.
-        let relative = scene.draws(plan.camera, None);
-        let draws = vec![relative; plan.views.len()];
-        let rec = self.gpu.record(
-            QueueRole::Graphics,
-            "photon_emission",
-            Some(timestamps.clone()),
-        )?;
-        {
-            let cmd = rec.cmd();
-            {
-                let _scope = cmd.scope("light_gbuffers");
-                self.light_pass
-                    .record(&cmd, scene, &draws, &plan.extents, &mut self.light_gbuffer);
-            }
-            let io = BounceMapIo {
-                materials: &scene.materials,
-                views: &self.views,
-                light_gbuffer: &self.light_gbuffer,
-                bounce_map: &self.bounce_map,
-            };
-            self.bounce_pass.record(
-                &cmd,
-                &io,
-                plan.max_extent,
-                plan.views.len() as u32,
-                self.trace.seed,
-            );
-            let _scope = cmd.scope("readback");
-            cmd.copy_buffer(&self.bounce_map, &self.readback);
-            cmd.transition_buffer(&self.readback, Access::HostRead);
-        }
-        let done = self.gpu.submit(rec, &[])?;
-        timing::timed("readback wait", || self.gpu.wait(done))?;
-
         let bytes = self.readback.read()?;
         let records = plan.texels * size_of::<BounceMapPhoton>();
         let bounce_map: Vec<BounceMapPhoton> = bytemuck::pod_collect_to_vec(&bytes[..records]);
@@ -285,6 +351,7 @@ impl PhotonFrame {
             })
             .collect();
         if relative.len() * size_of::<Photon>() > self.photons.size as usize {
+            // The old buffers go to the graveyard, destroyed once the frames using them finish.
             let (staging, photons) = photon_buffers(&self.gpu, relative.len().next_power_of_two())?;
             self.staging = staging;
             self.photons = photons;
@@ -299,17 +366,27 @@ impl PhotonFrame {
         Ok(stats)
     }
 
-    /// Copies the photon map to the GPU.
+    /// Whether [`Self::trace`] left photons to upload and draw.
+    pub fn has_photons(&self) -> bool {
+        self.count > 0
+    }
+
+    /// The CPU→GPU copy of the photon map (on the transfer queue), handing it to the graphics
+    /// queue for [`Self::record_estimate`].
     pub fn record_upload(&self, cmd: &Cmd) {
         if self.count == 0 {
             return;
         }
         let _scope = cmd.scope("upload");
+        cmd.acquire_buffer(&self.photons, QueueRole::Graphics, Access::TransferDst);
         cmd.copy_buffer(&self.staging, &self.photons);
+        cmd.release_buffer(&self.photons, QueueRole::Graphics);
     }
 
     /// Photon volumes into the indirect buffer (at 1/N resolution and upsampled, at
-    /// `--subsample N > 1`), then radiance += indirect.
+    /// `--subsample N > 1`), then radiance += indirect. Takes the photon buffer over from the
+    /// transfer queue after an upload (a no-op in a frame that reuses the photon map) and keeps
+    /// it until the next [`Self::record_emission`].
     pub fn record_estimate(
         &mut self,
         cmd: &Cmd,
@@ -318,6 +395,22 @@ impl PhotonFrame {
         gbuffer: &GBuffer,
         radiance: &mut Image,
     ) {
+        if self.count > 0 {
+            cmd.acquire_buffer(
+                &self.photons,
+                QueueRole::Transfer,
+                Access::GraphicsStorageRead,
+            );
+            self.photons_on_graphics = true;
+        }
+        if self.plan.texels > 0 {
+            // Back from the readback, for the next frame's bounce map.
+            cmd.acquire_buffer(
+                &self.bounce_map,
+                QueueRole::Transfer,
+                Access::ComputeStorageWrite,
+            );
+        }
         let inputs = PhotonVolumeInputs {
             frame,
             photons: &self.photons,

@@ -66,6 +66,7 @@ pub fn frame_json(
         "subsample": s.subsample,
         "ms": ms,
         "passes_run": s.passes_run,
+        "passes_skipped": s.passes_skipped,
         "validation_messages": validation_messages,
     })
 }

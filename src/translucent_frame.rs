@@ -3,7 +3,7 @@
 //! one delta-material instance; `frame.rs` calls [`TranslucentFrame::update`] with the frame's
 //! uniforms and [`TranslucentFrame::record`] after the composite.
 
-use crate::gpu::{vk, Buffer, Gpu, Image, MemoryLocation};
+use crate::gpu::{vk, Buffer, Gpu, Image};
 use crate::gpu_scene::{Draw, GpuScene};
 use crate::layout::{EnvironmentUniforms, FrameUniforms};
 use crate::passes::environment::{EnvironmentInputs, EnvironmentPass};
@@ -50,12 +50,11 @@ impl TranslucentFrame {
         if delta.is_empty() {
             return Ok(None);
         }
-        let uniforms = Buffer::new(
+        let uniforms = Buffer::constants(
             gpu,
             "environment.uniforms",
             size_of::<EnvironmentUniforms>() as u64,
             vk::BufferUsageFlags::UNIFORM_BUFFER,
-            MemoryLocation::CpuToGpu,
         )?;
         let environment = EnvironmentPass::new(
             gpu,
@@ -95,8 +94,8 @@ impl TranslucentFrame {
         }))
     }
 
-    /// Writes this frame's camera-relative uniforms (and the cube faces' while it is dirty).
-    pub fn update(&self, frame: &FrameUniforms, camera: DVec3) -> anyhow::Result<()> {
+    /// Records this frame's camera-relative uniforms (and the cube faces' while it is dirty).
+    pub fn update(&self, cmd: &crate::gpu::Cmd, frame: &FrameUniforms, camera: DVec3) {
         let relative = |p: glam::Vec3| (p.as_dvec3() - camera).as_vec3().extend(1.0);
         let centre = (self.centre - camera).as_vec3();
         let uniforms = EnvironmentUniforms {
@@ -104,8 +103,8 @@ impl TranslucentFrame {
             bounds_min: relative(self.bounds.min),
             bounds_max: relative(self.bounds.max),
         };
-        self.uniforms.write(0, bytemuck::bytes_of(&uniforms))?;
-        self.environment.update(frame, centre, self.near)
+        cmd.update_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
+        self.environment.update(cmd, frame, centre, self.near);
     }
 
     /// The environment cube map (if dirty) from the `opaque` draws, then the `delta` draws over

@@ -221,3 +221,78 @@ fn plan_of_a_missing_file_fails_with_one_line_naming_it() {
     assert_clean_failure(&out, "nope.glb", &dir.path().join("out.png"));
     assert!(out.stdout.is_empty());
 }
+
+/// `ispm bench`: the three configurations side by side, every pass with a median, the overlap
+/// figures, the JSON and the schedule figure.
+#[test]
+fn bench_measures_overlapped_serial_and_direct_frames_and_writes_json_and_figure() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (json, svg) = (
+        dir.path().join("bench.json"),
+        dir.path().join("schedule.svg"),
+    );
+    let out = ispm(&[
+        "bench",
+        "--size",
+        "48x32",
+        "--frames",
+        "4",
+        "--chunks",
+        "2",
+        "--warmup",
+        "1",
+        "--photons",
+        "2000",
+        "--shadow-resolution",
+        "64",
+        "--json",
+        json.to_str().expect("utf8"),
+        "--figure",
+        svg.to_str().expect("utf8"),
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("serial ÷ overlapped"), "{stdout}");
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&json).expect("json written")).expect("valid JSON");
+    for config in ["overlapped", "serial", "direct_only"] {
+        let c = &report[config];
+        assert!(
+            c["frame_ms"].as_f64().is_some_and(|v| v > 0.0),
+            "{config}: {c}"
+        );
+        assert_eq!(
+            c["chunk_frame_ms"].as_array().map(Vec::len),
+            Some(2),
+            "{config}"
+        );
+    }
+    let stages = &report["overlapped"]["stages"];
+    for pass in [
+        "gpu.light_gbuffers",
+        "gpu.bounce_map",
+        "gpu.readback",
+        "gpu.upload",
+        "gpu.photon_volumes",
+        "cpu.cpu_trace",
+    ] {
+        let t = &stages[pass];
+        assert_eq!(t["frames"].as_u64(), Some(4), "{pass}: {stages}");
+        let (p10, median, p90) = (
+            t["p10"].as_f64().expect("p10"),
+            t["median"].as_f64().expect("median"),
+            t["p90"].as_f64().expect("p90"),
+        );
+        assert!(0.0 < p10 && p10 <= median && median <= p90, "{pass}: {t}");
+    }
+    // The direct-only frame runs no photon pass.
+    assert!(report["direct_only"]["stages"]["gpu.photon_volumes"].is_null());
+    assert!(report["overlap"].as_f64().is_some_and(|v| v > 0.0));
+    assert!(report["speedup"].as_f64().is_some_and(|v| v > 0.0));
+    let figure = std::fs::read_to_string(&svg).expect("figure written");
+    assert!(figure.starts_with("<svg") && figure.contains("photon_volumes"));
+}

@@ -6,7 +6,7 @@ mod common;
 
 use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
 use ispm::photon::bsdf::BsdfVariant;
-use ispm::plan::EffectsPlan;
+use ispm::plan::{Effects, EffectsPlan};
 use ispm::reference::scenes;
 use ispm::scene::{bundled, Scene};
 
@@ -27,6 +27,8 @@ fn settings(variant: BsdfVariant, subsample: u32) -> RenderSettings {
         shadow_resolution: 256,
         subsample,
         bsdf_variant: variant,
+        // The variant as given: the plan would otherwise narrow it to what the scene needs.
+        effects: Effects::All,
         ..Default::default()
     }
 }
@@ -81,7 +83,11 @@ fn a_scene_without_glossy_materials_renders_the_same_with_the_glossy_lobe_compil
     // Glass (mirror + refraction, Fresnel, σ = ∞) on a diffuse floor: no finite glossy lobe;
     // the bounce map, photon volumes, direct, environment and translucent passes all run.
     let scene = bundled::resolve(Some("glass-sphere")).expect("bundled");
-    let plan = EffectsPlan::analyse(&scene, &settings(BsdfVariant::ALL, 1), &scene.camera);
+    let auto = RenderSettings {
+        effects: Effects::Auto,
+        ..settings(BsdfVariant::ALL, 1)
+    };
+    let plan = EffectsPlan::analyse(&scene, &auto, &scene.camera);
     assert_eq!(
         plan.bsdf_variant(),
         BsdfVariant {
@@ -96,7 +102,11 @@ fn a_scene_without_glossy_materials_renders_the_same_with_the_glossy_lobe_compil
 #[test]
 fn a_diffuse_scene_renders_the_same_with_glossy_and_delta_lobes_compiled_out() {
     let scene = scenes::cornell(2);
-    let plan = EffectsPlan::analyse(&scene, &settings(BsdfVariant::ALL, 1), &scene.camera);
+    let auto = RenderSettings {
+        effects: Effects::Auto,
+        ..settings(BsdfVariant::ALL, 1)
+    };
+    let plan = EffectsPlan::analyse(&scene, &auto, &scene.camera);
     let none = BsdfVariant {
         glossy: false,
         delta: false,

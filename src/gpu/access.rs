@@ -28,13 +28,21 @@ pub enum Access {
     /// Storage buffer read by graphics and compute shaders alike (scene-wide data such as the
     /// material buffer).
     AnyShaderStorageRead,
+    /// Uniform or storage buffer read by any shader stage: what [`Cmd::update_buffer`]
+    /// (super::Cmd::update_buffer) leaves a per-frame constant buffer in.
+    AnyShaderUniformRead,
     VertexInput,
     IndexInput,
     TransferSrc,
     TransferDst,
+    /// Read by `vkCmdBlitImage` (the swapchain blit).
+    BlitSrc,
     HostRead,
     HostWrite,
     Present,
+    /// Released to another queue family ([`Cmd::release_buffer`](super::Cmd::release_buffer));
+    /// the next use on the receiving queue must acquire it.
+    Released,
 }
 
 /// The synchronization2 view of an [`Access`].
@@ -99,6 +107,11 @@ impl Access {
                 A::SHADER_STORAGE_READ,
                 L::GENERAL,
             ),
+            Access::AnyShaderUniformRead => (
+                S::VERTEX_SHADER | S::FRAGMENT_SHADER | S::COMPUTE_SHADER,
+                A::UNIFORM_READ | A::SHADER_STORAGE_READ,
+                L::GENERAL,
+            ),
             Access::VertexInput => (
                 S::VERTEX_ATTRIBUTE_INPUT,
                 A::VERTEX_ATTRIBUTE_READ,
@@ -106,10 +119,14 @@ impl Access {
             ),
             Access::IndexInput => (S::INDEX_INPUT, A::INDEX_READ, L::UNDEFINED),
             Access::TransferSrc => (S::COPY, A::TRANSFER_READ, L::TRANSFER_SRC_OPTIMAL),
-            Access::TransferDst => (S::COPY, A::TRANSFER_WRITE, L::TRANSFER_DST_OPTIMAL),
+            // Every transfer stage: copies (COPY), and fill/update, which sync2 puts in the
+            // clear commands' stage (CLEAR).
+            Access::TransferDst => (S::ALL_TRANSFER, A::TRANSFER_WRITE, L::TRANSFER_DST_OPTIMAL),
+            Access::BlitSrc => (S::BLIT, A::TRANSFER_READ, L::TRANSFER_SRC_OPTIMAL),
             Access::HostRead => (S::HOST, A::HOST_READ, L::GENERAL),
             Access::HostWrite => (S::HOST, A::HOST_WRITE, L::GENERAL),
             Access::Present => (S::NONE, A::NONE, L::PRESENT_SRC_KHR),
+            Access::Released => (S::NONE, A::NONE, L::UNDEFINED),
         };
         AccessInfo {
             stage,
@@ -147,13 +164,16 @@ mod tests {
             Access::ComputeStorageRead,
             Access::GraphicsStorageRead,
             Access::AnyShaderStorageRead,
+            Access::AnyShaderUniformRead,
             Access::VertexInput,
             Access::IndexInput,
             Access::TransferSrc,
             Access::TransferDst,
+            Access::BlitSrc,
             Access::HostRead,
             Access::HostWrite,
             Access::Present,
+            Access::Released,
         ];
         for a in all {
             let i = a.info();

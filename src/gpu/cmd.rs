@@ -97,7 +97,19 @@ impl Gpu {
     /// Ends `rec`, submits it to its queue after `waits`, and returns the timeline point its
     /// completion signals. A CPU span `submit` covers the call (the GPU cannot start the work
     /// before it does).
-    pub fn submit(&self, mut rec: Recording, waits: &[Wait]) -> GpuResult<TimelinePoint> {
+    pub fn submit(&self, rec: Recording, waits: &[Wait]) -> GpuResult<TimelinePoint> {
+        self.submit_with_binary(rec, waits, &[], &[])
+    }
+
+    /// [`Gpu::submit`] that also waits for binary semaphores (`(semaphore, stage)`, e.g. a
+    /// swapchain image's acquisition) and signals binary ones (e.g. for presentation).
+    pub(super) fn submit_with_binary(
+        &self,
+        mut rec: Recording,
+        waits: &[Wait],
+        binary_waits: &[(vk::Semaphore, vk::PipelineStageFlags2)],
+        binary_signals: &[vk::Semaphore],
+    ) -> GpuResult<TimelinePoint> {
         let _span = crate::timing::span("submit");
         let queue_index = self.queue_index(rec.role);
         let queue = &self.queues[queue_index];
@@ -111,14 +123,27 @@ impl Gpu {
                     .value(w.point.value)
                     .stage_mask(w.stage)
             })
+            .chain(binary_waits.iter().map(|&(semaphore, stage)| {
+                vk::SemaphoreSubmitInfo::default()
+                    .semaphore(semaphore)
+                    .stage_mask(stage)
+            }))
             .collect();
         let cmd_infos = [vk::CommandBufferSubmitInfo::default().command_buffer(rec.raw)];
         let guard = queue.raw();
         let value = queue.next_value();
-        let signal = [vk::SemaphoreSubmitInfo::default()
-            .semaphore(queue.timeline)
-            .value(value)
-            .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)];
+        let signal: Vec<_> = std::iter::once(
+            vk::SemaphoreSubmitInfo::default()
+                .semaphore(queue.timeline)
+                .value(value)
+                .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS),
+        )
+        .chain(binary_signals.iter().map(|&semaphore| {
+            vk::SemaphoreSubmitInfo::default()
+                .semaphore(semaphore)
+                .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
+        }))
+        .collect();
         let submit = vk::SubmitInfo2::default()
             .wait_semaphore_infos(&wait_infos)
             .command_buffer_infos(&cmd_infos)
@@ -188,6 +213,7 @@ impl Recording {
             raw: self.raw,
             role: self.role,
             timestamps: self.timestamps.as_deref(),
+            family: self.gpu.queue(self.role).family,
             depth: &self.depth,
         }
     }
@@ -200,6 +226,8 @@ pub struct Cmd<'a> {
     raw: vk::CommandBuffer,
     role: QueueRole,
     timestamps: Option<&'a Timestamps>,
+    /// The queue family the command buffer is recorded for.
+    family: u32,
     depth: &'a AtomicU32,
 }
 
@@ -288,6 +316,11 @@ impl<'a> Cmd<'a> {
     pub fn transition_buffer(&self, buffer: &Buffer, to: Access) {
         let mut last = buffer.access.lock().unwrap_or_else(|e| e.into_inner());
         let from = *last;
+        debug_assert!(
+            from != Access::Released,
+            "{} is used on a queue it was not acquired by (Cmd::acquire_buffer)",
+            buffer.name
+        );
         if (from == to && !to.writes()) || from == Access::Nothing {
             *last = to;
             return;
@@ -583,5 +616,176 @@ impl<'a> Cmd<'a> {
             self.device()
                 .cmd_fill_buffer(self.raw, buffer.raw, 0, vk::WHOLE_SIZE, value)
         };
+    }
+
+    /// Writes `bytes` at `offset` of `buffer` from the command stream (`vkCmdUpdateBuffer`, in
+    /// chunks of 64 KiB), then makes them visible to every shader stage. Per-frame constants
+    /// travel this way so the host never writes memory an earlier frame in flight still reads.
+    pub fn update_buffer(&self, buffer: &Buffer, offset: u64, bytes: &[u8]) {
+        if bytes.is_empty() {
+            return;
+        }
+        assert!(
+            offset % 4 == 0 && bytes.len() % 4 == 0 && offset + bytes.len() as u64 <= buffer.size,
+            "update_buffer: {} bytes at {offset} of {} ({} bytes)",
+            bytes.len(),
+            buffer.name,
+            buffer.size
+        );
+        self.transition_buffer(buffer, Access::TransferDst);
+        for (i, chunk) in bytes.chunks(65536).enumerate() {
+            // SAFETY: recording state, outside a render pass; the buffer is live with
+            // TRANSFER_DST usage; offset and size are multiples of 4, the chunk is ≤ 65536 bytes
+            // and fits the buffer (asserted above).
+            unsafe {
+                self.device().cmd_update_buffer(
+                    self.raw,
+                    buffer.raw,
+                    offset + i as u64 * 65536,
+                    chunk,
+                )
+            };
+        }
+        self.transition_buffer(buffer, Access::AnyShaderUniformRead);
+    }
+
+    /// Ends this queue's use of `buffer` (last access: its tracked one) and hands it to the
+    /// queue of `to`: a queue-family release barrier when the families differ, nothing but the
+    /// tracked state otherwise (the timeline semaphore the other queue waits on orders and makes
+    /// visible everything before it). Pair with [`Cmd::acquire_buffer`] in a submission that
+    /// waits for this one.
+    pub fn release_buffer(&self, buffer: &Buffer, to: QueueRole) {
+        let mut last = buffer.access.lock().unwrap_or_else(|e| e.into_inner());
+        let (src, dst) = (self.family, self.gpu.queue(to).family);
+        if src != dst {
+            let f = last.info();
+            let barrier = vk::BufferMemoryBarrier2::default()
+                .src_stage_mask(f.stage)
+                .src_access_mask(f.access)
+                .dst_stage_mask(vk::PipelineStageFlags2::NONE)
+                .dst_access_mask(vk::AccessFlags2::NONE)
+                .src_queue_family_index(src)
+                .dst_queue_family_index(dst)
+                .buffer(buffer.raw)
+                .offset(0)
+                .size(vk::WHOLE_SIZE);
+            let barriers = [barrier];
+            let dep = vk::DependencyInfo::default().buffer_memory_barriers(&barriers);
+            // SAFETY: recording state on a queue of family `src`, which owns the buffer; the
+            // buffer is live; synchronization2 is enabled.
+            unsafe { self.device().cmd_pipeline_barrier2(self.raw, &dep) };
+            *last = Access::Released;
+        } else {
+            *last = Access::Nothing;
+        }
+    }
+
+    /// Takes `buffer` over from the queue of `from` (see [`Cmd::release_buffer`], recorded in a
+    /// submission this one waits for) for the access `to`.
+    pub fn acquire_buffer(&self, buffer: &Buffer, from: QueueRole, to: Access) {
+        let mut last = buffer.access.lock().unwrap_or_else(|e| e.into_inner());
+        let (src, dst) = (self.gpu.queue(from).family, self.family);
+        // A buffer never released (new, or the families are equal) needs no acquire.
+        if src != dst && *last == Access::Released {
+            let t = to.info();
+            let barrier = vk::BufferMemoryBarrier2::default()
+                .src_stage_mask(vk::PipelineStageFlags2::NONE)
+                .src_access_mask(vk::AccessFlags2::NONE)
+                .dst_stage_mask(t.stage)
+                .dst_access_mask(t.access)
+                .src_queue_family_index(src)
+                .dst_queue_family_index(dst)
+                .buffer(buffer.raw)
+                .offset(0)
+                .size(vk::WHOLE_SIZE);
+            let barriers = [barrier];
+            let dep = vk::DependencyInfo::default().buffer_memory_barriers(&barriers);
+            // SAFETY: recording state on a queue of family `dst`; the matching release was
+            // submitted on `src` before the semaphore this submission waits on; the buffer is
+            // live; synchronization2 is enabled.
+            unsafe { self.device().cmd_pipeline_barrier2(self.raw, &dep) };
+        }
+        *last = to;
+    }
+
+    /// Blits all of `src` (in [`Access::BlitSrc`]) onto the swapchain image `dst` of `extent`,
+    /// scaled with a linear filter, leaving `dst` ready to present. The submission waits for the
+    /// image's acquisition at the transfer stages.
+    pub(super) fn blit_to_swapchain(&self, src: &Image, dst: vk::Image, extent: vk::Extent2D) {
+        let range = vk::ImageSubresourceRange {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            base_mip_level: 0,
+            level_count: 1,
+            base_array_layer: 0,
+            layer_count: 1,
+        };
+        let to_dst = vk::ImageMemoryBarrier2::default()
+            .src_stage_mask(vk::PipelineStageFlags2::ALL_TRANSFER)
+            .src_access_mask(vk::AccessFlags2::NONE)
+            .dst_stage_mask(vk::PipelineStageFlags2::BLIT)
+            .dst_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+            .old_layout(vk::ImageLayout::UNDEFINED)
+            .new_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
+            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .image(dst)
+            .subresource_range(range);
+        let barriers = [to_dst];
+        let dep = vk::DependencyInfo::default().image_memory_barriers(&barriers);
+        // SAFETY: recording state; `dst` is an acquired swapchain image whose acquisition the
+        // submission waits for at ALL_TRANSFER (chained by this barrier's source scope).
+        unsafe { self.device().cmd_pipeline_barrier2(self.raw, &dep) };
+        let e = src.extent();
+        let corner = |w: u32, h: u32| {
+            [
+                vk::Offset3D { x: 0, y: 0, z: 0 },
+                vk::Offset3D {
+                    x: w as i32,
+                    y: h as i32,
+                    z: 1,
+                },
+            ]
+        };
+        let layers = vk::ImageSubresourceLayers {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: 1,
+        };
+        let region = vk::ImageBlit {
+            src_subresource: layers,
+            src_offsets: corner(e.width, e.height),
+            dst_subresource: layers,
+            dst_offsets: corner(extent.width, extent.height),
+        };
+        // SAFETY: recording state; `src` is in TRANSFER_SRC_OPTIMAL (BlitSrc), `dst` in
+        // TRANSFER_DST_OPTIMAL; both regions lie inside their images; both formats support
+        // linear blits (8-bit UNORM colour formats).
+        unsafe {
+            self.device().cmd_blit_image(
+                self.raw,
+                src.raw,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                dst,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &[region],
+                vk::Filter::LINEAR,
+            )
+        };
+        let to_present = vk::ImageMemoryBarrier2::default()
+            .src_stage_mask(vk::PipelineStageFlags2::BLIT)
+            .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+            .dst_stage_mask(vk::PipelineStageFlags2::NONE)
+            .dst_access_mask(vk::AccessFlags2::NONE)
+            .old_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
+            .new_layout(vk::ImageLayout::PRESENT_SRC_KHR)
+            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .image(dst)
+            .subresource_range(range);
+        let barriers = [to_present];
+        let dep = vk::DependencyInfo::default().image_memory_barriers(&barriers);
+        // SAFETY: recording state; the image was just written by the blit above.
+        unsafe { self.device().cmd_pipeline_barrier2(self.raw, &dep) };
     }
 }

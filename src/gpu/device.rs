@@ -31,12 +31,29 @@ pub struct GpuOptions {
     pub device_index: Option<usize>,
     /// Enable the Khronos validation layer with synchronization validation.
     pub validation: bool,
-    /// Use one queue for every role even when the device has dedicated compute and transfer
-    /// families (the `--schedule` comparisons and tests use this).
-    pub single_queue: bool,
+    /// Which queues the roles use.
+    pub queues: QueueMode,
     /// Put GPU timestamps on the host clock by a measured offset even where calibrated
     /// timestamps are available (tests compare the two).
     pub measured_clock: bool,
+    /// The display the renderer will present to (`ispm view`): enables the surface instance
+    /// extensions it needs and `VK_KHR_swapchain`.
+    pub display: Option<raw_window_handle::RawDisplayHandle>,
+}
+
+/// Which device queues serve the [`QueueRole`]s.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum QueueMode {
+    /// Dedicated compute and transfer families where the device has them, else the graphics
+    /// queue.
+    #[default]
+    Auto,
+    /// The graphics queue for every role.
+    Single,
+    /// A logical transfer queue: the graphics `VkQueue` again, with its own timeline
+    /// semaphore, so one-queue devices (lavapipe) run the multi-queue schedule's separate
+    /// submissions, cross-queue waits and release/acquire hand-offs.
+    SplitTransfer,
 }
 
 /// What a queue is used for.
@@ -61,7 +78,8 @@ impl QueueRole {
 
 /// A device queue with its own timeline semaphore.
 pub struct Queue {
-    raw: Mutex<vk::Queue>,
+    /// Shared by the logical queues of [`QueueMode::SplitTransfer`]: one lock per `VkQueue`.
+    raw: Arc<Mutex<vk::Queue>>,
     pub family: u32,
     pub flags: vk::QueueFlags,
     pub timestamp_valid_bits: u32,
@@ -107,6 +125,7 @@ pub(super) enum Retired {
 pub struct Gpu {
     pub(super) debug_utils: ash::ext::debug_utils::Device,
     pub(super) device: ash::Device,
+    pub(super) physical: vk::PhysicalDevice,
     pub properties: DeviceProperties,
     /// Distinct queues; roles index into this.
     pub(super) queues: Vec<Queue>,
@@ -177,7 +196,16 @@ impl Gpu {
         let validation = options.validation || super::instance::validation_requested();
         // Every `?` below drops what was created so far: `parts` tears down the instance,
         // `guard` the device and its semaphores.
-        let parts = create_instance(validation, &[])?;
+        let surface_extensions: Vec<&CStr> = match options.display {
+            Some(display) => ash_window::enumerate_required_extensions(display)
+                .map_err(vk_err("the window system's surface extensions"))?
+                .iter()
+                // SAFETY: ash-window returns pointers to its static, NUL-terminated names.
+                .map(|&p| unsafe { CStr::from_ptr(p) })
+                .collect(),
+            None => Vec::new(),
+        };
+        let parts = create_instance(validation, &surface_extensions)?;
         let instance = &parts.instance;
         let (physical, properties) = choose_device(instance, options.device_index)?;
 
@@ -196,7 +224,7 @@ impl Gpu {
                 .position(|f| f.queue_flags.contains(want) && !f.queue_flags.intersects(not))
                 .map(|i| i as u32)
         };
-        let (compute_family, transfer_family) = if options.single_queue {
+        let (compute_family, transfer_family) = if options.queues != QueueMode::Auto {
             (graphics_family, graphics_family)
         } else {
             let compute = dedicated(vk::QueueFlags::COMPUTE, vk::QueueFlags::GRAPHICS)
@@ -242,6 +270,9 @@ impl Gpu {
         if let Some(c) = calibration {
             extensions.push(c.extension);
         }
+        if options.display.is_some() {
+            extensions.push(ash::khr::swapchain::NAME);
+        }
         let extension_ptrs: Vec<_> = extensions.iter().map(|e| e.as_ptr()).collect();
         let features = vk::PhysicalDeviceFeatures::default().fragment_stores_and_atomics(true);
         let info = vk::DeviceCreateInfo::default()
@@ -262,8 +293,7 @@ impl Gpu {
         let debug_utils = ash::ext::debug_utils::Device::new(instance, &device);
         let clock = DeviceClock::new(instance, &device, calibration);
 
-        let mut queues = Vec::new();
-        for &family in &distinct {
+        let create_timeline = |guard: &mut DeviceGuard| -> anyhow::Result<vk::Semaphore> {
             let mut type_info = vk::SemaphoreTypeCreateInfo::default()
                 .semaphore_type(vk::SemaphoreType::TIMELINE)
                 .initial_value(0);
@@ -272,11 +302,16 @@ impl Gpu {
             let timeline = unsafe { device.create_semaphore(&sem_info, None) }
                 .map_err(vk_err("vkCreateSemaphore"))?;
             guard.semaphores.push(timeline);
+            Ok(timeline)
+        };
+        let mut queues = Vec::new();
+        for &family in &distinct {
+            let timeline = create_timeline(&mut guard)?;
             // SAFETY: one queue of this family was requested at device creation.
             let raw = unsafe { device.get_device_queue(family, 0) };
             let props = &families[family as usize];
             queues.push(Queue {
-                raw: Mutex::new(raw),
+                raw: Arc::new(Mutex::new(raw)),
                 family,
                 flags: props.queue_flags,
                 timestamp_valid_bits: props.timestamp_valid_bits,
@@ -285,11 +320,25 @@ impl Gpu {
             });
         }
         let role_index = |f: u32| distinct.iter().position(|&d| d == f).unwrap_or(0);
-        let roles = [
+        let mut roles = [
             role_index(graphics_family),
             role_index(compute_family),
             role_index(transfer_family),
         ];
+        if options.queues == QueueMode::SplitTransfer {
+            let timeline = create_timeline(&mut guard)?;
+            let graphics = &queues[roles[QueueRole::Graphics as usize]];
+            let logical = Queue {
+                raw: graphics.raw.clone(),
+                family: graphics.family,
+                flags: graphics.flags,
+                timestamp_valid_bits: graphics.timestamp_valid_bits,
+                timeline,
+                submitted: AtomicU64::new(0),
+            };
+            queues.push(logical);
+            roles[QueueRole::Transfer as usize] = queues.len() - 1;
+        }
 
         let allocator = Allocator::new(&AllocatorCreateDesc {
             instance: instance.clone(),
@@ -315,6 +364,7 @@ impl Gpu {
             graveyard: Mutex::new(Vec::new()),
             clock,
             validation,
+            physical,
             instance: parts,
         });
         for (i, q) in gpu.queues.iter().enumerate() {
@@ -330,6 +380,11 @@ impl Gpu {
             }
         }
         Ok(gpu)
+    }
+
+    /// The instance and loader (for code inside `gpu/`: surfaces).
+    pub(super) fn instance(&self) -> (&ash::Entry, &ash::Instance) {
+        (&self.instance.entry, &self.instance.instance)
     }
 
     /// The raw `ash` device (for code inside `gpu/`).
@@ -459,7 +514,14 @@ impl Gpu {
     /// Blocks until the device is idle. Only for shutdown and one-shot tools.
     pub fn wait_idle(&self) -> GpuResult<()> {
         // vkDeviceWaitIdle needs every queue externally synchronised: hold all their locks.
-        let _locks: Vec<_> = self.queues.iter().map(Queue::raw).collect();
+        // Logical queues sharing one `VkQueue` share its lock: take each lock once.
+        let mut distinct: Vec<&Queue> = Vec::new();
+        for q in &self.queues {
+            if !distinct.iter().any(|d| Arc::ptr_eq(&d.raw, &q.raw)) {
+                distinct.push(q);
+            }
+        }
+        let _locks: Vec<_> = distinct.into_iter().map(Queue::raw).collect();
         // SAFETY: the device is live and no queue can be used while the locks are held.
         unsafe { self.device.device_wait_idle() }.map_err(vk_err("vkDeviceWaitIdle"))
     }

@@ -25,6 +25,7 @@ mod instance;
 mod pipeline;
 mod resources;
 pub mod shaders;
+mod swapchain;
 mod timestamps;
 mod transfer;
 
@@ -34,7 +35,7 @@ pub use ash::vk;
 pub use clock::{tick_delta, Calibration, ClockSource};
 pub use cmd::{Attachment, Cmd, Load, Recording, Scope, Wait};
 pub use device::{
-    list_devices, DeviceProperties, Gpu, GpuOptions, Queue, QueueRole, TimelinePoint,
+    list_devices, DeviceProperties, Gpu, GpuOptions, Queue, QueueMode, QueueRole, TimelinePoint,
 };
 pub use error::{GpuError, GpuResult};
 pub use instance::validation_requested;
@@ -44,5 +45,6 @@ pub use pipeline::{
 };
 pub use resources::{Buffer, Filter, Image, ImageDesc, MemoryLocation, Sampler, ViewKind};
 pub use shaders::{table as shader_table, Shader, Stage};
+pub use swapchain::{Presented, Swapchain};
 pub use timestamps::Timestamps;
 pub use transfer::texel_size;

@@ -76,6 +76,23 @@ impl Buffer {
         })
     }
 
+    /// A device-local buffer of per-frame constants (uniform or storage), written from the
+    /// command stream by [`Cmd::update_buffer`](super::Cmd::update_buffer).
+    pub fn constants(
+        gpu: &Arc<Gpu>,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+    ) -> GpuResult<Buffer> {
+        Self::new(
+            gpu,
+            name,
+            size.next_multiple_of(4),
+            usage | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+        )
+    }
+
     /// Copies `bytes` into a host-visible buffer at `offset`. The caller makes sure the GPU is
     /// not using the range (timeline waits); memory is coherent (gpu-allocator only hands out
     /// host-coherent memory for host-visible locations), so no flush is needed.

@@ -18,8 +18,8 @@
 use super::eye_gbuffer::{draw_instances, material_texture_sets};
 use crate::gpu::{
     vk, Access, Attachment, Binding, BindingKind, Blend, Buffer, Cmd, Depth, DescriptorLayout,
-    DescriptorSet, Filter, Gpu, GraphicsDesc, Image, ImageDesc, Load, MemoryLocation, Pipeline,
-    Sampler, ViewKind, Write,
+    DescriptorSet, Filter, Gpu, GraphicsDesc, Image, ImageDesc, Load, Pipeline, Sampler, ViewKind,
+    Write,
 };
 use crate::gpu_scene::{Draw, GpuScene};
 use crate::layout::{DrawPush, FrameUniforms, Vertex};
@@ -99,12 +99,11 @@ impl EnvironmentPass {
         let mut faces = Vec::new();
         let mut face_sets = Vec::new();
         for face in 0..6 {
-            let buffer = Buffer::new(
+            let buffer = Buffer::constants(
                 gpu,
                 &format!("environment.face[{face}]"),
                 size_of::<FrameUniforms>() as u64,
                 vk::BufferUsageFlags::UNIFORM_BUFFER,
-                MemoryLocation::CpuToGpu,
             )?;
             face_sets.push(frame_layout.allocate(&[
                 Write::Buffer(&buffer),
@@ -192,11 +191,11 @@ impl EnvironmentPass {
         self.dirty = true;
     }
 
-    /// Writes the face uniforms: the eye's `frame` with each face's projection and the cube's
+    /// Records the face uniforms: the eye's `frame` with each face's projection and the cube's
     /// camera-relative `centre` as the viewer. A clean cube needs nothing, so nothing is written.
-    pub fn update(&self, frame: &FrameUniforms, centre: Vec3, near: f32) -> anyhow::Result<()> {
+    pub fn update(&self, cmd: &Cmd, frame: &FrameUniforms, centre: Vec3, near: f32) {
         if !self.dirty {
-            return Ok(());
+            return;
         }
         for (face, buffer) in self.faces.iter().enumerate() {
             let view_proj = face_view_proj(face, centre, near);
@@ -207,9 +206,8 @@ impl EnvironmentPass {
                 viewer: centre.extend(1.0),
                 ..*frame
             };
-            buffer.write(0, bytemuck::bytes_of(&uniforms))?;
+            cmd.update_buffer(buffer, 0, bytemuck::bytes_of(&uniforms));
         }
-        Ok(())
     }
 
     /// Renders the six faces from `draws` (camera-relative, opaque instances only) if dirty;

@@ -6,7 +6,7 @@
 //! bounce map starts from it.
 
 use super::eye_gbuffer::{GBuffer, GBufferPass, View};
-use crate::gpu::{vk, Buffer, Cmd, Gpu, MemoryLocation};
+use crate::gpu::{vk, Buffer, Cmd, Gpu};
 use crate::gpu_scene::{Draw, GpuScene};
 use crate::layout::FrameUniforms;
 use std::sync::Arc;
@@ -21,12 +21,11 @@ impl LightGBufferPass {
     pub fn new(gpu: &Arc<Gpu>, scene: &GpuScene, views: usize) -> anyhow::Result<Self> {
         let frames = (0..views.max(1))
             .map(|i| {
-                Buffer::new(
+                Buffer::constants(
                     gpu,
                     &format!("light_gbuffers.view[{i}]"),
                     size_of::<FrameUniforms>() as u64,
                     vk::BufferUsageFlags::UNIFORM_BUFFER,
-                    MemoryLocation::CpuToGpu,
                 )
             })
             .collect::<Result<Vec<_>, _>>()?;
@@ -35,12 +34,11 @@ impl LightGBufferPass {
         Ok(Self { raster, frames })
     }
 
-    /// Writes the uniforms of every view (before recording).
-    pub fn update(&self, uniforms: &[FrameUniforms]) -> anyhow::Result<()> {
+    /// Records the uniforms of every view into the command stream (before [`Self::record`]).
+    pub fn update(&self, cmd: &Cmd, uniforms: &[FrameUniforms]) {
         for (buffer, u) in self.frames.iter().zip(uniforms) {
-            buffer.write(0, bytemuck::bytes_of(u))?;
+            cmd.update_buffer(buffer, 0, bytemuck::bytes_of(u));
         }
-        Ok(())
     }
 
     /// Draws view i (`draws[i]` into the top-left `extents[i]` texels) into layer i of

@@ -236,7 +236,10 @@ impl PhotonVolumesPass {
         for image in [&g.position, &g.normal, &g.albedo, &g.material] {
             cmd.transition(image, Access::FragmentSampledRead);
         }
-        cmd.transition_buffer(inputs.photons, Access::GraphicsStorageRead);
+        if count > 0 {
+            // Only when drawn: an undrawn photon buffer may belong to the transfer queue.
+            cmd.transition_buffer(inputs.photons, Access::GraphicsStorageRead);
+        }
         let colors: Vec<Attachment> = targets
             .iter()
             .map(|image| Attachment {

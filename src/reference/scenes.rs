@@ -12,7 +12,8 @@ fn diffuse(name: &str, albedo: Vec3) -> Material {
     }
 }
 
-fn point_light(position: Vec3, intensity: Vec3) -> Light {
+/// A point light named "point".
+pub fn point_light(position: Vec3, intensity: Vec3) -> Light {
     Light {
         name: "point".into(),
         kind: LightKind::Point,

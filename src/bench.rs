@@ -1,0 +1,385 @@
+//! `ispm bench`: the frame's cost, per stage and as a whole, and what the overlapped schedule
+//! buys, measured side by side in one run.
+//!
+//! Three renderers of the same view run in alternating chunks of frames, so that a noisy
+//! machine slows them alike: the overlapped ISPM frame, the serial ISPM frame (every step waits
+//! for the one before) and the direct-only frame (the paper's Table 2, column 19 vs 20). Each
+//! chunk is one trace capture (`timing`); a chunk's frame period is its wall time (submitting
+//! its frames and waiting for the last) over its frame count, and the figures are medians over
+//! chunks. Per stage the spans of every frame give the median and the 10th–90th percentile.
+//!
+//! The overlap figures:
+//! - `overlap = frame period ÷ max(CPU stage, GPU stage)`, with the CPU stage the CPU photon
+//!   trace and the GPU stage the sum of the frame's GPU passes: 1 when the slower unit never
+//!   waits for the other, (CPU + GPU)/max when nothing overlaps;
+//! - `speed-up = serial period ÷ overlapped period`.
+
+use crate::frame::{Method, RenderSettings, Renderer, Schedule};
+use crate::gpu::Gpu;
+use crate::scene::Scene;
+use crate::timing::{self, Span};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+/// What to measure.
+#[derive(Clone, Debug)]
+pub struct BenchSettings {
+    pub render: RenderSettings,
+    /// Measured frames per configuration.
+    pub frames: u32,
+    /// Frames per configuration before measuring.
+    pub warmup: u32,
+    /// Chunks the measured frames are split into (alternating configurations).
+    pub chunks: u32,
+}
+
+/// Median and spread of one stage, in milliseconds.
+#[derive(Clone, Debug, Serialize)]
+pub struct StageTime {
+    pub median: f64,
+    pub p10: f64,
+    pub p90: f64,
+    /// Frames it ran in.
+    pub frames: usize,
+}
+
+/// One configuration's figures.
+#[derive(Clone, Debug, Serialize)]
+pub struct ConfigResult {
+    pub name: String,
+    /// Median over chunks of wall time ÷ frames.
+    pub frame_ms: f64,
+    /// Every chunk's frame period.
+    pub chunk_frame_ms: Vec<f64>,
+    /// GPU passes (`gpu.NAME`) and CPU steps (`cpu.NAME`).
+    pub stages: BTreeMap<String, StageTime>,
+    /// Median per frame of the GPU passes' sum.
+    pub gpu_ms: f64,
+    /// Median per frame of the CPU photon trace.
+    pub cpu_ms: f64,
+}
+
+/// The whole benchmark.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchReport {
+    pub scene: String,
+    pub device: String,
+    pub width: u32,
+    pub height: u32,
+    pub photons: usize,
+    pub frames: u32,
+    pub overlapped: ConfigResult,
+    pub serial: ConfigResult,
+    pub direct_only: ConfigResult,
+    /// Overlapped frame period ÷ max(CPU stage, GPU stage).
+    pub overlap: f64,
+    /// Serial frame period ÷ overlapped frame period.
+    pub speedup: f64,
+    /// The last overlapped chunk's spans (for the schedule figure).
+    #[serde(skip)]
+    pub last_overlapped_spans: Vec<Span>,
+}
+
+struct Config {
+    name: &'static str,
+    renderer: Renderer,
+    chunk_ms: Vec<f64>,
+    spans: Vec<Span>,
+    last_chunk: Vec<Span>,
+}
+
+/// The value at quantile `q` (0..=1) of `values`, interpolated linearly between the closest
+/// ranks (the median of an even count is the mean of the middle two).
+pub fn quantile(values: &[f64], q: f64) -> f64 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    let pos = (v.len() - 1) as f64 * q.clamp(0.0, 1.0);
+    let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
+    v[lo] + (v[hi] - v[lo]) * (pos - lo as f64)
+}
+
+/// Per-frame totals of each stage: `gpu.NAME` sums a frame's top-level GPU passes of that name,
+/// `cpu.NAME` its CPU spans of that name.
+fn per_frame(spans: &[Span]) -> BTreeMap<String, Vec<f64>> {
+    let mut totals: BTreeMap<(String, u64), f64> = BTreeMap::new();
+    for s in spans {
+        let Some(frame) = s.frame else { continue };
+        let key = if s.is_gpu() {
+            format!("gpu.{}", s.name)
+        } else {
+            format!("cpu.{}", s.name)
+        };
+        *totals.entry((key, frame)).or_default() += s.ms();
+    }
+    let mut out: BTreeMap<String, Vec<f64>> = BTreeMap::new();
+    for ((key, _), ms) in totals {
+        out.entry(key).or_default().push(ms);
+    }
+    out
+}
+
+/// The GPU stage per frame: the busiest queue's sum of outermost passes (queues run side by
+/// side, so their times do not add up).
+fn gpu_per_frame(spans: &[Span]) -> Vec<f64> {
+    let mut totals: BTreeMap<(u64, String), f64> = BTreeMap::new();
+    for s in spans.iter().filter(|s| s.is_gpu() && s.depth == 0) {
+        if let (Some(f), crate::timing::Track::Gpu { queue, .. }) = (s.frame, &s.track) {
+            *totals.entry((f, queue.to_string())).or_default() += s.ms();
+        }
+    }
+    let mut per_frame: BTreeMap<u64, f64> = BTreeMap::new();
+    for ((f, _), ms) in totals {
+        let busiest = per_frame.entry(f).or_default();
+        *busiest = busiest.max(ms);
+    }
+    per_frame.into_values().collect()
+}
+
+fn result(config: &Config) -> ConfigResult {
+    let stages = per_frame(&config.spans)
+        .into_iter()
+        .map(|(name, v)| {
+            let t = StageTime {
+                median: quantile(&v, 0.5),
+                p10: quantile(&v, 0.1),
+                p90: quantile(&v, 0.9),
+                frames: v.len(),
+            };
+            (name, t)
+        })
+        .collect::<BTreeMap<_, _>>();
+    let cpu_ms = stages.get("cpu.cpu_trace").map_or(0.0, |t| t.median);
+    ConfigResult {
+        name: config.name.to_string(),
+        frame_ms: quantile(&config.chunk_ms, 0.5),
+        chunk_frame_ms: config.chunk_ms.clone(),
+        stages,
+        gpu_ms: quantile(&gpu_per_frame(&config.spans), 0.5),
+        cpu_ms,
+    }
+}
+
+/// Runs `frames` frames of `renderer` in one capture; returns the wall time per frame and the
+/// spans (frame indices made unique across chunks by the renderer's own counter).
+fn chunk(renderer: &mut Renderer, frames: u32) -> anyhow::Result<(f64, Vec<Span>)> {
+    timing::start_capture();
+    let start = timing::now_ns();
+    let run = (|| {
+        for _ in 0..frames {
+            renderer.submit_frame()?;
+        }
+        renderer.drain()
+    })();
+    let wall = timing::now_ns().saturating_sub(start) as f64 * 1e-6;
+    let capture = timing::finish_capture();
+    run?;
+    Ok((wall / f64::from(frames.max(1)), capture.spans))
+}
+
+/// Runs the benchmark (module docs).
+pub fn run(
+    gpu: &Arc<Gpu>,
+    scene: &Scene,
+    scene_name: &str,
+    settings: &BenchSettings,
+    mut progress: impl FnMut(&str),
+) -> anyhow::Result<BenchReport> {
+    let make = |name: &'static str, method: Method, schedule: Schedule| {
+        let render = RenderSettings {
+            method,
+            schedule,
+            // Every frame traces: a planned frame of a static scene reuses its photon map.
+            effects: crate::plan::Effects::All,
+            ..settings.render.clone()
+        };
+        Ok::<_, anyhow::Error>(Config {
+            name,
+            renderer: Renderer::new(gpu, scene, render)?,
+            chunk_ms: Vec::new(),
+            spans: Vec::new(),
+            last_chunk: Vec::new(),
+        })
+    };
+    let mut configs = [
+        make("overlapped", Method::Ispm, Schedule::Overlapped)?,
+        make("serial", Method::Ispm, Schedule::Serial)?,
+        make("direct only", Method::Direct, Schedule::Overlapped)?,
+    ];
+    for c in &mut configs {
+        progress(&format!("warm-up: {}", c.name));
+        chunk(&mut c.renderer, settings.warmup.max(1))?;
+    }
+    let chunks = settings.chunks.clamp(1, settings.frames.max(1));
+    for k in 0..chunks {
+        // Spread the frames over the chunks as evenly as integers allow.
+        let frames = u64::from(settings.frames);
+        let n = (frames * u64::from(k + 1) / u64::from(chunks)
+            - frames * u64::from(k) / u64::from(chunks)) as u32;
+        for c in &mut configs {
+            progress(&format!("chunk {}/{chunks}: {}", k + 1, c.name));
+            let (ms, spans) = chunk(&mut c.renderer, n.max(1))?;
+            c.chunk_ms.push(ms);
+            c.last_chunk = spans.clone();
+            c.spans.extend(spans);
+        }
+    }
+    let [overlapped, serial, direct] = configs;
+    let (o, s, d) = (result(&overlapped), result(&serial), result(&direct));
+    let bound = o.cpu_ms.max(o.gpu_ms);
+    Ok(BenchReport {
+        scene: scene_name.to_string(),
+        device: gpu.properties.name.clone(),
+        width: settings.render.width,
+        height: settings.render.height,
+        photons: settings.render.photons,
+        frames: settings.frames,
+        overlap: if bound > 0.0 { o.frame_ms / bound } else { 0.0 },
+        speedup: if o.frame_ms > 0.0 {
+            s.frame_ms / o.frame_ms
+        } else {
+            0.0
+        },
+        overlapped: o,
+        serial: s,
+        direct_only: d,
+        last_overlapped_spans: overlapped.last_chunk,
+    })
+}
+
+impl BenchReport {
+    /// The human-readable table `ispm bench` prints.
+    pub fn table(&self) -> String {
+        let mut out = format!(
+            "{} at {}x{}, {} photons, {} frames per configuration, on {}\n\n",
+            self.scene, self.width, self.height, self.photons, self.frames, self.device
+        );
+        out += &format!(
+            "{:<26} {:>12} {:>22}\n",
+            "stage (overlapped)", "median ms", "p10 – p90 ms"
+        );
+        for (name, t) in &self.overlapped.stages {
+            out += &format!(
+                "{:<26} {:>12.3} {:>10.3} – {:<10.3}\n",
+                name, t.median, t.p10, t.p90
+            );
+        }
+        out += &format!(
+            "\nframe period: overlapped {:.2} ms, serial {:.2} ms, direct only {:.2} ms\n",
+            self.overlapped.frame_ms, self.serial.frame_ms, self.direct_only.frame_ms
+        );
+        out += &format!(
+            "CPU stage (trace) {:.2} ms, GPU stage (passes) {:.2} ms\n",
+            self.overlapped.cpu_ms, self.overlapped.gpu_ms
+        );
+        out += &format!(
+            "overlap = frame ÷ max(CPU, GPU) = {:.3}; serial ÷ overlapped = {:.3}\n",
+            self.overlap, self.speedup
+        );
+        out
+    }
+}
+
+/// An SVG picture of `spans` in the manner of the paper's Figure 3: one row per track (GPU
+/// queues first, then the CPU threads), coloured by frame: the outermost GPU passes, and on the
+/// CPU the steps inside each `frame` span (the trace, the waits) and the trace workers' chunks.
+pub fn schedule_svg(spans: &[Span], title: &str) -> String {
+    use crate::timing::Track;
+    let shown = |s: &Span| {
+        if s.is_gpu() {
+            s.depth == 0
+        } else {
+            s.name != "frame" && s.depth <= 1
+        }
+    };
+    let outer: Vec<&Span> = spans.iter().filter(|s| shown(s)).collect();
+    let (Some(t0), Some(t1)) = (
+        outer.iter().map(|s| s.begin_ns).min(),
+        outer.iter().map(|s| s.end_ns).max(),
+    ) else {
+        return String::new();
+    };
+    let mut tracks: Vec<(bool, String)> = Vec::new();
+    let track_name = |s: &Span| match &s.track {
+        Track::Gpu { queue, role } => (false, format!("GPU queue {queue} ({})", role.name())),
+        Track::Cpu { name, .. } => (true, format!("CPU {name}")),
+    };
+    for s in &outer {
+        let t = track_name(s);
+        if !tracks.contains(&t) {
+            tracks.push(t);
+        }
+    }
+    tracks.sort();
+    let (left, width, row) = (190.0, 900.0, 34.0);
+    let height = 50.0 + row * tracks.len() as f64 + 20.0;
+    let x = |ns: u64| left + (ns - t0) as f64 / (t1 - t0).max(1) as f64 * width;
+    let colours = ["#4e79a7", "#f28e2b", "#59a14f", "#e15759", "#b07aa1"];
+    let mut svg = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{}\" height=\"{height}\" \
+         font-family=\"sans-serif\" font-size=\"11\">\n\
+         <rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n\
+         <text x=\"10\" y=\"20\" font-size=\"14\">{title} — {:.1} ms</text>\n",
+        left + width + 20.0,
+        (t1 - t0) as f64 * 1e-6
+    );
+    for (i, (_, name)) in tracks.iter().enumerate() {
+        let y = 40.0 + row * i as f64;
+        svg += &format!(
+            "<text x=\"10\" y=\"{:.1}\">{name}</text>\n<line x1=\"{left}\" x2=\"{}\" y1=\"{:.1}\" \
+             y2=\"{:.1}\" stroke=\"#ddd\"/>\n",
+            y + 18.0,
+            left + width,
+            y + row - 2.0,
+            y + row - 2.0
+        );
+        for s in outer.iter().filter(|s| &track_name(s).1 == name) {
+            let (a, b) = (x(s.begin_ns), x(s.end_ns));
+            let colour = colours[s.frame.unwrap_or(0) as usize % colours.len()];
+            svg += &format!(
+                "<rect x=\"{a:.1}\" y=\"{:.1}\" width=\"{:.2}\" height=\"{:.1}\" fill=\"{colour}\" \
+                 stroke=\"white\" stroke-width=\"0.5\"><title>{} (frame {}): {:.3} ms</title></rect>\n",
+                y + 4.0,
+                (b - a).max(0.5),
+                row - 10.0,
+                s.name,
+                s.frame.map_or("-".to_string(), |f| f.to_string()),
+                s.ms()
+            );
+            if b - a > 6.0 * s.name.len() as f64 {
+                svg += &format!(
+                    "<text x=\"{:.1}\" y=\"{:.1}\" fill=\"white\">{}</text>\n",
+                    a + 2.0,
+                    y + 20.0,
+                    s.name
+                );
+            }
+        }
+    }
+    svg += "</svg>\n";
+    svg
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantiles_interpolate_between_ranks() {
+        let v = [5.0, 1.0, 3.0, 2.0, 4.0];
+        assert_eq!(quantile(&v, 0.5), 3.0);
+        assert_eq!(quantile(&v, 0.0), 1.0);
+        assert_eq!(quantile(&v, 1.0), 5.0);
+        assert!((quantile(&v, 0.1) - 1.4).abs() < 1e-12);
+        assert!((quantile(&v, 0.9) - 4.6).abs() < 1e-12);
+        assert_eq!(
+            quantile(&[2.0, 4.0], 0.5),
+            3.0,
+            "even count: mean of the middle two"
+        );
+        assert_eq!(quantile(&[], 0.5), 0.0);
+    }
+}
