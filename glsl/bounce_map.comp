@@ -3,7 +3,9 @@
 // the photon through that texel hits the scene; it carries the light's power through the texel
 // (exact solid angle × spot falloff, or irradiance × area for directional lights), and scatters
 // once by importance-sampling the über-BSDF with Russian roulette. Absorbed photons and texels
-// that saw nothing are written with zero power.
+// that saw nothing are written with zero power. A light's caustic views (src/ispm.rs, "Caustic
+// views") subdivide the texels of its main views around mirrors and glass: a main texel and its
+// k × k caustic texels share its power, each direction counted once.
 #include "shared.glsl"
 #include "packing.glsl"
 #include "rng.glsl"
@@ -29,14 +31,25 @@ layout(push_constant) uniform Push {
     uint pad2;
 } push;
 
+// Whether light G-buffer texel `t` saw a surface of a material with a delta lobe (mirror or
+// refraction: Material::has_delta_lobe).
+bool first_hit_is_delta(ivec3 t) {
+    if (texelFetch(g_position, t, 0).w == 0.0) {
+        return false;
+    }
+    GpuMaterial m = materials[texelFetch(g_material, t, 0).x];
+    bool mirror = max(m.glossy.r, max(m.glossy.g, m.glossy.b)) > 0.0 && m.glossy.a >= 1e20;
+    return mirror || max(m.transmission.r, max(m.transmission.g, m.transmission.b)) > 0.0;
+}
+
 void main() {
     BounceView view = views[gl_GlobalInvocationID.z];
-    uint res = view.texels.x;
+    uvec2 size = view.texels.xy;
     uvec2 xy = gl_GlobalInvocationID.xy;
-    if (xy.x >= res || xy.y >= res) {
+    if (xy.x >= size.x || xy.y >= size.y) {
         return;
     }
-    uint index = view.texels.y + xy.y * res + xy.x;
+    uint index = view.texels.z + xy.y * size.x + xy.x;
     ivec3 texel = ivec3(xy, int(gl_GlobalInvocationID.z));
     BounceMapPhoton photon = BounceMapPhoton(vec3(0.0), vec3(0.0), 1.0, 0.0);
     vec4 pos = texelFetch(g_position, texel, 0);
@@ -45,25 +58,79 @@ void main() {
         return;
     }
     vec3 p = pos.xyz;
-    vec2 ndc = (vec2(xy) + 0.5) / float(res) * 2.0 - 1.0;
+    vec2 ndc = (vec2(xy) + 0.5) / vec2(size) * 2.0 - 1.0;
     vec4 near_h = view.inv_view_proj * vec4(ndc, 0.0, 1.0);
     vec3 near_point = near_h.xyz / near_h.w;
+    photon.depth = length(p - near_point);
 
-    vec3 travel;
+    // The texel centre on the view's plane (unit distance, or metres for orthographic views).
+    float side = view.params.x;
+    vec2 q = view.params.zw + (vec2(xy) + 0.5) * side;
+    vec3 travel = view.kind.x == LIGHT_DIRECTIONAL ? view.axis.xyz : normalize(p - view.light.xyz);
+    // Where the texel's solid angle and spot falloff are evaluated: its centre, or for a caustic
+    // view its parent texel's centre (q, and the direction to the parent's first hit).
+    vec3 emitted = travel;
+    // The part of the texel's power it carries: every direction counted once (src/ispm.rs,
+    // "Caustic views").
+    float part = 1.0;
+    if (view.kind.y == BOUNCE_VIEW_PARENT) {
+        if (first_hit_is_delta(texel)) {
+            part = 0.0;
+        } else {
+            // Its k × k texels in the caustic view that hit a delta material carry their share.
+            BounceView child = views[view.kind.z];
+            int k = int(round(side / child.params.x));
+            ivec2 origin = ivec2(round((child.params.zw - view.params.zw) / side));
+            ivec2 first = (ivec2(xy) - origin) * k;
+            ivec2 child_size = ivec2(child.texels.xy);
+            if (all(greaterThanEqual(first, ivec2(0))) && all(lessThan(first, child_size))) {
+                int hits = 0;
+                for (int j = 0; j < k; j++) {
+                    for (int i = 0; i < k; i++) {
+                        ivec3 t = ivec3(first + ivec2(i, j), int(view.kind.z));
+                        hits += first_hit_is_delta(t) ? 1 : 0;
+                    }
+                }
+                part = 1.0 - float(hits) / float(k * k);
+            }
+        }
+    } else if (view.kind.y == BOUNCE_VIEW_CAUSTIC) {
+        BounceView parent = views[view.kind.z];
+        // The parent texel holding this texel's centre (≥ 1/(2k) texels from its edges).
+        ivec2 at = ivec2(floor((q - parent.params.zw) / parent.params.x));
+        ivec3 parent_texel = ivec3(at, int(view.kind.z));
+        bool inside = all(greaterThanEqual(at, ivec2(0)))
+            && all(lessThan(at, ivec2(parent.texels.xy)));
+        if (!inside || !(first_hit_is_delta(texel) || first_hit_is_delta(parent_texel))) {
+            part = 0.0;
+        }
+        // 1/k² of the parent texel's power (side² = parent side² / k²), evaluated as the parent
+        // evaluates it (towards its own first hit), so that the split is exact.
+        q = parent.params.zw + (vec2(at) + 0.5) * parent.params.x;
+        vec4 parent_hit = texelFetch(g_position, parent_texel, 0);
+        if (parent_hit.w != 0.0) {
+            emitted = normalize(parent_hit.xyz - view.light.xyz);
+        } else {
+            vec2 parent_ndc = (vec2(at) + 0.5) / vec2(parent.texels.xy) * 2.0 - 1.0;
+            vec4 far_h = parent.inv_view_proj * vec4(parent_ndc, 1.0, 1.0);
+            emitted = normalize(far_h.xyz / far_h.w - view.light.xyz);
+        }
+    }
+    if (part <= 0.0) {
+        bounce_map[index] = bounce_map_photon_store(photon);
+        return;
+    }
+
     vec3 power;
-    if (view.params.y > 0.5) {
-        // Orthographic (directional): irradiance times the texel's area.
-        travel = view.axis.xyz;
-        power = view.intensity.rgb * view.params.x;
+    if (view.kind.x == LIGHT_DIRECTIONAL) {
+        // Orthographic: irradiance times the texel's area.
+        power = view.intensity.rgb * side * side * part;
     } else {
-        travel = normalize(p - view.light.xyz);
         // Solid angle of the texel: its area on the plane at unit distance, foreshortened.
-        vec2 q = ndc * view.params.x;
-        float side = 2.0 * view.params.x / float(res);
         float omega = side * side / pow(1.0 + dot(q, q), 1.5);
-        power = view.intensity.rgb * omega;
-        if (view.texels.z == LIGHT_SPOT) {
-            power *= spot_falloff_cos(view.intensity.w, view.axis.w, dot(view.axis.xyz, travel));
+        power = view.intensity.rgb * omega * part;
+        if (view.kind.x == LIGHT_SPOT) {
+            power *= spot_falloff_cos(view.intensity.w, view.axis.w, dot(view.axis.xyz, emitted));
         }
     }
 
@@ -81,6 +148,5 @@ void main() {
         photon.direction = pack_direction(s.wi, s.path_density_factor);
         photon.eta = s.eta;
     }
-    photon.depth = length(p - near_point);
     bounce_map[index] = bounce_map_photon_store(photon);
 }

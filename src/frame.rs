@@ -104,6 +104,9 @@ pub struct RenderSettings {
     /// The über-BSDF lobes compiled into every shader that evaluates it (default: all).
     /// `EffectsPlan::bsdf_variant` is the smallest one a scene renders exactly with.
     pub bsdf_variant: BsdfVariant,
+    /// Smallest share of each light's photons spent on its caustic views, the windows around
+    /// the mirrors and glass it lights (`ispm::CAUSTIC_SHARE`; 0: no caustic views).
+    pub caustic_share: f32,
 }
 
 impl Default for RenderSettings {
@@ -123,6 +126,7 @@ impl Default for RenderSettings {
             schedule: Schedule::Overlapped,
             effects: Effects::Auto,
             bsdf_variant: BsdfVariant::ALL,
+            caustic_share: crate::ispm::CAUSTIC_SHARE,
         }
     }
 }

@@ -3,16 +3,68 @@
 //! (§2, step 4).
 //!
 //! ```text
-//!   photons N ──► light L gets N·Φ_L/Φ_total ──► per view: res = ⌈√(N_L / views_L)⌉
+//!   photons N ──► light L gets N_L = N·Φ_L/Φ_total
+//!             ──► caustic share s_L ──► main views: res = ⌈√((1 − s_L)·N_L / (views_L·f_L))⌉
+//!                                   ──► caustic views: the casters' window, k² texels per texel
 //!   bounce map (GPU) ──readback──► texel ray + depth → hit point ──► trace_photons ──► photon map
 //! ```
 //!
 //! **Exact power.** A perspective texel carries I · Ω_texel · falloff, with Ω_texel the texel's
 //! area on the plane at unit distance foreshortened by (1 + x² + y²)^(-3/2). That is exact to
 //! second order; the per-light factor [`BouncePlan`] folds into the intensity makes the sum
-//! over all of a light's texels equal its exact flux (4πI for a point light, 2πI·∫falloff for a
-//! spot, E·area of the orthographic window for a directional light), so the photons a light
-//! emits always carry exactly its power, whatever the resolution ("rescaled for the rounding").
+//! over all of a light's main texels equal its exact flux (4πI for a point light, 2πI·∫falloff
+//! for a spot, E·area of the orthographic window for a directional light), so the photons a
+//! light emits always carry exactly its power, whatever the resolution ("rescaled for the
+//! rounding").
+//!
+//! **Spot cones.** A spot light's view is the square around its cone, so a fraction f_L < 1 of
+//! its texels (π/4 and less for the single view) lies inside the cone and carries power; the
+//! resolution is raised by 1/√f_L, measured on a probe grid, so that the texels *inside* the cone
+//! match the light's budget.
+//!
+//! # Caustic views (Jensen's projection maps, in image space)
+//!
+//! Photons matter most where they hit a delta material (mirror, glass: `Material::has_delta_lobe`)
+//! first: those become caustics, which the smallest kernels resolve, while a photon that hits a
+//! diffuse surface first adds to smooth indirect light (or leaves the scene). A view fitted to the
+//! whole scene spends few texels on small casters (1.8 % of the sun's view on `caustic-ring`), so
+//! each light whose views see delta instances gets, per main view that sees them, a **caustic
+//! view**: the rectangle of that view's texels holding the casters' projection, subdivided
+//! k × k. It shares the parent view's eye, projection and near and far planes (its
+//! matrix is the parent's followed by a 2D scale and offset in clip space), so its texels tile
+//! the parent's texels exactly:
+//!
+//! * a caustic-view texel whose own first hit is a delta material carries 1/k² of its parent
+//!   texel's power (the parent's solid angle and falloff, or its area);
+//! * a main-view texel (role `BOUNCE_VIEW_PARENT`) whose first hit is a delta material carries
+//!   nothing: its k² caustic texels carry all of its power, 1/k² each, including those whose own
+//!   first hit is not a delta material (role `BOUNCE_VIEW_CAUSTIC`);
+//! * any other main-view texel carries the fraction of its power that its caustic texels do not:
+//!   `1 − c`, `c` the fraction of them whose first hit is a delta material (it counts them).
+//!
+//! So every direction from the light is counted exactly once and each parent texel's power is
+//! split exactly: the bounce map still sums to the light's flux (tests/ispm.rs measures
+//! 10⁻⁹–10⁻⁷ relative). And the split is unbiased: the power that reaches the casters is
+//! measured at the caustic resolution in every parent texel, whatever its centre hit.
+//! (Simpler rules fail one way or the other. A caustic texel that kept power only for its own
+//! delta hit, with the parent zeroed only for its own, counts a texel on the casters' silhouette
+//! twice or not at all wherever the two rasterisations disagree: the flux is off by the order of
+//! the perimeter times a texel. One that kept power only inside a parent with a delta hit, the
+//! parent keeping all of its power otherwise, is exact but gives the casters c² instead of c of
+//! each silhouette texel: the ring's reflected power came out 5.5 % low on `caustic-ring`. And
+//! giving each caustic texel its own midpoint solid angle and falloff breaks the sum at second
+//! order in the texel size: 4·10⁻⁵ of a narrow spot's flux at 30k photons.)
+
+//! **Budget.** A light's caustic views get the share `s` of its photons ([`CAUSTIC_SHARE`] = ½
+//! unless the caller, `--caustic-share`, says otherwise), its main views the rest: the main
+//! resolution follows from `(1 − s)·N_L`, and the subdivision is `k = round(√(s·N_L / W))` for
+//! caster windows of `W` main texels, at most [`MAX_CAUSTIC_SUBDIVISION`] and [`MAX_RESOLUTION`]
+//! per side. If the windows cover the fraction `a` of the main texels, the casters are sampled
+//! `k² ≈ s/((1 − s)·a)` times as densely as the rest of the scene: 1/a at s = ½, 49× (k = 7) for
+//! the ring of `caustic-ring` (a = 1.8 %), for half of the light's photons taken from the surfaces
+//! that only receive diffuse light. Where `k` rounds below 2 (casters covering more than ≈ 45 %
+//! of the view at s = ½) the main views already sample them nearly as densely: the light keeps
+//! one set of views with its whole budget. `s = 0` turns caustic views off.
 
 use crate::layout::{BounceView, FrameUniforms, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
 use crate::lighting::LightSetup;
@@ -21,12 +73,25 @@ use crate::photon::rng::hash_vec3;
 use crate::photon::trace::PhotonState;
 use crate::photon::types::BounceMapPhoton;
 use crate::scene::{Aabb, LightKind, Scene};
+use crate::shared_constants::{BOUNCE_VIEW_CAUSTIC, BOUNCE_VIEW_PARENT, BOUNCE_VIEW_WHOLE};
 use glam::{DMat4, DVec2, DVec3, DVec4, UVec4, Vec4};
 
 /// Largest light-G-buffer resolution per view (texels per side).
 pub const MAX_RESOLUTION: u32 = 2048;
 
-/// The light views of one frame's photon emission.
+/// The share of a light's photons that its caustic views get when its views see delta instances
+/// (the default of `--caustic-share`; module docs, "Budget").
+pub const CAUSTIC_SHARE: f32 = 0.5;
+
+/// The largest subdivision k of a caustic view (k² caustic texels per main texel).
+pub const MAX_CAUSTIC_SUBDIVISION: u32 = 16;
+
+/// Texels per side of the probe grid that measures the fraction of a light's texels inside its
+/// cone.
+const PROBE: u32 = 64;
+
+/// The light views of one frame's photon emission: each light's main views, then its caustic
+/// views, light after light.
 #[derive(Clone, Debug, Default)]
 pub struct BouncePlan {
     pub views: Vec<BounceView>,
@@ -34,13 +99,51 @@ pub struct BouncePlan {
     pub view_matrices: Vec<DMat4>,
     /// The light G-buffer raster's uniforms, per view.
     pub uniforms: Vec<FrameUniforms>,
-    /// Texels per side of each view (0 for lights that get no photons).
-    pub resolutions: Vec<u32>,
-    pub max_resolution: u32,
-    /// Bounce-map records in all (Σ resolution²).
+    /// Texels (width, height) of each view ((0, 0) for lights that get no photons).
+    pub extents: Vec<(u32, u32)>,
+    /// The index in `scene.lights` of each view's light.
+    pub view_lights: Vec<usize>,
+    /// The largest width and the largest height of any view: the light G-buffer's layer size.
+    pub max_extent: (u32, u32),
+    /// Bounce-map records in all (Σ width·height).
     pub texels: usize,
+    /// Texels of the caustic views among them.
+    pub caustic_texels: usize,
     /// The camera position the matrices are relative to.
     pub camera: DVec3,
+    /// What the plan's lights may need when they move: see [`BouncePlan::capacity`].
+    reserve: Capacity,
+}
+
+/// The most light views, bounce-map texels and light-G-buffer layer size (width, height) a
+/// renderer's buffers hold.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Capacity {
+    pub views: usize,
+    pub texels: usize,
+    pub extent: (u32, u32),
+}
+
+impl Capacity {
+    /// Room for both.
+    pub fn max(self, other: Capacity) -> Capacity {
+        Capacity {
+            views: self.views.max(other.views),
+            texels: self.texels.max(other.texels),
+            extent: (
+                self.extent.0.max(other.extent.0),
+                self.extent.1.max(other.extent.1),
+            ),
+        }
+    }
+
+    /// Whether `plan` fits.
+    pub fn holds(&self, plan: &BouncePlan) -> bool {
+        plan.views.len() <= self.views
+            && plan.texels <= self.texels
+            && plan.max_extent.0 <= self.extent.0
+            && plan.max_extent.1 <= self.extent.1
+    }
 }
 
 fn unproject(inverse: &DMat4, ndc: DVec2, z: f64) -> DVec3 {
@@ -48,17 +151,132 @@ fn unproject(inverse: &DMat4, ndc: DVec2, z: f64) -> DVec3 {
     h.truncate() / h.w
 }
 
-/// NDC of the centre of texel (x, y) of a `res`² view (row 0 at NDC y = −1, as Vulkan).
-fn texel_ndc(x: u32, y: u32, res: u32) -> DVec2 {
-    let r = f64::from(res);
+/// NDC of the centre of texel (x, y) of a `width`×`height` view (row 0 at NDC y = −1, as
+/// Vulkan).
+fn texel_ndc(x: u32, y: u32, width: u32, height: u32) -> DVec2 {
     DVec2::new(
-        (f64::from(x) + 0.5) / r * 2.0 - 1.0,
-        (f64::from(y) + 0.5) / r * 2.0 - 1.0,
+        (f64::from(x) + 0.5) / f64::from(width) * 2.0 - 1.0,
+        (f64::from(y) + 0.5) / f64::from(height) * 2.0 - 1.0,
     )
 }
 
+/// An instance whose material has a delta lobe: its world-space vertices and their box.
+#[derive(Clone, Debug)]
+pub struct Caster {
+    pub vertices: Vec<DVec3>,
+    pub bounds: Aabb,
+}
+
+/// The instances of `scene` whose material has a delta lobe (mirror, glass).
+pub fn casters(scene: &Scene) -> Vec<Caster> {
+    let mut out = Vec::new();
+    for inst in &scene.instances {
+        let Some(mesh) = scene.meshes.get(inst.mesh) else {
+            continue;
+        };
+        let delta = scene
+            .materials
+            .get(mesh.material)
+            .is_some_and(|m| m.has_delta_lobe());
+        if !delta || mesh.positions.is_empty() {
+            continue;
+        }
+        let transform = inst.transform.as_dmat4();
+        let vertices: Vec<DVec3> = mesh
+            .positions
+            .iter()
+            .map(|p| transform.transform_point3(p.as_dvec3()))
+            .collect();
+        let mut bounds = Aabb::EMPTY;
+        for p in &vertices {
+            bounds.grow(p.as_vec3());
+        }
+        out.push(Caster { vertices, bounds });
+    }
+    out
+}
+
+/// The NDC rectangle of the view `m` (camera-relative world → clip) holding the projection of
+/// every caster, clamped to the view; `None` if none of them is in it. A caster wholly in front
+/// of the light's eye plane is bounded by its projected vertices (the mesh's convex hull); one
+/// reaching behind a perspective light by its box, whose edges are cut at w = ε, so that the
+/// rectangle widens to the view's edge instead of folding over.
+fn caster_rect(m: &DMat4, casters: &[Caster], camera: DVec3) -> Option<(DVec2, DVec2)> {
+    const EPS: f64 = 1e-9;
+    let mut lo = DVec2::splat(f64::INFINITY);
+    let mut hi = DVec2::splat(f64::NEG_INFINITY);
+    let mut add = |c: DVec4| {
+        let p = DVec2::new(c.x, c.y) / c.w;
+        lo = lo.min(p);
+        hi = hi.max(p);
+    };
+    for caster in casters {
+        let clip: Vec<DVec4> = caster
+            .vertices
+            .iter()
+            .map(|p| *m * (*p - camera).extend(1.0))
+            .collect();
+        if clip.iter().all(|c| c.w > EPS) {
+            clip.into_iter().for_each(&mut add);
+            continue;
+        }
+        let (min, max) = (caster.bounds.min.as_dvec3(), caster.bounds.max.as_dvec3());
+        let corners: [DVec4; 8] = std::array::from_fn(|i| {
+            let p = DVec3::new(
+                if i & 1 == 0 { min.x } else { max.x },
+                if i & 2 == 0 { min.y } else { max.y },
+                if i & 4 == 0 { min.z } else { max.z },
+            );
+            *m * (p - camera).extend(1.0)
+        });
+        for (i, a) in corners.iter().enumerate() {
+            if a.w > EPS {
+                add(*a);
+            }
+            for bit in [1, 2, 4] {
+                if i & bit != 0 {
+                    continue;
+                }
+                let b = corners[i | bit];
+                if (a.w > EPS) != (b.w > EPS) {
+                    let t = (EPS - a.w) / (b.w - a.w);
+                    add(*a + (b - *a) * t);
+                }
+            }
+        }
+    }
+    let (lo, hi) = (lo.max(DVec2::NEG_ONE), hi.min(DVec2::ONE));
+    (lo.x < hi.x && lo.y < hi.y).then_some((lo, hi))
+}
+
+/// The lights a plan is made for.
+#[derive(Clone, Copy)]
+struct LightsToPlan<'a> {
+    scene: &'a Scene,
+    active: &'a [bool],
+    camera: DVec3,
+    bounds: &'a Aabb,
+}
+
+/// A caustic view's window: texels `[i0, i1) × [j0, j1)` of its parent view.
+#[derive(Clone, Copy, Debug)]
+struct Window {
+    parent: usize,
+    i0: u32,
+    j0: u32,
+    i1: u32,
+    j1: u32,
+}
+
+impl Window {
+    fn texels(&self) -> usize {
+        ((self.i1 - self.i0) * (self.j1 - self.j0)) as usize
+    }
+}
+
 impl BouncePlan {
-    /// Plans `photons` photons over the lights of `scene` for a camera at `camera`.
+    /// Plans `photons` photons over the lights of `scene` for a camera at `camera`, with the
+    /// default caustic share.
     pub fn new(scene: &Scene, camera: DVec3, bounds: &Aabb, photons: usize) -> BouncePlan {
         Self::active(
             scene,
@@ -80,64 +298,238 @@ impl BouncePlan {
         bounds: &Aabb,
         photons: usize,
     ) -> BouncePlan {
+        Self::with_caustic_share(scene, active, camera, bounds, photons, CAUSTIC_SHARE)
+    }
+
+    /// [`BouncePlan::active`] with the caustic views' share `share` of each light's photons
+    /// (module docs, "Budget"; 0: no caustic views).
+    pub fn with_caustic_share(
+        scene: &Scene,
+        active: &[bool],
+        camera: DVec3,
+        bounds: &Aabb,
+        photons: usize,
+        share: f32,
+    ) -> BouncePlan {
+        let lights = LightsToPlan {
+            scene,
+            active,
+            camera,
+            bounds,
+        };
+        Self::plan(&lights, photons, share, MAX_CAUSTIC_SUBDIVISION)
+    }
+
+    /// [`BouncePlan::with_caustic_share`] for buffers of `capacity` (a renderer's, for lights
+    /// that moved): if the plan does not fit, its caustic views are subdivided less (k lowered
+    /// for every light) until it does, or dropped (their photons given to the main views if
+    /// those still fit, else not emitted). Fails if even the main views do not fit.
+    pub fn within(
+        scene: &Scene,
+        active: &[bool],
+        camera: DVec3,
+        bounds: &Aabb,
+        (photons, share): (usize, f32),
+        capacity: &Capacity,
+    ) -> anyhow::Result<BouncePlan> {
+        let lights = LightsToPlan {
+            scene,
+            active,
+            camera,
+            bounds,
+        };
+        for max_k in (2..=MAX_CAUSTIC_SUBDIVISION).rev() {
+            let plan = Self::plan(&lights, photons, share, max_k);
+            if capacity.holds(&plan) {
+                return Ok(plan);
+            }
+            if plan.caustic_texels == 0 {
+                break;
+            }
+        }
+        let plan = Self::plan(&lights, photons, 0.0, MAX_CAUSTIC_SUBDIVISION);
+        if capacity.holds(&plan) {
+            return Ok(plan);
+        }
+        let plan = Self::plan(&lights, photons, share, 0);
+        anyhow::ensure!(
+            capacity.holds(&plan),
+            "the lights need {} light views of up to {}×{} texels ({} in all), more than the {} \
+             views of {}×{} ({} texels) this renderer has",
+            plan.views.len(),
+            plan.max_extent.0,
+            plan.max_extent.1,
+            plan.texels,
+            capacity.views,
+            capacity.extent.0,
+            capacity.extent.1,
+            capacity.texels
+        );
+        Ok(plan)
+    }
+
+    /// What buffers for this plan need so that its lights can move without losing their caustic
+    /// views: every main view of a scene with mirrors or glass may gain one, holding at most
+    /// 16/9 of the light's caustic share (k is its density rounded, and at least 2), with 25 %
+    /// more width and height than its caustic views have now.
+    pub fn capacity(&self) -> Capacity {
+        self.reserve
+    }
+
+    fn plan(lights: &LightsToPlan, photons: usize, share: f32, max_k: u32) -> BouncePlan {
+        let LightsToPlan {
+            scene,
+            active,
+            camera,
+            bounds,
+        } = *lights;
         // Shadow views are the light G-buffer's views; with resolution 1 their texel parameter
         // is the full window: 2·tan(fov/2) (perspective) or 2·radius (orthographic).
         let setup = LightSetup::new(&scene.lights, camera, bounds, 1, 0);
         let budget = photon_budget_among(scene, photons, active);
+        let share = if share.is_finite() {
+            f64::from(share.clamp(0.0, 0.95))
+        } else {
+            0.0
+        };
+        let casters = if share > 0.0 {
+            casters(scene)
+        } else {
+            Vec::new()
+        };
         let mut plan = BouncePlan {
             camera,
             ..Default::default()
         };
         let lights = scene.lights.iter().zip(&setup.lights).zip(&budget);
-        for (i, ((light, gpu_light), &n)) in lights.enumerate() {
-            if active.get(i) != Some(&true) {
+        for (index, ((light, gpu_light), &n)) in lights.enumerate() {
+            if active.get(index) != Some(&true) {
                 continue;
             }
             let first = gpu_light.shadow.y as usize;
             let count = gpu_light.shadow.z as usize;
-            let res = if n == 0 || count == 0 {
-                0
-            } else {
-                ((n as f64 / count as f64).sqrt().ceil() as u32).clamp(1, MAX_RESOLUTION)
-            };
             let kind = gpu_light.shadow.x;
             let (cos_outer, cos_inner) = (gpu_light.direction.w, gpu_light.intensity.w);
             let axis = gpu_light.direction.truncate().as_dvec3();
             let ortho = kind == LIGHT_DIRECTIONAL;
-            // Σ over the light's texels of the per-texel weight the shader uses.
-            let mut sum = 0.0f64;
-            let mut params = Vec::with_capacity(count);
-            for v in first..first + count {
-                let m = setup.view_matrices[v];
-                let window = f64::from(setup.views[v].params.x);
-                let param = if ortho {
-                    (window / f64::from(res.max(1))).powi(2)
-                } else {
-                    window * 0.5
-                };
-                params.push(param);
-                if res == 0 {
-                    continue;
-                }
-                if ortho {
-                    sum += param * f64::from(res * res);
-                    continue;
-                }
-                let inverse = m.inverse();
-                let side = 2.0 * param / f64::from(res);
-                for y in 0..res {
-                    for x in 0..res {
-                        let ndc = texel_ndc(x, y, res);
-                        let q = ndc * param;
-                        let mut w = side * side / (1.0 + q.length_squared()).powf(1.5);
-                        if kind == LIGHT_SPOT {
-                            let dir = (unproject(&inverse, ndc, 1.0)
-                                - unproject(&inverse, ndc, 0.0))
-                            .normalize();
-                            w *=
-                                f64::from(spot_falloff(cos_inner, cos_outer, axis.dot(dir) as f32));
+            debug_assert!(kind == LIGHT_POINT || kind == LIGHT_SPOT || ortho);
+            let matrices: Vec<DMat4> = (first..first + count)
+                .map(|v| setup.view_matrices[v])
+                .collect();
+            let inverses: Vec<DMat4> = matrices.iter().map(DMat4::inverse).collect();
+            // Half the window: tan(fov/2) on the plane at unit distance, or metres (ortho).
+            let halves: Vec<f64> = (first..first + count)
+                .map(|v| f64::from(setup.views[v].params.x) * 0.5)
+                .collect();
+            let direction = |v: usize, ndc: DVec2| {
+                (unproject(&inverses[v], ndc, 1.0) - unproject(&inverses[v], ndc, 0.0)).normalize()
+            };
+            let in_cone = |v: usize, ndc: DVec2| {
+                kind != LIGHT_SPOT || axis.dot(direction(v, ndc)) > f64::from(cos_outer)
+            };
+            let rects: Vec<Option<(DVec2, DVec2)>> = matrices
+                .iter()
+                .map(|m| {
+                    if n > 0 && !casters.is_empty() {
+                        caster_rect(m, &casters, camera)
+                    } else {
+                        None
+                    }
+                })
+                .collect();
+            // The probe: the fraction of the main texels inside the cone.
+            let mut inside = 0usize;
+            if kind == LIGHT_SPOT {
+                for v in 0..count {
+                    for y in 0..PROBE {
+                        for x in 0..PROBE {
+                            inside += usize::from(in_cone(v, texel_ndc(x, y, PROBE, PROBE)));
                         }
-                        sum += w;
+                    }
+                }
+            } else {
+                inside = count * (PROBE * PROBE) as usize;
+            }
+            let probes = (count as u32 * PROBE * PROBE).max(1) as f64;
+            let useful = (inside.max(1) as f64 / probes).min(1.0);
+            let main_res = |s: f64| {
+                if n == 0 || count == 0 {
+                    0
+                } else {
+                    let texels = (1.0 - s) * n as f64 / (useful * count as f64);
+                    (texels.sqrt().ceil() as u32).clamp(1, MAX_RESOLUTION)
+                }
+            };
+            let wanted = if rects.iter().any(Option::is_some) {
+                share
+            } else {
+                0.0
+            };
+            let mut res = main_res(wanted);
+            // Each rectangle as whole texels of its view at `res`; windows holding no texel
+            // inside the cone are dropped (the casters are outside the light's reach).
+            let mut windows: Vec<Window> = Vec::new();
+            for (v, rect) in rects.iter().enumerate() {
+                let Some((lo, hi)) = rect else { continue };
+                let r = f64::from(res);
+                let to_texel = |ndc: f64| (ndc + 1.0) * 0.5 * r;
+                let w = Window {
+                    parent: v,
+                    i0: (to_texel(lo.x).floor().max(0.0) as u32).min(res),
+                    j0: (to_texel(lo.y).floor().max(0.0) as u32).min(res),
+                    i1: (to_texel(hi.x).ceil().max(0.0) as u32).min(res),
+                    j1: (to_texel(hi.y).ceil().max(0.0) as u32).min(res),
+                };
+                let reaches = (w.j0..w.j1)
+                    .any(|y| (w.i0..w.i1).any(|x| in_cone(v, texel_ndc(x, y, res, res))));
+                if w.i1 > w.i0 && w.j1 > w.j0 && reaches {
+                    windows.push(w);
+                }
+            }
+            let window_texels: usize = windows.iter().map(Window::texels).sum();
+            let longest = windows
+                .iter()
+                .map(|w| (w.i1 - w.i0).max(w.j1 - w.j0))
+                .max()
+                .unwrap_or(1);
+            let k = if window_texels > 0 {
+                let k = (wanted * n as f64 / window_texels as f64).sqrt().round() as u32;
+                k.clamp(1, max_k.clamp(1, MAX_CAUSTIC_SUBDIVISION))
+                    .min(MAX_RESOLUTION / longest)
+            } else {
+                0
+            };
+            if k < 2 && wanted > 0.0 {
+                // Casters that fill the light's view: its main views sample them densely
+                // enough, and get the whole budget (unless `max_k` = 0 took the caustic views
+                // away to fit a renderer's buffers).
+                windows.clear();
+                if max_k > 0 {
+                    res = main_res(0.0);
+                }
+            }
+
+            // The main views' per-texel weights, summed for the exact-flux normalisation.
+            let side = |v: usize| 2.0 * halves[v] / f64::from(res.max(1));
+            let mut sum = 0.0f64;
+            if res > 0 {
+                for (v, &half) in halves.iter().enumerate() {
+                    let side = side(v);
+                    if ortho {
+                        sum += side * side * f64::from(res * res);
+                        continue;
+                    }
+                    for y in 0..res {
+                        for x in 0..res {
+                            let ndc = texel_ndc(x, y, res, res);
+                            let q = ndc * half;
+                            let mut w = side * side / (1.0 + q.length_squared()).powf(1.5);
+                            if kind == LIGHT_SPOT {
+                                let cd = axis.dot(direction(v, ndc)) as f32;
+                                w *= f64::from(spot_falloff(cos_inner, cos_outer, cd));
+                            }
+                            sum += w;
+                        }
                     }
                 }
             }
@@ -154,38 +546,123 @@ impl BouncePlan {
             };
             let scale = if sum > 0.0 { exact / sum } else { 0.0 };
             let light_rel = (light.position.as_dvec3() - camera).as_vec3();
-            let seed = hash_vec3(light.position);
-            for (k, v) in (first..first + count).enumerate() {
-                let m = setup.view_matrices[v];
-                plan.views.push(BounceView {
-                    inv_view_proj: m.inverse().as_mat4(),
-                    light: light_rel.extend(0.0),
-                    axis: gpu_light.direction,
-                    intensity: (light.intensity * scale as f32).extend(cos_inner),
-                    params: Vec4::new(params[k] as f32, if ortho { 1.0 } else { 0.0 }, 0.0, 0.0),
-                    texels: UVec4::new(res, plan.texels as u32, kind, seed),
-                });
-                let viewer = if ortho {
-                    (-axis).as_vec3().extend(0.0)
-                } else {
-                    light_rel.extend(1.0)
+            let template = BounceView {
+                inv_view_proj: glam::Mat4::IDENTITY,
+                light: light_rel.extend(0.0),
+                axis: gpu_light.direction,
+                intensity: (light.intensity * scale as f32).extend(cos_inner),
+                params: Vec4::ZERO,
+                texels: UVec4::new(0, 0, 0, hash_vec3(light.position)),
+                kind: UVec4::new(kind, BOUNCE_VIEW_WHOLE, 0, 0),
+            };
+            let viewer = if ortho {
+                (-axis).as_vec3().extend(0.0)
+            } else {
+                light_rel.extend(1.0)
+            };
+            let first_view = plan.views.len();
+            for v in 0..count {
+                let child = windows.iter().position(|w| w.parent == v);
+                let (role, child) = match child {
+                    Some(c) => (BOUNCE_VIEW_PARENT, (first_view + count + c) as u32),
+                    None => (BOUNCE_VIEW_WHOLE, 0),
                 };
-                plan.uniforms.push(FrameUniforms {
-                    view_proj: m.as_mat4(),
-                    inv_view_proj: m.inverse().as_mat4(),
-                    camera_pos: camera.as_vec3().extend(1.0),
-                    counts: UVec4::new(0, 0, res, res),
-                    params: Vec4::ZERO,
-                    viewer,
-                });
-                plan.view_matrices.push(m);
-                plan.resolutions.push(res);
-                plan.texels += (res * res) as usize;
-                plan.max_resolution = plan.max_resolution.max(res);
+                let corner = -halves[v] as f32;
+                let view = BounceView {
+                    params: Vec4::new(side(v) as f32, 0.0, corner, corner),
+                    kind: UVec4::new(kind, role, child, 0),
+                    ..template
+                };
+                plan.push(matrices[v], view, (res, res), viewer, index);
             }
-            debug_assert!(kind == LIGHT_POINT || kind == LIGHT_SPOT || ortho);
+            for w in &windows {
+                let v = w.parent;
+                let r = f64::from(res);
+                let ndc = |t: u32| f64::from(t) / r * 2.0 - 1.0;
+                let (lo, hi) = (
+                    DVec2::new(ndc(w.i0), ndc(w.j0)),
+                    DVec2::new(ndc(w.i1), ndc(w.j1)),
+                );
+                // Clip space of the parent → clip space of the window: x' = s·(x − c·w).
+                let s = 2.0 / (hi - lo);
+                let c = 0.5 * (lo + hi);
+                let to_window = DMat4::from_cols(
+                    DVec4::new(s.x, 0.0, 0.0, 0.0),
+                    DVec4::new(0.0, s.y, 0.0, 0.0),
+                    DVec4::Z,
+                    DVec4::new(-s.x * c.x, -s.y * c.y, 0.0, 1.0),
+                );
+                let parent_side = side(v);
+                let view = BounceView {
+                    params: Vec4::new(
+                        (parent_side / f64::from(k)) as f32,
+                        0.0,
+                        (-halves[v] + f64::from(w.i0) * parent_side) as f32,
+                        (-halves[v] + f64::from(w.j0) * parent_side) as f32,
+                    ),
+                    kind: UVec4::new(kind, BOUNCE_VIEW_CAUSTIC, (first_view + v) as u32, 0),
+                    ..template
+                };
+                let extent = ((w.i1 - w.i0) * k, (w.j1 - w.j0) * k);
+                plan.push(to_window * matrices[v], view, extent, viewer, index);
+                plan.caustic_texels += (extent.0 * extent.1) as usize;
+                let grown = |t: u32| (t + t.div_ceil(4)).min(MAX_RESOLUTION);
+                let reserve = &mut plan.reserve.extent;
+                *reserve = (
+                    reserve.0.max(grown(extent.0)),
+                    reserve.1.max(grown(extent.1)),
+                );
+            }
+            if !casters.is_empty() && n > 0 {
+                plan.reserve.views += count;
+                plan.reserve.texels += (16.0 / 9.0 * share * n as f64).ceil() as usize;
+            }
         }
+        plan.reserve.views += plan.views.len() - plan.caustic_views();
+        plan.reserve.texels += plan.texels - plan.caustic_texels;
+        plan.reserve = plan.reserve.max(Capacity {
+            views: plan.views.len(),
+            texels: plan.texels,
+            extent: plan.max_extent,
+        });
         plan
+    }
+
+    /// How many of the views are caustic views.
+    pub fn caustic_views(&self) -> usize {
+        self.views
+            .iter()
+            .filter(|v| v.kind.y == BOUNCE_VIEW_CAUSTIC)
+            .count()
+    }
+
+    /// Appends a view: its bounce-map range, uniforms and bookkeeping.
+    fn push(
+        &mut self,
+        m: DMat4,
+        mut view: BounceView,
+        (width, height): (u32, u32),
+        viewer: Vec4,
+        light: usize,
+    ) {
+        view.inv_view_proj = m.inverse().as_mat4();
+        view.texels.x = width;
+        view.texels.y = height;
+        view.texels.z = self.texels as u32;
+        self.views.push(view);
+        self.uniforms.push(FrameUniforms {
+            view_proj: m.as_mat4(),
+            inv_view_proj: m.inverse().as_mat4(),
+            camera_pos: self.camera.as_vec3().extend(1.0),
+            counts: UVec4::new(0, 0, width, height),
+            params: Vec4::ZERO,
+            viewer,
+        });
+        self.view_matrices.push(m);
+        self.extents.push((width, height));
+        self.view_lights.push(light);
+        self.texels += (width * height) as usize;
+        self.max_extent = (self.max_extent.0.max(width), self.max_extent.1.max(height));
     }
 
     /// The photons to continue on the CPU: every bounce-map record with power, placed at the
@@ -193,22 +670,22 @@ impl BouncePlan {
     pub fn photon_starts(&self, bounce_map: &[BounceMapPhoton]) -> Vec<PhotonState> {
         let mut starts = Vec::new();
         for (v, view) in self.views.iter().enumerate() {
-            let res = view.texels.x;
-            if res == 0 {
+            let (width, height) = (view.texels.x, view.texels.y);
+            if width == 0 || height == 0 {
                 continue;
             }
             let inverse = self.view_matrices[v].inverse();
-            let offset = view.texels.y as usize;
-            for y in 0..res {
-                for x in 0..res {
-                    let Some(p) = bounce_map.get(offset + (y * res + x) as usize) else {
+            let offset = view.texels.z as usize;
+            for y in 0..height {
+                for x in 0..width {
+                    let Some(p) = bounce_map.get(offset + (y * width + x) as usize) else {
                         continue;
                     };
                     if p.power.max_element().partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
                     {
                         continue;
                     }
-                    let ndc = texel_ndc(x, y, res);
+                    let ndc = texel_ndc(x, y, width, height);
                     let near = unproject(&inverse, ndc, 0.0);
                     let dir = (unproject(&inverse, ndc, 1.0) - near).normalize();
                     let hit = near + dir * f64::from(p.depth) + self.camera;
@@ -266,8 +743,8 @@ mod tests {
         assert_eq!(plan.views.len(), 7);
         // Every light gets about its share; the realised texels are at least the budget.
         let budget = photon_budget(&scene, 60_000);
-        let point_texels: u32 = plan.resolutions[..6].iter().map(|r| r * r).sum();
-        let spot_texels = plan.resolutions[6] * plan.resolutions[6];
+        let point_texels: u32 = plan.extents[..6].iter().map(|(w, h)| w * h).sum();
+        let spot_texels = plan.extents[6].0 * plan.extents[6].1;
         assert!(
             point_texels as usize >= budget[0],
             "{point_texels} < {}",
@@ -280,10 +757,58 @@ mod tests {
         );
         let mut offset = 0;
         for v in &plan.views {
-            assert_eq!(v.texels.y as usize, offset);
-            offset += (v.texels.x * v.texels.x) as usize;
+            assert_eq!(v.texels.z as usize, offset);
+            offset += (v.texels.x * v.texels.y) as usize;
         }
         assert_eq!(plan.texels, offset);
+        assert_eq!(plan.view_lights, vec![0, 0, 0, 0, 0, 0, 1]);
+        // No mirror or glass: no caustic view, every view keeps all of its texels.
+        assert_eq!(plan.caustic_texels, 0);
+        assert!(plan.views.iter().all(|v| v.kind.y == BOUNCE_VIEW_WHOLE));
+    }
+
+    /// Texels of view `v` of `plan` whose centre direction lies inside the spot's outer cone.
+    fn texels_in_cone(plan: &BouncePlan, v: usize, axis: DVec3, outer: f64) -> usize {
+        let (w, h) = plan.extents[v];
+        let inverse = plan.view_matrices[v].inverse();
+        let mut n = 0;
+        for y in 0..h {
+            for x in 0..w {
+                let ndc = texel_ndc(x, y, w, h);
+                let d = unproject(&inverse, ndc, 1.0) - unproject(&inverse, ndc, 0.0);
+                n += usize::from(d.normalize().dot(axis) > outer.cos());
+            }
+        }
+        n
+    }
+
+    #[test]
+    fn a_spot_lights_texels_inside_its_cone_match_its_budget() {
+        // One view (outer cone 0.5) and a cube of six (outer cone 1.3).
+        for outer in [0.5f32, 1.3] {
+            let spot = Light {
+                name: "s".into(),
+                kind: LightKind::Spot {
+                    inner_cone_angle: outer * 0.6,
+                    outer_cone_angle: outer,
+                },
+                position: Vec3::ZERO,
+                direction: Vec3::new(0.3, -1.0, 0.2).normalize(),
+                intensity: Vec3::ONE,
+            };
+            let axis = spot.direction.as_dvec3();
+            let scene = scene_with(vec![spot]);
+            let plan = BouncePlan::new(&scene, DVec3::ZERO, &scene.bounds(), 40_000);
+            let inside: usize = (0..plan.views.len())
+                .map(|v| texels_in_cone(&plan, v, axis, f64::from(outer)))
+                .sum();
+            // Within the probe's accuracy and the rounding of the resolution.
+            assert!(
+                (40_000..43_000).contains(&inside),
+                "outer {outer}: {inside} texels inside the cone of {} (budget 40000)",
+                plan.texels
+            );
+        }
     }
 
     #[test]
@@ -293,9 +818,9 @@ mod tests {
         let all = BouncePlan::new(&scene, camera, &scene.bounds(), 60_000);
         let spot_only = BouncePlan::active(&scene, &[false, true], camera, &scene.bounds(), 60_000);
         assert_eq!(spot_only.views.len(), 1);
-        let res = spot_only.resolutions[0];
+        let res = spot_only.extents[0].0;
         assert!(res * res >= 60_000, "{res}² < the whole budget");
-        assert!(res > all.resolutions[6], "the spot got no more photons");
+        assert!(res > all.extents[6].0, "the spot got no more photons");
         // The same light, the same seed and window: only the resolution changed.
         assert_eq!(spot_only.views[0].texels.w, all.views[6].texels.w);
         assert_eq!(spot_only.view_matrices[0], all.view_matrices[6]);
@@ -316,7 +841,7 @@ mod tests {
         let scene = scene_with(vec![light]);
         let camera = DVec3::new(1.0, 2.0, 5.0);
         let plan = BouncePlan::new(&scene, camera, &scene.bounds(), 600);
-        let res = plan.resolutions[0];
+        let res = plan.extents[0].0;
         let mut map = vec![
             BounceMapPhoton {
                 power: Vec3::ZERO,
@@ -341,5 +866,226 @@ mod tests {
             "{}",
             from_light.length()
         );
+    }
+
+    /// A 2 m diffuse floor at y = 0 with a mirror ball of radius `r` at `centre`.
+    fn floor_and_mirror_ball(centre: Vec3, r: f32, lights: Vec<Light>) -> Scene {
+        let floor = crate::photon::shapes::grid(4, |_, _| 0.0);
+        let mut ball = crate::photon::shapes::icosphere(2);
+        ball.material = 1;
+        let mut s = crate::photon::shapes::scene_of(vec![
+            (floor, glam::Mat4::from_scale(Vec3::splat(2.0))),
+            (
+                ball,
+                glam::Mat4::from_scale_rotation_translation(
+                    Vec3::splat(r),
+                    glam::Quat::IDENTITY,
+                    centre,
+                ),
+            ),
+        ]);
+        s.materials.push(crate::scene::Material {
+            lambertian: Vec3::ZERO,
+            glossy: Vec3::ONE,
+            exponent: f32::INFINITY,
+            ..Default::default()
+        });
+        s.lights = lights;
+        s
+    }
+
+    fn sun() -> Light {
+        Light {
+            name: "sun".into(),
+            kind: LightKind::Directional,
+            position: Vec3::ZERO,
+            direction: Vec3::new(-0.6, -0.8, 0.1).normalize(),
+            intensity: Vec3::splat(2.0),
+        }
+    }
+
+    /// NDC of world point `p` in view `v` of `plan`.
+    fn project(plan: &BouncePlan, v: usize, p: Vec3) -> glam::DVec3 {
+        let c = plan.view_matrices[v] * (p.as_dvec3() - plan.camera).extend(1.0);
+        c.truncate() / c.w
+    }
+
+    #[test]
+    fn a_small_mirror_under_the_sun_gets_a_caustic_view_nested_in_the_main_view() {
+        let scene = floor_and_mirror_ball(Vec3::new(0.3, 0.3, -0.2), 0.3, vec![sun()]);
+        let camera = DVec3::new(0.5, 1.0, 2.0);
+        let photons = 50_000;
+        let plan = BouncePlan::new(&scene, camera, &scene.bounds(), photons);
+        assert_eq!(plan.views.len(), 2, "{:?}", plan.extents);
+        let (main, caustic) = (&plan.views[0], &plan.views[1]);
+        assert_eq!(main.kind.y, BOUNCE_VIEW_PARENT);
+        assert_eq!(caustic.kind.y, BOUNCE_VIEW_CAUSTIC);
+        assert_eq!(caustic.kind.z, 0, "the parent is the main view");
+        assert_eq!(plan.view_lights, vec![0, 0]);
+        // The same light, seed and normalisation.
+        assert_eq!(main.intensity, caustic.intensity);
+        assert_eq!(main.texels.w, caustic.texels.w);
+        // Whole parent texels, each split k × k: the corner sits on the parent's texel grid.
+        let k = (main.params.x / caustic.params.x).round();
+        assert!(k >= 2.0, "k = {k}");
+        assert!((main.params.x / caustic.params.x - k).abs() < 1e-4);
+        for axis in [2, 3] {
+            let i0 = (caustic.params[axis] - main.params[axis]) / main.params.x;
+            assert!(
+                (i0 - i0.round()).abs() < 1e-3,
+                "corner at {i0} parent texels"
+            );
+        }
+        let (w, h) = plan.extents[1];
+        assert!(w % k as u32 == 0 && h % k as u32 == 0, "{w}×{h}, k {k}");
+        // Half of the budget, up to the rounding of k.
+        let share = plan.caustic_texels as f64 / photons as f64;
+        assert!((0.35..0.7).contains(&share), "caustic share {share}");
+        // The ball projects into the window, and the window is tight around it: it covers a
+        // few percent of the main view, and the ball's silhouette reaches within a parent
+        // texel of its edges (the ball spans ≈ 17 main texels).
+        let mut lo = glam::DVec2::splat(f64::INFINITY);
+        let mut hi = -lo;
+        for p in &scene.meshes[1].positions {
+            let world = scene.instances[1].transform.transform_point3(*p);
+            let ndc = project(&plan, 1, world);
+            assert!(
+                ndc.x.abs() <= 1.0 && ndc.y.abs() <= 1.0,
+                "{world} outside: {ndc}"
+            );
+            lo = lo.min(ndc.truncate());
+            hi = hi.max(ndc.truncate());
+        }
+        assert!(
+            (hi - lo).min_element() > 1.5,
+            "window not tight: ball spans {lo}..{hi}"
+        );
+        let area = f64::from(w * h) / f64::from(k * k) / f64::from(plan.extents[0].0.pow(2));
+        assert!(area < 0.02, "window covers {area} of the main view");
+    }
+
+    #[test]
+    fn a_point_light_gets_caustic_views_on_the_faces_that_see_the_mirror_only() {
+        // Point light just above the ball's top: the ball spans the −Y face and its four
+        // neighbours (not +Y).
+        let light = Light {
+            name: "p".into(),
+            kind: LightKind::Point,
+            position: Vec3::new(0.0, 0.25, 0.0),
+            direction: Vec3::NEG_Y,
+            intensity: Vec3::ONE,
+        };
+        let scene = floor_and_mirror_ball(Vec3::new(0.0, 0.12, 0.0), 0.1, vec![light]);
+        let plan = BouncePlan::new(&scene, DVec3::ZERO, &scene.bounds(), 60_000);
+        let roles: Vec<u32> = plan.views.iter().map(|v| v.kind.y).collect();
+        assert_eq!(&roles[..6], &[1, 1, 0, 1, 1, 1], "{roles:?}");
+        let parents: Vec<u32> = plan.views[6..].iter().map(|v| v.kind.z).collect();
+        assert_eq!(parents, vec![0, 1, 3, 4, 5]);
+        assert!(plan.views[6..]
+            .iter()
+            .all(|v| v.kind.y == BOUNCE_VIEW_CAUSTIC));
+    }
+
+    #[test]
+    fn no_caustic_view_where_the_light_cannot_reach_the_mirror_or_the_share_is_zero() {
+        let spot = Light {
+            name: "s".into(),
+            kind: LightKind::Spot {
+                inner_cone_angle: 0.2,
+                outer_cone_angle: 0.3,
+            },
+            position: Vec3::new(-0.8, 1.0, 0.0),
+            direction: Vec3::NEG_Y,
+            intensity: Vec3::ONE,
+        };
+        // The ball is 45° off the spot's axis, outside its 0.3 rad cone (and its view).
+        let scene = floor_and_mirror_ball(Vec3::new(0.2, 0.1, 0.0), 0.1, vec![spot]);
+        let plan = BouncePlan::new(&scene, DVec3::ZERO, &scene.bounds(), 20_000);
+        assert_eq!(plan.views.len(), 1);
+        assert_eq!(plan.views[0].kind.y, BOUNCE_VIEW_WHOLE);
+        let lit = floor_and_mirror_ball(Vec3::new(0.2, 0.1, 0.0), 0.1, vec![sun()]);
+        let all = [true];
+        let off =
+            BouncePlan::with_caustic_share(&lit, &all, DVec3::ZERO, &lit.bounds(), 20_000, 0.0);
+        assert_eq!(off.views.len(), 1);
+        assert_eq!(off.views[0].kind.y, BOUNCE_VIEW_WHOLE);
+        assert!(off.texels >= 20_000);
+        let on = BouncePlan::new(&lit, DVec3::ZERO, &lit.bounds(), 20_000);
+        assert_eq!(on.views.len(), 2);
+    }
+
+    #[test]
+    fn a_mirror_that_fills_the_lights_view_gets_no_caustic_view() {
+        // A narrow spot aimed at a big ball right below it: the ball covers the whole view.
+        let spot = Light {
+            name: "s".into(),
+            kind: LightKind::Spot {
+                inner_cone_angle: 0.1,
+                outer_cone_angle: 0.2,
+            },
+            position: Vec3::new(0.0, 1.2, 0.0),
+            direction: Vec3::NEG_Y,
+            intensity: Vec3::ONE,
+        };
+        let scene = floor_and_mirror_ball(Vec3::new(0.0, 0.5, 0.0), 0.5, vec![spot]);
+        let plan = BouncePlan::new(&scene, DVec3::ZERO, &scene.bounds(), 20_000);
+        assert_eq!(plan.views.len(), 1, "{:?}", plan.extents);
+        assert_eq!(plan.views[0].kind.y, BOUNCE_VIEW_WHOLE);
+    }
+
+    #[test]
+    fn moved_lights_keep_their_caustic_views_within_the_capacity_reserved_for_them() {
+        let scene = floor_and_mirror_ball(Vec3::new(0.3, 0.3, -0.2), 0.3, vec![sun()]);
+        let (camera, bounds, all) = (DVec3::ZERO, scene.bounds(), [true]);
+        let plan = BouncePlan::new(&scene, camera, &bounds, 50_000);
+        let capacity = plan.capacity();
+        assert!(capacity.holds(&plan));
+        // Room for a caustic view per main view, and for 16/9 of the caustic share.
+        assert_eq!(capacity.views, 2);
+        assert!(capacity.texels >= plan.texels - plan.caustic_texels + 44_444);
+        // The sun turns by a few degrees: the caustic view changes size, and still fits.
+        for degrees in [-6.0f32, -3.0, 3.0, 6.0] {
+            let mut moved = scene.clone();
+            let turn = glam::Quat::from_rotation_y(degrees.to_radians());
+            moved.lights[0].direction = turn * moved.lights[0].direction;
+            let free = BouncePlan::new(&moved, camera, &bounds, 50_000);
+            let within =
+                BouncePlan::within(&moved, &all, camera, &bounds, (50_000, 0.5), &capacity)
+                    .expect("fits");
+            assert!(capacity.holds(&free), "{degrees}°: {:?}", free.extents);
+            assert_eq!(within.extents, free.extents, "{degrees}°");
+        }
+        // Buffers with room for a quarter of the caustic view: k is lowered until it fits.
+        let main = plan.texels - plan.caustic_texels;
+        let small = Capacity {
+            texels: main + plan.caustic_texels / 4,
+            ..capacity
+        };
+        let fitted = BouncePlan::within(&scene, &all, camera, &bounds, (50_000, 0.5), &small)
+            .expect("fits with a smaller k");
+        assert!(small.holds(&fitted));
+        assert!(fitted.caustic_texels > 0 && fitted.caustic_texels <= plan.caustic_texels / 4);
+        assert_eq!(
+            fitted.extents[0], plan.extents[0],
+            "the main view is unchanged"
+        );
+        // No room for the caustic view at all: it goes, and the main view keeps its size (the
+        // whole budget would not fit either).
+        let tiny = Capacity {
+            texels: main,
+            ..capacity
+        };
+        let alone = BouncePlan::within(&scene, &all, camera, &bounds, (50_000, 0.5), &tiny)
+            .expect("the main view fits");
+        assert_eq!(alone.extents, vec![plan.extents[0]]);
+        assert_eq!(alone.views[0].kind.y, BOUNCE_VIEW_WHOLE);
+        // No room for the main view: an error naming the sizes.
+        let none = Capacity {
+            texels: main - 1,
+            ..capacity
+        };
+        let err = BouncePlan::within(&scene, &all, camera, &bounds, (50_000, 0.5), &none)
+            .expect_err("the main view needs more texels");
+        assert!(err.to_string().contains("light views"), "{err}");
     }
 }

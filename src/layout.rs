@@ -34,13 +34,15 @@ pub struct BounceView {
     pub intensity: Vec4,
     pub params: Vec4,
     pub texels: UVec4,
+    pub kind: UVec4,
 }
-const _: () = assert!(size_of::<BounceView>() == 144);
+const _: () = assert!(size_of::<BounceView>() == 160);
 const _: () = assert!(offset_of!(BounceView, light) == 64);
 const _: () = assert!(offset_of!(BounceView, axis) == 80);
 const _: () = assert!(offset_of!(BounceView, intensity) == 96);
 const _: () = assert!(offset_of!(BounceView, params) == 112);
 const _: () = assert!(offset_of!(BounceView, texels) == 128);
+const _: () = assert!(offset_of!(BounceView, kind) == 144);
 
 /// `GpuMaterial` (storage buffer, std430).
 #[repr(C)]
@@ -163,7 +165,8 @@ pub const SHARED_LAYOUTS: &[LayoutDescription] = &[
         axis,
         intensity,
         params,
-        texels
+        texels,
+        kind
     }),
     describe!(GpuMaterial {
         lambertian,

@@ -203,6 +203,19 @@ struct RenderArgs {
     /// (N is clamped to the image size; 1: full resolution).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
     subsample: u32,
+    /// Smallest share (0 to 0.95) of each light's photons spent on its caustic views: windows
+    /// of its views around the mirrors and glass it lights, at a higher texel density (0: none).
+    #[arg(long, default_value_t = ispm::ispm::CAUSTIC_SHARE, value_parser = parse_share)]
+    caustic_share: f32,
+}
+
+fn parse_share(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if (0.0..=0.95).contains(&v) => Ok(v),
+        _ => Err(format!(
+            "caustic share {s:?} is not a number from 0 to 0.95"
+        )),
+    }
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -385,6 +398,7 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
         subsample: args.subsample,
         schedule: args.schedule,
         effects: args.effects,
+        caustic_share: args.caustic_share,
         ..Default::default()
     };
     if args.trace.is_some() {

@@ -5,7 +5,7 @@
 use crate::frame::{FrameStats, RenderSettings};
 use crate::gpu::{vk, Access, Buffer, Cmd, Gpu, Image, MemoryLocation, QueueRole, ViewKind};
 use crate::gpu_scene::GpuScene;
-use crate::ispm::BouncePlan;
+use crate::ispm::{BouncePlan, Capacity};
 use crate::passes::bounce_map::{BounceMapIo, BounceMapPass};
 use crate::passes::composite::CompositePass;
 use crate::passes::eye_gbuffer::GBuffer;
@@ -26,10 +26,11 @@ pub struct PhotonFrame {
     scene: Scene,
     bvh: SceneBvh,
     plan: BouncePlan,
-    /// The light views, texels and light-G-buffer resolution the buffers hold.
-    capacity: (usize, usize, u32),
-    /// Photons per frame and the scene's bounds: what the plan is made from.
-    budget: usize,
+    /// The light views, texels and light-G-buffer layer size the buffers hold.
+    capacity: Capacity,
+    /// Photons per frame, the caustic views' share of them and the scene's bounds: what the
+    /// plan is made from.
+    budget: (usize, f32),
     bounds: crate::scene::Aabb,
     trace: TraceSettings,
     kernel: KernelSettings,
@@ -112,20 +113,22 @@ impl PhotonFrame {
         } = *targets;
         let camera = scene.camera.position().as_dvec3();
         let active = effects.photon_mask();
-        let plan = BouncePlan::active(scene, &active, camera, &gpu_scene.bounds, settings.photons);
-        // Room for every light too: `set_lights` may bring back a light the plan skips now.
-        let every = BouncePlan::new(scene, camera, &gpu_scene.bounds, settings.photons);
-        let capacity = (
-            plan.views.len().max(every.views.len()).max(1),
-            plan.texels.max(every.texels).max(1),
-            plan.max_resolution.max(every.max_resolution).max(1),
-        );
-        let (views, texels, res) = capacity;
+        let budget = (settings.photons, settings.caustic_share);
+        let plan_for = |active: &[bool]| {
+            let bounds = &gpu_scene.bounds;
+            BouncePlan::with_caustic_share(scene, active, camera, bounds, budget.0, budget.1)
+        };
+        let plan = plan_for(&active);
+        // Room for every light too: `set_lights` may bring back a light the plan skips now,
+        // and move lights (caustic views change size: `BouncePlan::capacity`).
+        let every = plan_for(&vec![true; scene.lights.len()]);
+        let capacity = plan.capacity().max(every.capacity());
+        let (views, texels) = (capacity.views.max(1), capacity.texels.max(1));
         let light_gbuffer = GBuffer::new(
             gpu,
             "light_gbuffer",
-            res,
-            res,
+            capacity.extent.0.max(1),
+            capacity.extent.1.max(1),
             views as u32,
             ViewKind::D2Array,
         )?;
@@ -212,7 +215,7 @@ impl PhotonFrame {
             ),
             plan,
             capacity,
-            budget: settings.photons,
+            budget,
             bounds: gpu_scene.bounds,
             light_gbuffer,
             light_pass,
@@ -235,9 +238,10 @@ impl PhotonFrame {
     }
 
     /// Moves the lights (same lights, new transforms or powers; `active`: the effects plan's
-    /// photon mask for them): the next frame's bounce map starts from them. Fails if the new
-    /// lights need more light views, texels or a larger light G-buffer than the renderer was
-    /// created with.
+    /// photon mask for them): the next frame's bounce map starts from them. Caustic views are
+    /// subdivided less if they would not fit the buffers (`BouncePlan::within`); fails if the
+    /// new lights' main views need more light views, texels or a larger light G-buffer than the
+    /// renderer was created with.
     pub fn set_lights(
         &mut self,
         lights: &[crate::scene::Light],
@@ -245,21 +249,9 @@ impl PhotonFrame {
     ) -> anyhow::Result<()> {
         let mut scene = self.scene.clone();
         scene.lights = lights.to_vec();
-        let plan = BouncePlan::active(&scene, active, self.plan.camera, &self.bounds, self.budget);
-        let (views, texels, resolution) = self.capacity;
-        let fits =
-            plan.views.len() <= views && plan.texels <= texels && plan.max_resolution <= resolution;
-        anyhow::ensure!(
-            fits,
-            "the moved lights need {} light views of up to {}² texels ({} in all), more than the \
-             {} views of {}² ({} texels) this renderer has",
-            plan.views.len(),
-            plan.max_resolution,
-            plan.texels,
-            views,
-            resolution,
-            texels
-        );
+        let camera = self.plan.camera;
+        let bounds = &self.bounds;
+        let plan = BouncePlan::within(&scene, active, camera, bounds, self.budget, &self.capacity)?;
         self.scene.lights = scene.lights;
         self.plan = plan;
         Ok(())
@@ -293,13 +285,8 @@ impl PhotonFrame {
         let draws = vec![relative; plan.views.len()];
         {
             let _scope = cmd.scope("light_gbuffers");
-            self.light_pass.record(
-                cmd,
-                scene,
-                &draws,
-                &plan.resolutions,
-                &mut self.light_gbuffer,
-            );
+            self.light_pass
+                .record(cmd, scene, &draws, &plan.extents, &mut self.light_gbuffer);
         }
         let io = BounceMapIo {
             materials: &scene.materials,
@@ -310,7 +297,7 @@ impl PhotonFrame {
         self.bounce_pass.record(
             cmd,
             &io,
-            plan.max_resolution,
+            plan.max_extent,
             plan.views.len() as u32,
             self.trace.seed,
         );
@@ -454,6 +441,11 @@ impl PhotonFrame {
             }
         }
         self.composite.record(cmd, &self.indirect, radiance);
+    }
+
+    /// The light views the bounce map is made of.
+    pub fn plan(&self) -> &BouncePlan {
+        &self.plan
     }
 
     /// The last frame's bounce map, one record per light-G-buffer texel.

@@ -37,3 +37,13 @@ pub const GLOSSY_EXPONENT_MAX: f32 = 1.0e6;
 pub const SPEC_ID_GLOSSY_LOBE: u32 = 0;
 // Delta lobes: perfect mirror and refraction.
 pub const SPEC_ID_DELTA_LOBES: u32 = 1;
+
+// Roles of a light view in the bounce map (`BounceView.kind.y`; caustic views, src/ispm.rs).
+// Every texel carries its photon.
+pub const BOUNCE_VIEW_WHOLE: u32 = 0;
+// A main view with a caustic view: a texel whose first hit is a delta material carries nothing;
+// another carries the part of its power that its texels in the caustic view do not take.
+pub const BOUNCE_VIEW_PARENT: u32 = 1;
+// A caustic view: a texel carries 1/k² of its parent texel's power if its own first hit or its
+// parent's is a delta material.
+pub const BOUNCE_VIEW_CAUSTIC: u32 = 2;

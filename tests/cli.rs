@@ -72,6 +72,53 @@ fn render_to_an_unknown_format_or_missing_folder_fails_cleanly() {
 }
 
 #[test]
+fn caustic_share_multiplies_the_rings_stored_photons_and_rejects_out_of_range_values() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let stored = |share: &str| {
+        let (png, json) = (dir.path().join("ring.png"), dir.path().join("ring.json"));
+        let out = ispm(&[
+            "render",
+            "caustic-ring",
+            "--size",
+            "32x32",
+            "--photons",
+            "20000",
+            "--caustic-share",
+            share,
+            "-o",
+            png.to_str().expect("utf8"),
+            "--stats",
+            json.to_str().expect("utf8"),
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let stats: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).expect("stats")).expect("json");
+        stats["stored_photons"].as_u64().expect("stored_photons")
+    };
+    let (off, on) = (stored("0"), stored("0.5"));
+    assert!(
+        on >= 10 * off,
+        "{on} photons stored with caustic views, {off} without"
+    );
+    let bad = dir.path().join("bad.png");
+    for share in ["1.5", "-0.1", "half"] {
+        let arg = format!("--caustic-share={share}");
+        let out = ispm(&["render", &arg, "-o", bad.to_str().expect("utf8")]);
+        assert!(!out.status.success(), "{arg} accepted");
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains("caustic share"),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(!bad.exists());
+    }
+}
+
+#[test]
 fn render_writes_png_and_exr_of_the_default_scene_validation_clean() {
     let dir = tempfile::tempdir().expect("tempdir");
     for name in ["out.png", "out.exr"] {

@@ -216,26 +216,193 @@ fn bounce_map_power_sums_to_a_point_lights_flux() {
 
 #[test]
 fn bounce_map_power_sums_to_a_spot_lights_flux() {
+    // One view and a cube of six; without and with a mirror ball in the cone (caustic views).
     for (inner, outer) in [(0.2, 0.4), (0.9, 1.3)] {
-        let mut scene = scenes::grey_box(1.0, 1.0);
-        scene.lights = vec![Light {
-            name: "spot".into(),
-            kind: LightKind::Spot {
-                inner_cone_angle: inner,
-                outer_cone_angle: outer,
-            },
-            position: Vec3::new(0.0, 0.5, 0.0),
-            direction: Vec3::new(0.2, -1.0, 0.1).normalize(),
-            intensity: Vec3::splat(3.0),
-        }];
-        let total = bounce_map_power(&scene);
-        let flux =
-            3.0 * std::f32::consts::TAU * ispm::photon::emit::spot_falloff_integral(inner, outer);
-        assert!(
-            ((total.x - flux) / flux).abs() < 1e-4,
-            "cone {inner}..{outer}: {total} vs {flux}"
-        );
+        for ball in [false, true] {
+            let mut scene = scenes::grey_box(1.0, 1.0);
+            let direction = Vec3::new(0.2, -1.0, 0.1).normalize();
+            scene.lights = vec![Light {
+                name: "spot".into(),
+                kind: LightKind::Spot {
+                    inner_cone_angle: inner,
+                    outer_cone_angle: outer,
+                },
+                position: Vec3::new(0.0, 0.5, 0.0),
+                direction,
+                intensity: Vec3::splat(3.0),
+            }];
+            if ball {
+                scene = with_mirror_ball(scene, Vec3::new(0.0, 0.5, 0.0) + direction * 0.9, 0.2);
+            }
+            let (renderer, _) = render(&scene, settings(16, 30_000));
+            let (total, mirror, caustic) = bounce_map_power_by_role(&renderer);
+            let flux = 3.0
+                * std::f64::consts::TAU
+                * f64::from(ispm::photon::emit::spot_falloff_integral(inner, outer));
+            eprintln!(
+                "spot {inner}..{outer}, mirror ball {ball}: {total:.6} W of {flux:.6} W \
+                 (relative error {:.1e}), {mirror:.6} W off the mirror",
+                (total - flux) / flux
+            );
+            let views = renderer.photons().expect("ispm").plan().views.len();
+            assert_eq!(
+                ball,
+                views > if outer > 1.0 { 6 } else { 1 },
+                "{views} views"
+            );
+            assert_eq!(mirror, caustic, "mirror photons from the main views");
+            assert_eq!(ball, mirror > 0.0);
+            assert!(
+                ((total - flux) / flux).abs() < 1e-4,
+                "cone {inner}..{outer}, mirror ball {ball}: {total} vs {flux}"
+            );
+        }
     }
+}
+
+/// `scene` with a perfect mirror ball (reflectance 1, so the bounce map keeps its power too) of
+/// radius `r` at `centre`.
+fn with_mirror_ball(mut scene: Scene, centre: Vec3, r: f32) -> Scene {
+    scene.materials.push(ispm::scene::Material {
+        name: "mirror".into(),
+        lambertian: Vec3::ZERO,
+        glossy: Vec3::ONE,
+        exponent: f32::INFINITY,
+        ..Default::default()
+    });
+    let mut ball = ispm::photon::shapes::icosphere(4);
+    ball.material = scene.materials.len() - 1;
+    scene.meshes.push(ball);
+    scene.instances.push(ispm::scene::Instance {
+        name: "mirror-ball".into(),
+        mesh: scene.meshes.len() - 1,
+        transform: glam::Mat4::from_scale_rotation_translation(
+            Vec3::splat(r),
+            glam::Quat::IDENTITY,
+            centre,
+        ),
+    });
+    scene
+}
+
+/// The bounce map's power in f64: in all, reflected by the mirror (ρp ≈ 1, not ρ/1000 as off a
+/// diffuse surface), and reflected by the mirror from texels of the caustic views.
+fn bounce_map_power_by_role(renderer: &Renderer) -> (f64, f64, f64) {
+    let photons = renderer.photons().expect("ispm");
+    let (map, plan) = (photons.bounce_map(), photons.plan());
+    let (mut all, mut mirror, mut caustic) = (0.0, 0.0, 0.0);
+    for view in &plan.views {
+        let first = view.texels.z as usize;
+        for p in &map[first..first + (view.texels.x * view.texels.y) as usize] {
+            let power = f64::from(p.power.x);
+            all += power;
+            if unpack_direction(p.direction).1 > 0.5 {
+                mirror += power;
+                if view.kind.y == ispm::shared_constants::BOUNCE_VIEW_CAUSTIC {
+                    caustic += power;
+                }
+            }
+        }
+    }
+    (all, mirror, caustic)
+}
+
+/// The bounce map carries `flux` (to 10⁻⁴), and its mirror photons carry `ball` (to 1 %), all
+/// of them from the caustic views.
+fn assert_flux_and_mirror(
+    what: &str,
+    (total, mirror, caustic): (f64, f64, f64),
+    flux: f64,
+    ball: f64,
+) {
+    eprintln!(
+        "{what}: bounce map {total:.6} W of {flux:.6} W (relative error {:.1e}); mirror \
+         {mirror:.6} W ({caustic:.6} W from caustic views) of {ball:.6} W",
+        (total - flux) / flux
+    );
+    assert!(
+        ((total - flux) / flux).abs() < 1e-4,
+        "{what}: {total} vs {flux} ({mirror} off the mirror)"
+    );
+    assert_eq!(
+        mirror, caustic,
+        "{what}: mirror photons from the main views"
+    );
+    assert!(
+        (mirror / ball - 1.0).abs() < 0.01,
+        "{what}: the mirror reflects {mirror}, the ball intercepts {ball}"
+    );
+}
+
+#[test]
+fn bounce_map_power_sums_to_a_point_lights_flux_with_caustic_views() {
+    // A mirror ball 0.6 m from the light inside the closed white box: its caustic views take
+    // the directions towards the ball, the six main views everything else.
+    let intensity = 2.5;
+    let (centre, r) = (Vec3::new(0.3, -0.5, 0.2), 0.25);
+    let scene = with_mirror_ball(scenes::grey_box(1.0, intensity), centre, r);
+    let (renderer, _) = render(&scene, settings(16, 30_000));
+    let plan = renderer.photons().expect("ispm").plan();
+    assert!(plan.views.len() > 6, "no caustic view: {:?}", plan.extents);
+    let flux = 4.0 * std::f64::consts::PI * f64::from(intensity);
+    // The mirror reflects what reaches it: I·2π(1 − cos θ), sin θ = r/d (the 2562-vertex
+    // icosphere is inscribed in the sphere: 0.3 % less solid angle), all of it from the caustic
+    // views.
+    let sin = f64::from(r / centre.length());
+    let ball = f64::from(intensity) * std::f64::consts::TAU * (1.0 - (1.0 - sin * sin).sqrt());
+    let power = bounce_map_power_by_role(&renderer);
+    assert_flux_and_mirror("point light", power, flux, ball);
+}
+
+#[test]
+fn bounce_map_power_of_the_sun_is_its_irradiance_times_the_texels_it_lights_with_caustic_views() {
+    // A white floor (albedo 1) with a mirror ball on it, under the sun at 40° elevation.
+    let mut scene = with_mirror_ball(scenes::grey_box(1.0, 1.0), Vec3::new(0.2, -0.7, 0.1), 0.3);
+    scene
+        .instances
+        .retain(|i| i.name == "mirror-ball" || i.mesh == 2);
+    let irradiance = 2.0f32;
+    let elevation = 40f32.to_radians();
+    scene.lights = vec![Light {
+        name: "sun".into(),
+        kind: LightKind::Directional,
+        position: Vec3::ZERO,
+        direction: Vec3::new(-elevation.cos(), -elevation.sin(), 0.3).normalize(),
+        intensity: Vec3::splat(irradiance),
+    }];
+    let (renderer, _) = render(&scene, settings(16, 30_000));
+    let plan = renderer.photons().expect("ispm").plan();
+    assert_eq!(plan.views.len(), 2, "no caustic view: {:?}", plan.extents);
+    // Every main texel whose centre ray hits the scene carries E·(texel area), each exactly once:
+    // either itself, or as the k² texels of the caustic view inside it.
+    let bvh = ispm::photon::bvh::SceneBvh::new(&scene);
+    let res = plan.extents[0].0;
+    let inverse = plan.view_matrices[0].inverse();
+    let point = |x: f64, y: f64, z: f64| {
+        let h = inverse * glam::DVec4::new(x, y, z, 1.0);
+        h.truncate() / h.w + plan.camera
+    };
+    let mut lit = 0usize;
+    for y in 0..res {
+        for x in 0..res {
+            let ndc = |t: u32| (f64::from(t) + 0.5) / f64::from(res) * 2.0 - 1.0;
+            let (near, far) = (point(ndc(x), ndc(y), 0.0), point(ndc(x), ndc(y), 1.0));
+            let ray =
+                ispm::photon::ray::Ray::new(near.as_vec3(), (far - near).normalize().as_vec3());
+            lit += usize::from(bvh.intersect(&ray).is_some());
+        }
+    }
+    let side = f64::from(plan.views[0].params.x);
+    let expected = f64::from(irradiance) * side * side * lit as f64;
+    // The ball's shadow area, E·πr², reaches the mirror.
+    let ball = f64::from(irradiance) * std::f64::consts::PI * 0.09;
+    let power = bounce_map_power_by_role(&renderer);
+    assert_flux_and_mirror(
+        &format!("sun ({lit} lit texels of {res}²)"),
+        power,
+        expected,
+        ball,
+    );
 }
 
 #[test]

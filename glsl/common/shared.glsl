@@ -56,8 +56,12 @@ struct BounceView {
     vec4 axis;           // xyz: unit direction light travels (spot axis, directional); w: cos(outer)
     vec4 intensity;      // rgb: W/sr, or W/m^2 for directional, times the view's exact-flux
                          // normalisation; w: cos(inner)
-    vec4 params;         // x: tan(fov/2) (perspective) or texel area in m^2 (ortho); y: 1 if ortho
-    uvec4 texels;        // x: resolution; y: first bounce-map index; z: kind (LIGHT_*); w: light
+    vec4 params;         // x: texel side on the plane at unit distance (perspective) or in m
+                         // (ortho); y: unused; zw: that plane's coordinates of the outer corner
+                         // of texel (0, 0) (the parent view's plane, for caustic views)
+    uvec4 texels;        // x: width; y: height; z: first bounce-map index; w: light seed
+    uvec4 kind;          // x: light kind (LIGHT_*); y: role (BOUNCE_VIEW_*); z: parent view
+                         // (caustic views); w: unused
 };
 
 // Per-draw push constants of the raster passes (128 bytes: the guaranteed minimum).

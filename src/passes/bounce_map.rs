@@ -70,15 +70,15 @@ impl BounceMapPass {
         })
     }
 
-    /// Runs the first bounce over `views` views of up to `resolution`² texels.
-    pub fn record(&self, cmd: &Cmd, io: &BounceMapIo, resolution: u32, views: u32, seed: u32) {
+    /// Runs the first bounce over `views` views of up to `extent` = (width, height) texels.
+    pub fn record(&self, cmd: &Cmd, io: &BounceMapIo, extent: (u32, u32), views: u32, seed: u32) {
         let _scope = cmd.scope("bounce_map");
         let g = io.light_gbuffer;
         for image in [&g.position, &g.normal, &g.albedo, &g.material] {
             cmd.transition(image, Access::ComputeSampledRead);
         }
         cmd.transition_buffer(io.bounce_map, Access::ComputeStorageWrite);
-        let groups = [super::groups(resolution), super::groups(resolution), views];
+        let groups = [super::groups(extent.0), super::groups(extent.1), views];
         self.kernel
             .dispatch_with(cmd, &Push { seed, pad: [0; 3] }, groups);
     }

@@ -1,8 +1,9 @@
 //! Light G-buffers: the scene rasterised from every light view (spot: one frustum, point: six
-//! cube faces, directional: an orthographic box), each into one layer of an array G-buffer, at
-//! the resolution the light's share of the photon budget asks for (drawn into the layer's
-//! top-left texels). Texel (x, y) of a view is where the photon through that texel first hits
-//! the scene: the bounce map starts from it.
+//! cube faces, directional: an orthographic box; and the caustic views, windows of those around
+//! the delta instances, `ispm.rs`), each into one layer of an array G-buffer, at the resolution
+//! the light's share of the photon budget asks for (drawn into the layer's top-left texels).
+//! Texel (x, y) of a view is where the photon through that texel first hits the scene: the
+//! bounce map starts from it.
 
 use super::eye_gbuffer::{GBuffer, GBufferPass, View};
 use crate::gpu::{vk, Buffer, Cmd, Gpu};
@@ -40,25 +41,25 @@ impl LightGBufferPass {
         }
     }
 
-    /// Draws view i (`draws[i]` at `resolutions[i]`²) into layer i of `gbuffer`; views of
-    /// resolution 0 (lights without photons) are skipped.
+    /// Draws view i (`draws[i]` into the top-left `extents[i]` texels) into layer i of
+    /// `gbuffer`; empty views (lights without photons) are skipped.
     pub fn record(
         &self,
         cmd: &Cmd,
         scene: &GpuScene,
         draws: &[Vec<Draw>],
-        resolutions: &[u32],
+        extents: &[(u32, u32)],
         gbuffer: &mut GBuffer,
     ) {
-        for (i, (d, &res)) in draws.iter().zip(resolutions).enumerate() {
-            if res == 0 {
+        for (i, (d, &extent)) in draws.iter().zip(extents).enumerate() {
+            if extent.0 == 0 || extent.1 == 0 {
                 continue;
             }
             let view = View {
                 index: i,
                 draws: d,
                 layer: i as u32,
-                extent: (res, res),
+                extent,
             };
             self.raster.record(cmd, scene, &view, gbuffer);
         }

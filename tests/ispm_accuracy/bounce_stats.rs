@@ -20,45 +20,42 @@ pub struct Bounced {
 /// each assigned to its light, with its hit point rebuilt from the light G-buffer depth.
 pub fn gpu_bounces(scene: &Scene, photons: usize, seed: u32) -> Vec<Bounced> {
     let (renderer, _) = crate::render(scene, crate::settings(16, 16, photons, seed));
-    let map = renderer.photons().expect("ispm").bounce_map().to_vec();
-    let camera = scene.camera.position().as_dvec3();
-    let bounds = scene.bounds();
-    let plan = ispm::ispm::BouncePlan::new(scene, camera, &bounds, photons);
+    let photons = renderer.photons().expect("ispm");
+    let (map, plan) = (photons.bounce_map().to_vec(), photons.plan());
     assert_eq!(
         plan.texels,
         map.len(),
         "the plan does not describe this bounce map"
     );
-    let setup = ispm::lighting::LightSetup::new(&scene.lights, camera, &bounds, 1, 0);
     let mut out = Vec::with_capacity(map.len());
-    for (light, gpu_light) in setup.lights.iter().enumerate() {
-        let (first, count) = (gpu_light.shadow.y as usize, gpu_light.shadow.z as usize);
-        for view in &plan.views[first..first + count] {
-            let (res, offset) = (view.texels.x as usize, view.texels.y as usize);
-            let records = &map[offset..offset + res * res];
-            // `photon_starts` places every surviving record of this view (and only this view).
-            let mut only_this_view =
-                vec![ispm::photon::types::BounceMapPhoton::default(); map.len()];
-            only_this_view[offset..offset + res * res].copy_from_slice(records);
-            let mut starts = plan.photon_starts(&only_this_view).into_iter();
-            for r in records {
-                let (direction, rho_p) = ispm::photon::types::unpack_direction(r.direction);
-                let alive = r.power.max_element() > 0.0 && direction != Vec3::ZERO;
-                let position = if alive {
-                    starts.next().expect("a start per surviving texel").origin
-                } else {
-                    Vec3::ZERO
-                };
-                out.push(Bounced {
-                    light,
-                    power: if alive { r.power } else { Vec3::ZERO },
-                    position,
-                    direction,
-                    rho_p,
-                });
-            }
-            assert!(starts.next().is_none());
+    for (v, view) in plan.views.iter().enumerate() {
+        let light = plan.view_lights[v];
+        let (size, offset) = (
+            (view.texels.x * view.texels.y) as usize,
+            view.texels.z as usize,
+        );
+        let records = &map[offset..offset + size];
+        // `photon_starts` places every surviving record of this view (and only this view).
+        let mut only_this_view = vec![ispm::photon::types::BounceMapPhoton::default(); map.len()];
+        only_this_view[offset..offset + size].copy_from_slice(records);
+        let mut starts = plan.photon_starts(&only_this_view).into_iter();
+        for r in records {
+            let (direction, rho_p) = ispm::photon::types::unpack_direction(r.direction);
+            let alive = r.power.max_element() > 0.0 && direction != Vec3::ZERO;
+            let position = if alive {
+                starts.next().expect("a start per surviving texel").origin
+            } else {
+                Vec3::ZERO
+            };
+            out.push(Bounced {
+                light,
+                power: if alive { r.power } else { Vec3::ZERO },
+                position,
+                direction,
+                rho_p,
+            });
         }
+        assert!(starts.next().is_none());
     }
     out
 }
