@@ -18,6 +18,7 @@ layout(set = 0, binding = 6) uniform usampler2D g_material;
 
 layout(location = 0) flat in uint v_photon;
 layout(location = 1) flat in vec2 v_radius;
+layout(location = 2) flat in vec3 v_center;  // the photon's eye-relative position
 
 layout(location = 0) out vec4 out_indirect;
 
@@ -28,8 +29,8 @@ void main() {
         discard;
     }
     Photon photon = photon_load(photons[v_photon]);
-    float kappa = kernel_weight(photon.position, normalize(photon.normal), v_radius.x,
-                                v_radius.y, pos.xyz);
+    float kappa = kernel_weight(v_center, normalize(photon.normal), v_radius.x, v_radius.y,
+                                pos.xyz);
     if (!(kappa > 0.0)) {
         discard;
     }

@@ -18,28 +18,32 @@ layout(push_constant) uniform Push {
     uint count;
     uint subsample;
     float footprint;
+    vec4 offset;  // xyz: photon map origin − eye (the stored positions are origin-relative)
 } push;
 
 layout(location = 0) flat out uint v_photon;
 layout(location = 1) flat out vec2 v_radius;
+layout(location = 2) flat out vec3 v_center;  // the photon's eye-relative position
 
 void main() {
     Photon photon = photon_load(photons[gl_InstanceIndex]);
     float rho_p;
     unpack_direction(photon.direction, rho_p);
-    // Photon positions are camera-relative: the eye is at the origin.
-    vec2 r = kernel_radius(rho_p, push.r_min, push.r_max, push.footprint, length(photon.position));
+    // Eye-relative position: the eye is at the origin of the frame's space.
+    vec3 center = photon.position + push.offset.xyz;
+    vec2 r = kernel_radius(rho_p, push.r_min, push.r_max, push.footprint, length(center));
     vec3 n = normalize(photon.normal);
     vec3 t;
     vec3 b;
     frame_from_normal(n, t, b);
-    vec3 world = photon.position + (t * in_position.x + b * in_position.y) * r.x
+    vec3 world = center + (t * in_position.x + b * in_position.y) * r.x
                  + n * (in_position.z * r.y);
     if (!any(greaterThan(photon.power, vec3(0.0)))) {
         // No power: collapse the volume to a point, which rasterises nothing.
-        world = photon.position;
+        world = center;
     }
     gl_Position = frame.view_proj * vec4(world, 1.0);
     v_photon = uint(gl_InstanceIndex);
     v_radius = r;
+    v_center = center;
 }

@@ -30,6 +30,7 @@ layout(push_constant) uniform Push {
 
 layout(location = 0) flat in uint v_photon;
 layout(location = 1) flat in vec2 v_radius;
+layout(location = 2) flat in vec3 v_center;  // the photon's eye-relative position
 
 layout(location = 0) out vec4 out_irradiance;
 layout(location = 1) out vec4 out_glossy;
@@ -44,8 +45,8 @@ void main() {
         discard;
     }
     Photon photon = photon_load(photons[v_photon]);
-    float kappa = kernel_weight(photon.position, normalize(photon.normal), v_radius.x,
-                                v_radius.y, pos.xyz);
+    float kappa = kernel_weight(v_center, normalize(photon.normal), v_radius.x, v_radius.y,
+                                pos.xyz);
     if (!(kappa > 0.0)) {
         discard;
     }

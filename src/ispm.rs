@@ -95,7 +95,7 @@ const PROBE: u32 = 64;
 #[derive(Clone, Debug, Default)]
 pub struct BouncePlan {
     pub views: Vec<BounceView>,
-    /// Camera-relative world → light clip, per view.
+    /// Origin-relative world → light clip, per view.
     pub view_matrices: Vec<DMat4>,
     /// The light G-buffer raster's uniforms, per view.
     pub uniforms: Vec<FrameUniforms>,
@@ -109,8 +109,11 @@ pub struct BouncePlan {
     pub texels: usize,
     /// Texels of the caustic views among them.
     pub caustic_texels: usize,
-    /// The camera position the matrices are relative to.
-    pub camera: DVec3,
+    /// The point the matrices, the light views' uniforms and the bounce map's hit points are
+    /// relative to (computed in f64). `PhotonFrame` passes the scene's centre, not the camera:
+    /// the photon map is then the same whatever the camera, so moving the camera never
+    /// re-traces it (docs/overview.md, "The camera").
+    pub origin: DVec3,
     /// What the plan's lights may need when they move: see [`BouncePlan::capacity`].
     reserve: Capacity,
 }
@@ -196,12 +199,12 @@ pub fn casters(scene: &Scene) -> Vec<Caster> {
     out
 }
 
-/// The NDC rectangle of the view `m` (camera-relative world → clip) holding the projection of
+/// The NDC rectangle of the view `m` (origin-relative world → clip) holding the projection of
 /// every caster, clamped to the view; `None` if none of them is in it. A caster wholly in front
 /// of the light's eye plane is bounded by its projected vertices (the mesh's convex hull); one
 /// reaching behind a perspective light by its box, whose edges are cut at w = ε, so that the
 /// rectangle widens to the view's edge instead of folding over.
-fn caster_rect(m: &DMat4, casters: &[Caster], camera: DVec3) -> Option<(DVec2, DVec2)> {
+fn caster_rect(m: &DMat4, casters: &[Caster], origin: DVec3) -> Option<(DVec2, DVec2)> {
     const EPS: f64 = 1e-9;
     let mut lo = DVec2::splat(f64::INFINITY);
     let mut hi = DVec2::splat(f64::NEG_INFINITY);
@@ -214,7 +217,7 @@ fn caster_rect(m: &DMat4, casters: &[Caster], camera: DVec3) -> Option<(DVec2, D
         let clip: Vec<DVec4> = caster
             .vertices
             .iter()
-            .map(|p| *m * (*p - camera).extend(1.0))
+            .map(|p| *m * (*p - origin).extend(1.0))
             .collect();
         if clip.iter().all(|c| c.w > EPS) {
             clip.into_iter().for_each(&mut add);
@@ -227,7 +230,7 @@ fn caster_rect(m: &DMat4, casters: &[Caster], camera: DVec3) -> Option<(DVec2, D
                 if i & 2 == 0 { min.y } else { max.y },
                 if i & 4 == 0 { min.z } else { max.z },
             );
-            *m * (p - camera).extend(1.0)
+            *m * (p - origin).extend(1.0)
         });
         for (i, a) in corners.iter().enumerate() {
             if a.w > EPS {
@@ -254,7 +257,7 @@ fn caster_rect(m: &DMat4, casters: &[Caster], camera: DVec3) -> Option<(DVec2, D
 struct LightsToPlan<'a> {
     scene: &'a Scene,
     active: &'a [bool],
-    camera: DVec3,
+    origin: DVec3,
     bounds: &'a Aabb,
 }
 
@@ -275,13 +278,13 @@ impl Window {
 }
 
 impl BouncePlan {
-    /// Plans `photons` photons over the lights of `scene` for a camera at `camera`, with the
+    /// Plans `photons` photons over the lights of `scene`, relative to `origin`, with the
     /// default caustic share.
-    pub fn new(scene: &Scene, camera: DVec3, bounds: &Aabb, photons: usize) -> BouncePlan {
+    pub fn new(scene: &Scene, origin: DVec3, bounds: &Aabb, photons: usize) -> BouncePlan {
         Self::active(
             scene,
             &vec![true; scene.lights.len()],
-            camera,
+            origin,
             bounds,
             photons,
         )
@@ -294,11 +297,11 @@ impl BouncePlan {
     pub fn active(
         scene: &Scene,
         active: &[bool],
-        camera: DVec3,
+        origin: DVec3,
         bounds: &Aabb,
         photons: usize,
     ) -> BouncePlan {
-        Self::with_caustic_share(scene, active, camera, bounds, photons, CAUSTIC_SHARE)
+        Self::with_caustic_share(scene, active, origin, bounds, photons, CAUSTIC_SHARE)
     }
 
     /// [`BouncePlan::active`] with the caustic views' share `share` of each light's photons
@@ -306,7 +309,7 @@ impl BouncePlan {
     pub fn with_caustic_share(
         scene: &Scene,
         active: &[bool],
-        camera: DVec3,
+        origin: DVec3,
         bounds: &Aabb,
         photons: usize,
         share: f32,
@@ -314,7 +317,7 @@ impl BouncePlan {
         let lights = LightsToPlan {
             scene,
             active,
-            camera,
+            origin,
             bounds,
         };
         Self::plan(&lights, photons, share, MAX_CAUSTIC_SUBDIVISION)
@@ -327,7 +330,7 @@ impl BouncePlan {
     pub fn within(
         scene: &Scene,
         active: &[bool],
-        camera: DVec3,
+        origin: DVec3,
         bounds: &Aabb,
         (photons, share): (usize, f32),
         capacity: &Capacity,
@@ -335,7 +338,7 @@ impl BouncePlan {
         let lights = LightsToPlan {
             scene,
             active,
-            camera,
+            origin,
             bounds,
         };
         for max_k in (2..=MAX_CAUSTIC_SUBDIVISION).rev() {
@@ -380,12 +383,12 @@ impl BouncePlan {
         let LightsToPlan {
             scene,
             active,
-            camera,
+            origin,
             bounds,
         } = *lights;
         // Shadow views are the light G-buffer's views; with resolution 1 their texel parameter
         // is the full window: 2·tan(fov/2) (perspective) or 2·radius (orthographic).
-        let setup = LightSetup::new(&scene.lights, camera, bounds, 1, 0);
+        let setup = LightSetup::new(&scene.lights, origin, bounds, 1, 0);
         let budget = photon_budget_among(scene, photons, active);
         let share = if share.is_finite() {
             f64::from(share.clamp(0.0, 0.95))
@@ -398,7 +401,7 @@ impl BouncePlan {
             Vec::new()
         };
         let mut plan = BouncePlan {
-            camera,
+            origin,
             ..Default::default()
         };
         let lights = scene.lights.iter().zip(&setup.lights).zip(&budget);
@@ -431,7 +434,7 @@ impl BouncePlan {
                 .iter()
                 .map(|m| {
                     if n > 0 && !casters.is_empty() {
-                        caster_rect(m, &casters, camera)
+                        caster_rect(m, &casters, origin)
                     } else {
                         None
                     }
@@ -545,7 +548,7 @@ impl BouncePlan {
                 LightKind::Directional => sum,
             };
             let scale = if sum > 0.0 { exact / sum } else { 0.0 };
-            let light_rel = (light.position.as_dvec3() - camera).as_vec3();
+            let light_rel = (light.position.as_dvec3() - origin).as_vec3();
             let template = BounceView {
                 inv_view_proj: glam::Mat4::IDENTITY,
                 light: light_rel.extend(0.0),
@@ -653,7 +656,7 @@ impl BouncePlan {
         self.uniforms.push(FrameUniforms {
             view_proj: m.as_mat4(),
             inv_view_proj: m.inverse().as_mat4(),
-            camera_pos: self.camera.as_vec3().extend(1.0),
+            camera_pos: self.origin.as_vec3().extend(1.0),
             counts: UVec4::new(0, 0, width, height),
             params: Vec4::ZERO,
             viewer,
@@ -688,7 +691,7 @@ impl BouncePlan {
                     let ndc = texel_ndc(x, y, width, height);
                     let near = unproject(&inverse, ndc, 0.0);
                     let dir = (unproject(&inverse, ndc, 1.0) - near).normalize();
-                    let hit = near + dir * f64::from(p.depth) + self.camera;
+                    let hit = near + dir * f64::from(p.depth) + self.origin;
                     if let Some(s) = PhotonState::from_bounce_map(p, hit.as_vec3()) {
                         starts.push(s);
                     }
@@ -906,7 +909,7 @@ mod tests {
 
     /// NDC of world point `p` in view `v` of `plan`.
     fn project(plan: &BouncePlan, v: usize, p: Vec3) -> glam::DVec3 {
-        let c = plan.view_matrices[v] * (p.as_dvec3() - plan.camera).extend(1.0);
+        let c = plan.view_matrices[v] * (p.as_dvec3() - plan.origin).extend(1.0);
         c.truncate() / c.w
     }
 

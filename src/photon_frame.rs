@@ -1,6 +1,16 @@
 //! The photon part of an ISPM frame: light G-buffers → bounce map → readback → CPU trace →
 //! upload → photon volumes (→ upsample at `--subsample N > 1`) → composite. Owns the buffers
 //! and passes those steps use; `frame.rs` calls its three steps in order.
+//!
+//! The photon map does not depend on the camera: light G-buffers, bounce map and photon
+//! positions are relative to the scene's centre (`BouncePlan::origin`), and the photon volumes
+//! add `origin − eye` (f64, rounded once to f32) to each position when they are drawn, so a
+//! camera move ([`PhotonFrame::set_view`]) changes push constants, not photons:
+//!
+//! ```text
+//!   world ──(f64: − origin)──► photon map (f32, traced once) ──(+ (origin − eye), f32)──► volumes
+//!                                                                 ▲ set_view: the eye, yfov
+//! ```
 
 use crate::frame::{FrameStats, RenderSettings};
 use crate::gpu::{vk, Access, Buffer, Cmd, Gpu, Image, MemoryLocation, QueueRole, ViewKind};
@@ -52,9 +62,15 @@ pub struct PhotonFrame {
     subsampled: Option<Subsampled>,
     indirect: Image,
     composite: CompositePass,
-    /// The last frame's bounce map and photon map (camera-relative positions), as drawn.
+    /// The last frame's bounce map and photon map (positions relative to `plan.origin`).
     last_bounce_map: Vec<BounceMapPhoton>,
     last_photons: Vec<Photon>,
+    /// The eye the photon volumes are drawn for ([`Self::set_view`]).
+    eye: glam::DVec3,
+    /// The kernel's scene-relative clamp, before the view's footprint floor.
+    kernel_clamp: KernelSettings,
+    /// Height of the image the estimate is made at (the low one when subsampling).
+    estimate_height: u32,
 }
 
 struct Subsampled {
@@ -111,12 +127,18 @@ impl PhotonFrame {
             gbuffer,
             radiance,
         } = *targets;
-        let camera = scene.camera.position().as_dvec3();
+        // The photons' origin: fixed for the scene, so that the photon map is the same
+        // whatever the camera (module docs).
+        let origin = if gpu_scene.bounds.is_empty() {
+            glam::DVec3::ZERO
+        } else {
+            gpu_scene.bounds.center().as_dvec3()
+        };
         let active = effects.photon_mask();
         let budget = (settings.photons, settings.caustic_share);
         let plan_for = |active: &[bool]| {
             let bounds = &gpu_scene.bounds;
-            BouncePlan::with_caustic_share(scene, active, camera, bounds, budget.0, budget.1)
+            BouncePlan::with_caustic_share(scene, active, origin, bounds, budget.0, budget.1)
         };
         let plan = plan_for(&active);
         // Room for every light too: `set_lights` may bring back a light the plan skips now,
@@ -194,6 +216,9 @@ impl PhotonFrame {
             (indirect, Some(Subsampled { low, upsample }))
         };
         let composite = CompositePass::new(gpu, &indirect, radiance)?;
+        let kernel_clamp =
+            KernelSettings::scene_relative(&gpu_scene.bounds, settings.photons, settings.radius);
+        let estimate_height = upsample::low_size(radiance.width, radiance.height, subsample).1;
         Ok(Self {
             gpu: gpu.clone(),
             scene: scene.clone(),
@@ -204,15 +229,7 @@ impl PhotonFrame {
             },
             // The footprint floor of the image the estimate is made at (the low one when
             // subsampling).
-            kernel: KernelSettings::scene_relative(
-                &gpu_scene.bounds,
-                settings.photons,
-                settings.radius,
-            )
-            .for_view(
-                scene.camera.yfov,
-                upsample::low_size(radiance.width, radiance.height, subsample).1,
-            ),
+            kernel: kernel_clamp.for_view(scene.camera.yfov, estimate_height),
             plan,
             capacity,
             budget,
@@ -234,7 +251,26 @@ impl PhotonFrame {
             composite,
             last_bounce_map: Vec::new(),
             last_photons: Vec::new(),
+            eye: scene.camera.position().as_dvec3(),
+            kernel_clamp,
+            estimate_height,
         })
+    }
+
+    /// Draws the photon volumes for `camera` from the next recorded estimate on: its position
+    /// (the offset added to the photons) and its field of view (the kernel's footprint floor).
+    /// The photon map itself does not depend on the camera and stays valid.
+    pub fn set_view(&mut self, camera: &crate::scene::Camera) {
+        self.eye = camera.position().as_dvec3();
+        self.kernel = self
+            .kernel_clamp
+            .for_view(camera.yfov, self.estimate_height);
+    }
+
+    /// What the photon volumes add to each stored position to make it eye-relative:
+    /// `origin − eye`, subtracted in f64 and rounded once.
+    fn eye_offset(&self) -> glam::Vec3 {
+        (self.plan.origin - self.eye).as_vec3()
     }
 
     /// Moves the lights (same lights, new transforms or powers; `active`: the effects plan's
@@ -249,9 +285,9 @@ impl PhotonFrame {
     ) -> anyhow::Result<()> {
         let mut scene = self.scene.clone();
         scene.lights = lights.to_vec();
-        let camera = self.plan.camera;
+        let origin = self.plan.origin;
         let bounds = &self.bounds;
-        let plan = BouncePlan::within(&scene, active, camera, bounds, self.budget, &self.capacity)?;
+        let plan = BouncePlan::within(&scene, active, origin, bounds, self.budget, &self.capacity)?;
         self.scene.lights = scene.lights;
         self.plan = plan;
         Ok(())
@@ -280,8 +316,8 @@ impl PhotonFrame {
         }
         self.light_pass.update(cmd, &plan.uniforms);
         cmd.update_buffer(&self.views, 0, bytemuck::cast_slice(&plan.views));
-        // Camera-relative models; each view's uniforms hold its light clip transform.
-        let relative = scene.draws(plan.camera, None);
+        // Origin-relative models; each view's uniforms hold its light clip transform.
+        let relative = scene.draws(plan.origin, None);
         let draws = vec![relative; plan.views.len()];
         {
             let _scope = cmd.scope("light_gbuffers");
@@ -341,12 +377,13 @@ impl PhotonFrame {
         stats.stored_photons = map.photons.len();
         stats.attrition = map.attrition;
 
-        // Camera-relative positions, subtracted in f64 (see DESIGN: precision far from origin).
+        // Origin-relative positions, subtracted in f64 (see DESIGN: precision far from the
+        // world's origin); the photon volumes add the eye's offset (module docs).
         let relative: Vec<Photon> = map
             .photons
             .iter()
             .map(|p| Photon {
-                position: (p.position.as_dvec3() - plan.camera).as_vec3(),
+                position: (p.position.as_dvec3() - plan.origin).as_vec3(),
                 ..*p
             })
             .collect();
@@ -421,17 +458,16 @@ impl PhotonFrame {
             self.photon_pass.rebind(&inputs);
             self.rebind = false;
         }
+        let volumes = (self.count, &self.kernel, self.eye_offset());
         match &mut self.subsampled {
             None => self.photon_pass.record(
                 cmd,
                 &inputs,
-                self.count,
-                &self.kernel,
+                volumes,
                 std::slice::from_mut(&mut self.indirect),
             ),
             Some(sub) => {
-                self.photon_pass
-                    .record(cmd, &inputs, self.count, &self.kernel, &mut sub.low);
+                self.photon_pass.record(cmd, &inputs, volumes, &mut sub.low);
                 let inputs = UpsampleInputs {
                     materials,
                     gbuffer,
@@ -453,9 +489,18 @@ impl PhotonFrame {
         &self.last_bounce_map
     }
 
-    /// The last frame's photon map as drawn (positions relative to the camera).
-    pub fn photon_map(&self) -> &[Photon] {
-        &self.last_photons
+    /// The last traced photon map as the photon volumes draw it now: positions relative to the
+    /// eye, made the way the vertex shader makes them (the stored position plus
+    /// `origin − eye`, in f32).
+    pub fn photon_map(&self) -> Vec<Photon> {
+        let offset = self.eye_offset();
+        self.last_photons
+            .iter()
+            .map(|p| Photon {
+                position: p.position + offset,
+                ..*p
+            })
+            .collect()
     }
 
     /// The kernel radius clamp the photon volumes use.

@@ -110,7 +110,7 @@ fn compare_with_cpu_gather(scene: &Scene, renderer: &Renderer, test: &str) -> (f
         .chunks_exact(4)
         .map(|c| [c[0], c[1], c[2], c[3]])
         .collect();
-    let cpu = cpu_gather(scene, renderer, photons.photon_map(), photons.kernel());
+    let cpu = cpu_gather(scene, renderer, &photons.photon_map(), photons.kernel());
     let peak = cpu.iter().map(|v| v.max_element()).fold(0.0f32, f32::max);
     let mut worst = 0.0f32;
     for (g, c) in gpu.iter().zip(&cpu) {
@@ -380,7 +380,7 @@ fn bounce_map_power_of_the_sun_is_its_irradiance_times_the_texels_it_lights_with
     let inverse = plan.view_matrices[0].inverse();
     let point = |x: f64, y: f64, z: f64| {
         let h = inverse * glam::DVec4::new(x, y, z, 1.0);
-        h.truncate() / h.w + plan.camera
+        h.truncate() / h.w + plan.origin
     };
     let mut lit = 0usize;
     for y in 0..res {

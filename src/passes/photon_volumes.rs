@@ -42,6 +42,8 @@ pub fn icosahedron() -> (Vec<[f32; 3]>, Vec<u32>) {
     (vertices, faces.into_iter().flatten().collect())
 }
 
+/// The push constants (`Push` in `photon_volumes.vert`; the fragment shaders declare the
+/// first five members only).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct Push {
@@ -50,7 +52,14 @@ struct Push {
     count: u32,
     subsample: u32,
     footprint: f32,
+    _pad: [f32; 3],
+    /// Added to every stored photon position to make it eye-relative (xyz; w unused): the
+    /// photon map's origin minus the eye (`photon_frame.rs`).
+    offset: [f32; 4],
 }
+// std430 push-constant layout: the vec4 after five scalars starts at byte 32.
+const _: () = assert!(std::mem::offset_of!(Push, offset) == 32);
+const _: () = assert!(size_of::<Push>() == 48);
 
 /// The indirect-radiance target (alpha: number of volumes that touched the pixel).
 pub fn target(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<Image> {
@@ -222,13 +231,13 @@ impl PhotonVolumesPass {
 
     /// Draws `count` photon volumes with the radii of `kernel` (its clamp and footprint floor,
     /// [`crate::photon::kernel`]) into `targets`: `[indirect]` at subsample 1, else the two
-    /// [`low_targets`].
+    /// [`low_targets`]. `offset` is added to every stored photon position to make it relative
+    /// to the eye (the frame's space).
     pub fn record(
         &self,
         cmd: &Cmd,
         inputs: &PhotonVolumeInputs,
-        count: u32,
-        kernel: &KernelSettings,
+        (count, kernel, offset): (u32, &KernelSettings, glam::Vec3),
         targets: &mut [Image],
     ) {
         let _scope = cmd.scope("photon_volumes");
@@ -267,6 +276,8 @@ impl PhotonVolumesPass {
                     count,
                     subsample: self.subsample,
                     footprint: kernel.footprint,
+                    _pad: [0.0; 3],
+                    offset: offset.extend(0.0).to_array(),
                 },
             );
             cmd.draw_indexed_instanced(60, count);
