@@ -34,6 +34,7 @@ struct Surface {
 }
 
 /// The closed opaque surfaces of a scene.
+#[derive(Default)]
 pub struct Enclosures {
     surfaces: Vec<Surface>,
 }

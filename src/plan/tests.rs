@@ -274,6 +274,36 @@ fn a_light_in_a_closed_box_the_camera_is_outside_of_is_skipped() {
 }
 
 #[test]
+fn one_scene_analysis_plans_every_camera_and_set_of_lights_as_a_full_analysis_does() {
+    let scene = lamp_in_a_box();
+    let analysis = SceneAnalysis::new(&scene, &settings());
+    let inside = look(Vec3::new(0.2, 0.1, 0.5), Vec3::new(0.0, 0.0, -1.0), 60.0);
+    let elsewhere = look(Vec3::new(-4.0, 1.0, 0.5), Vec3::ZERO, 30.0);
+    let mut moved = scene.clone();
+    moved.lights[0].position = Vec3::new(0.3, -0.2, 0.1);
+    moved.lights[1].intensity = Vec3::ZERO;
+    for camera in [scene.camera, inside, elsewhere] {
+        for lights in [&scene, &moved] {
+            assert_eq!(
+                analysis.plan(lights, &camera),
+                EffectsPlan::analyse(lights, &settings(), &camera)
+            );
+        }
+    }
+    // The cached plans do differ: the camera inside the box sees the lamp, the one outside not.
+    assert!(analysis.plan(&scene, &inside).lights[0].active());
+    assert!(!analysis.plan(&scene, &scene.camera).lights[0].active());
+    let all = RenderSettings {
+        effects: Effects::All,
+        ..settings()
+    };
+    assert_eq!(
+        SceneAnalysis::new(&scene, &all).plan(&moved, &inside),
+        EffectsPlan::analyse(&moved, &all, &inside)
+    );
+}
+
+#[test]
 fn an_open_or_transmissive_box_encloses_nothing() {
     let mut open = lamp_in_a_box();
     open.instances.remove(3);
