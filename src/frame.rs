@@ -40,7 +40,7 @@ use crate::passes::shadow_map::{self, ShadowMapPass};
 use crate::passes::tonemap::{self, Tonemap, TonemapPass};
 use crate::photon::bsdf::BsdfVariant;
 use crate::photon_frame::{PhotonFrame, PhotonTargets};
-use crate::plan::{Effects, EffectsPlan};
+use crate::plan::{Effects, EffectsPlan, SceneAnalysis};
 use crate::scene::{Camera, Light, Scene};
 use crate::timing;
 use crate::translucent_frame::{TranslucentFrame, TranslucentResources};
@@ -194,6 +194,9 @@ pub struct Renderer {
     source: Scene,
     /// What the frame needs (`settings.effects == All`: everything).
     plan: EffectsPlan,
+    /// The scene's camera- and light-independent analysis, which the plan is re-made from when
+    /// the camera moves or a light changes.
+    analysis: SceneAnalysis,
     /// The frame whose photon map the photon buffer holds, and its stats, while that map is
     /// still valid (no light changed since; never under `--effects all`).
     photon_map: Option<(u64, FrameStats)>,
@@ -247,6 +250,25 @@ struct FrameSetup {
     delta_draws: Vec<crate::gpu_scene::Draw>,
 }
 
+/// A camera the renderer can use: finite, with a field of view in (0, π) and a near plane > 0.
+fn check_camera(camera: &Camera) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        camera.transform.is_finite(),
+        "camera: the transform is not finite"
+    );
+    anyhow::ensure!(
+        camera.yfov.is_finite() && camera.yfov > 0.0 && camera.yfov < std::f32::consts::PI,
+        "camera: yfov {} outside (0, π)",
+        camera.yfov
+    );
+    anyhow::ensure!(
+        camera.znear.is_finite() && camera.znear > 0.0,
+        "camera: znear {} must be > 0",
+        camera.znear
+    );
+    Ok(())
+}
+
 /// A wait for `point` before any work of the waiting submission.
 fn after(point: TimelinePoint) -> Wait {
     Wait {
@@ -272,7 +294,8 @@ impl Renderer {
             settings.width,
             settings.height
         );
-        let plan = EffectsPlan::analyse(scene, &settings, &scene.camera);
+        let analysis = SceneAnalysis::new(scene, &settings);
+        let plan = analysis.plan(scene, &scene.camera);
         log::info!("{plan}");
         let mut settings = settings;
         // The planned lobes, within the ones the settings allow (with `--effects all` the plan
@@ -404,6 +427,7 @@ impl Renderer {
             lights: scene.lights.clone(),
             source: scene.clone(),
             plan,
+            analysis,
             photon_map: None,
             scene: gpu_scene,
             frame_uniforms,
@@ -473,7 +497,7 @@ impl Renderer {
         );
         let mut source = self.source.clone();
         source.lights = lights.to_vec();
-        let plan = EffectsPlan::analyse(&source, &self.settings, &self.camera);
+        let plan = self.analysis.plan(&source, &self.camera);
         anyhow::ensure!(
             !plan.indirect.needed || self.photons.is_some(),
             "the moved lights need indirect light ({}), which this renderer was planned without \
@@ -495,6 +519,77 @@ impl Renderer {
         self.plan = plan;
         self.photon_map = None;
         Ok(())
+    }
+
+    /// Moves the eye for the next frame: position, orientation, field of view and near plane
+    /// (the image size stays). Everything that depends on the camera follows it:
+    ///
+    /// - the eye's view and projection, and every camera-relative matrix and position (shadow
+    ///   views, lights, instances, the environment map's centre), made in f64 each frame;
+    /// - the effects plan's view-dependent decisions: which lights reach the visible scene
+    ///   (shadow views, direct light) and which are enclosed away from every viewer (no
+    ///   photons); when the photon lights change, the next frame traces a new photon map, and
+    ///   a view that needs indirect light this renderer was planned without gets the photon
+    ///   part of the frame now;
+    /// - the photon volumes: the offset they draw the photon map with and the kernel's
+    ///   pixel-footprint floor (field of view).
+    ///
+    /// What does not depend on the camera stays: the photon map (traced relative to the
+    /// scene's centre, `photon_frame.rs`), so a pure camera move re-traces nothing (the frame's
+    /// stats list the photon passes as skipped, the map reused); the environment cube map,
+    /// centred on the glass and mirrors (re-rendered only if the lights it is shaded with
+    /// change); the directional lights' shadow maps, fitted to the scene, not the view.
+    /// Fails for a camera that is not finite, or has a field of view outside (0, π) or a
+    /// near plane ≤ 0.
+    pub fn set_camera(&mut self, camera: Camera) -> anyhow::Result<()> {
+        check_camera(&camera)?;
+        if camera == self.camera {
+            return Ok(());
+        }
+        let mut source = self.source.clone();
+        source.camera = camera;
+        let plan = self.analysis.plan(&source, &camera);
+        if plan.indirect.needed && self.photons.is_none() {
+            // Every photon light was enclosed away from the old view: the photon part of the
+            // frame is made now, as a new renderer for this camera would have it.
+            self.photons = Some(PhotonFrame::new(
+                &self.gpu,
+                &source,
+                &self.scene,
+                (&self.settings, &plan),
+                &PhotonTargets {
+                    frame: &self.frame_uniforms,
+                    gbuffer: &self.gbuffer,
+                    radiance: &self.radiance,
+                },
+            )?);
+            self.photon_map = None;
+        } else if let Some(photons) = &mut self.photons {
+            if plan.photon_mask() != self.plan.photon_mask() {
+                photons.set_lights(&self.lights, &plan.photon_mask())?;
+                self.photon_map = None;
+            }
+        }
+        if let Some(photons) = &mut self.photons {
+            photons.set_view(&camera);
+        }
+        if plan.direct_mask() != self.plan.direct_mask() {
+            if let Some(translucent) = &mut self.translucent {
+                translucent.invalidate(); // the cube map holds the direct light of these lights
+            }
+        }
+        if plan != self.plan {
+            log::debug!("{plan}");
+        }
+        self.camera = camera;
+        self.source = source;
+        self.plan = plan;
+        Ok(())
+    }
+
+    /// The camera the next frame renders from.
+    pub fn camera(&self) -> &Camera {
+        &self.camera
     }
 
     /// The effects plan the frames follow (for the lights as they are now).
