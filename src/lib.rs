@@ -10,8 +10,10 @@
 //! - [`plan`]: scene analysis → which effects, passes, lights and shader variants a frame
 //!   needs; no Vulkan.
 //! - [`timing`]: CPU and GPU spans on one host clock, Chrome trace JSON.
+//! - [`camera_control`]: the viewer's fly camera and scripted camera path; no window.
 
 pub mod bench;
+pub mod camera_control;
 pub mod frame;
 pub mod gpu;
 pub mod gpu_scene;

@@ -36,7 +36,22 @@ enum Command {
     /// Measure the frame per stage, the overlapped schedule against the serial one and the
     /// direct-only frame, side by side in one run.
     Bench(BenchArgs),
-    /// Open a window and render the scene live (Esc quits).
+    /// Open a window and render the scene live (W A S D Q E fly, right button looks, Esc quits)
+    ///
+    /// Keys and mouse:
+    ///   W / S      fly forward / back along the view
+    ///   A / D      fly left / right
+    ///   Q / E      fly down / up (the world's vertical)
+    ///   right button held + mouse   look around
+    ///   wheel      fly speed ×1.25 per notch (starts at a quarter of the scene's diagonal per s)
+    ///   F          frame the scene: back away along the view until its bounds fit
+    ///   C          the file's next camera (--camera N picks the first one shown)
+    ///   Esc        quit
+    ///
+    /// With --frames N the camera follows a scripted path instead (a swing about the point
+    /// the start camera looks at, and a dolly towards it), frame k at a pose that depends on k
+    /// alone: `ispm render --camera-path-frame N` renders the pose of the last frame.
+    #[command(verbatim_doc_comment)]
     View(ViewArgs),
 }
 
@@ -53,7 +68,8 @@ struct ViewArgs {
     /// Estimate indirect light at 1/N resolution.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
     subsample: u32,
-    /// Render N frames, write --screenshot of the last and exit (the viewer's smoke test).
+    /// Render N frames along the scripted camera path, write --screenshot of the last and
+    /// exit (the viewer's smoke test).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     frames: Option<u32>,
     /// Where --frames writes the last frame (PNG).
@@ -62,6 +78,9 @@ struct ViewArgs {
     /// Resize the window after FRAME frames to WxH (FRAME:WxH; tests drive a resize).
     #[arg(long, hide = true, value_parser = parse_resize)]
     resize_at: Option<(u32, (u32, u32))>,
+    /// Start from the file's camera N (0-based, in node order; default: the first).
+    #[arg(long, value_name = "N")]
+    camera: Option<usize>,
 }
 
 fn parse_resize(s: &str) -> Result<(u32, (u32, u32)), String> {
@@ -105,6 +124,9 @@ struct BenchArgs {
     /// Write an SVG of the last overlapped chunk's schedule (the paper's Figure 3).
     #[arg(long)]
     figure: Option<PathBuf>,
+    /// Render from the file's camera N (0-based, in node order; default: the first).
+    #[arg(long, value_name = "N")]
+    camera: Option<usize>,
 }
 
 #[derive(clap::Args)]
@@ -128,6 +150,9 @@ struct PlanArgs {
     /// `auto`: plan; `all`: every pass, variant, light and bounce (the unplanned frame).
     #[arg(long, value_enum, default_value = "auto")]
     effects: ispm::plan::Effects,
+    /// Plan the view of the file's camera N (0-based, in node order; default: the first).
+    #[arg(long, value_name = "N")]
+    camera: Option<usize>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -207,6 +232,13 @@ struct RenderArgs {
     /// of its views around the mirrors and glass it lights, at a higher texel density (0: none).
     #[arg(long, default_value_t = ispm::ispm::CAUSTIC_SHARE, value_parser = parse_share)]
     caustic_share: f32,
+    /// Render from the file's camera N (0-based, in node order; default: the first).
+    #[arg(long, value_name = "N")]
+    camera: Option<usize>,
+    /// Render from the pose of frame K of `ispm view --frames`'s scripted camera path (which
+    /// starts at the --camera one): the headless twin of the viewer's screenshot.
+    #[arg(long, value_name = "K")]
+    camera_path_frame: Option<u32>,
 }
 
 fn parse_share(s: &str) -> Result<f32, String> {
@@ -236,6 +268,24 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
 
 fn load_scene(arg: Option<&str>) -> anyhow::Result<ispm::scene::Scene> {
     ispm::scene::bundled::resolve(arg)
+}
+
+/// The scene of `arg`, seen from its file's camera `camera` (`--camera N`) if given.
+fn load_scene_from(arg: Option<&str>, camera: Option<usize>) -> anyhow::Result<ispm::scene::Scene> {
+    let mut scene = load_scene(arg)?;
+    if let Some(n) = camera {
+        let name = arg.unwrap_or("cornell-box");
+        let count = scene.cameras.len();
+        scene.camera = *scene.cameras.get(n).ok_or_else(|| match count {
+            0 => anyhow::anyhow!("--camera {n}: {name} has no cameras"),
+            1 => anyhow::anyhow!("--camera {n}: {name} has 1 camera (--camera 0)"),
+            _ => anyhow::anyhow!(
+                "--camera {n}: {name} has {count} cameras (--camera 0 to {})",
+                count - 1
+            ),
+        })?;
+    }
+    Ok(scene)
 }
 
 fn gpu(cli_device: Option<usize>) -> anyhow::Result<std::sync::Arc<Gpu>> {
@@ -270,7 +320,7 @@ fn view(args: ViewArgs, device: Option<usize>) -> anyhow::Result<()> {
         );
         ispm::output::check_writable(path)?;
     }
-    let scene = load_scene(args.scene.as_deref())?;
+    let scene = load_scene_from(args.scene.as_deref(), args.camera)?;
     let (width, height) = args.size;
     let settings = ispm::viewer::ViewSettings {
         render: RenderSettings {
@@ -307,7 +357,7 @@ fn bench(args: BenchArgs, device: Option<usize>) -> anyhow::Result<()> {
     {
         ispm::output::check_writable(path)?;
     }
-    let scene = load_scene(args.scene.as_deref())?;
+    let scene = load_scene_from(args.scene.as_deref(), args.camera)?;
     let scene_name = args.scene.as_deref().unwrap_or("cornell-box");
     let gpu = gpu(device)?;
     let (width, height) = args.size;
@@ -362,7 +412,10 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
             "--radius {r} must be a positive length"
         );
     }
-    let scene = load_scene(args.scene.as_deref())?;
+    let mut scene = load_scene_from(args.scene.as_deref(), args.camera)?;
+    if let Some(k) = args.camera_path_frame {
+        scene.camera = ispm::camera_control::scripted_pose(&scene.camera, &scene.bounds(), k);
+    }
     let (width, height) = args.size;
     let reference = match args.method {
         Method::PhotonGather => Some(ispm::reference::Method::PhotonGather),
@@ -493,7 +546,7 @@ fn render_reference(
 }
 
 fn plan(args: PlanArgs) -> anyhow::Result<()> {
-    let scene = load_scene(args.scene.as_deref())?;
+    let scene = load_scene_from(args.scene.as_deref(), args.camera)?;
     let settings = RenderSettings {
         method: args.method,
         photons: args.photons,

@@ -296,3 +296,87 @@ fn bench_measures_overlapped_serial_and_direct_frames_and_writes_json_and_figure
     let figure = std::fs::read_to_string(&svg).expect("figure written");
     assert!(figure.starts_with("<svg") && figure.contains("photon_volumes"));
 }
+
+/// A floor, a box and a sun, seen by two cameras (front, then from above at the side).
+fn two_camera_scene(dir: &std::path::Path) -> std::path::PathBuf {
+    use glam::{Quat, Vec3};
+    use ispm::scene::authoring::{cuboid, quad, GltfWriter, MaterialSpec};
+    let mut w = GltfWriter::default();
+    let grey = w.material(&MaterialSpec::diffuse("grey", [0.6; 3]));
+    let red = w.material(&MaterialSpec::diffuse("red", [0.7, 0.1, 0.1]));
+    let floor = w.mesh("floor", &quad(Vec3::ZERO, Vec3::Y, 2.0, 2.0), grey);
+    w.mesh_node("floor", floor, Vec3::ZERO, Quat::IDENTITY);
+    let block = w.mesh("block", &cuboid(Vec3::splat(0.3)), red);
+    w.mesh_node("block", block, Vec3::new(0.0, 0.3, 0.0), Quat::IDENTITY);
+    w.sun("sun", Vec3::new(-0.3, -1.0, -0.2), [1.0; 3], 2.0);
+    w.camera("front", Vec3::new(0.0, 0.8, 3.0), Vec3::ZERO, 0.7);
+    w.camera("above", Vec3::new(1.5, 2.5, 0.5), Vec3::ZERO, 0.9);
+    let path = dir.join("two-cameras.glb");
+    std::fs::write(&path, w.glb()).expect("write glb");
+    path
+}
+
+#[test]
+fn camera_picks_one_of_the_files_cameras_and_a_missing_one_fails_with_one_line() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let scene = two_camera_scene(dir.path());
+    let scene = scene.to_str().expect("utf8");
+    let render = |extra: &[&str], name: &str| {
+        let out_png = dir.path().join(name);
+        let mut args = vec!["render", scene, "--method", "direct", "--size", "32x24"];
+        args.extend(extra);
+        args.extend(["-o", out_png.to_str().expect("utf8")]);
+        let out = ispm(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        image::open(&out_png).expect("png").to_rgba8().into_raw()
+    };
+    let default = render(&[], "default.png");
+    let first = render(&["--camera", "0"], "first.png");
+    let second = render(&["--camera", "1"], "second.png");
+    assert_eq!(default, first, "--camera 0 is the default camera");
+    let differ = first
+        .chunks_exact(4)
+        .zip(second.chunks_exact(4))
+        .filter(|(a, b)| a != b)
+        .count();
+    assert!(differ > 32 * 24 / 4, "--camera 1 shows the same view");
+
+    let out_png = dir.path().join("out.png");
+    let out = ispm(&[
+        "render",
+        scene,
+        "--camera",
+        "2",
+        "-o",
+        out_png.to_str().expect("utf8"),
+    ]);
+    assert_clean_failure(&out, "--camera 2: ", &out_png);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("has 2 cameras (--camera 0 to 1)"));
+    let out = ispm(&[
+        "render",
+        "cornell-box",
+        "--camera",
+        "1",
+        "-o",
+        out_png.to_str().expect("utf8"),
+    ]);
+    assert_clean_failure(
+        &out,
+        "--camera 1: cornell-box has 1 camera (--camera 0)",
+        &out_png,
+    );
+    for command in ["view", "plan", "bench"] {
+        let out = ispm(&[command, "cornell-box", "--camera", "3"]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{command}: {stderr}");
+        assert_eq!(stderr.lines().count(), 1, "{command}: {stderr}");
+        assert!(
+            stderr.contains("--camera 3: cornell-box has 1 camera"),
+            "{command}: {stderr}"
+        );
+    }
+}

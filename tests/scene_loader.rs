@@ -712,6 +712,27 @@ fn perspective_camera_is_used_and_orthographic_skipped() {
 }
 
 #[test]
+fn every_perspective_camera_is_kept_in_node_order_and_the_first_is_the_scenes() {
+    let mut f = Fixture::triangle();
+    f.doc["cameras"] = json!([
+        {"type": "perspective", "perspective": {"yfov": 0.5, "znear": 0.1}},
+        {"type": "perspective", "perspective": {"yfov": 0.9, "znear": 0.2}},
+    ]);
+    // Node order, not camera order: node 1 uses camera 1.
+    f.doc["nodes"] = json!([
+        {"mesh": 0},
+        {"camera": 1, "translation": [1, 0, 4]},
+        {"camera": 0, "translation": [0, 2, 4]},
+    ]);
+    f.doc["scenes"][0]["nodes"] = json!([0, 1, 2]);
+    let s = f.load().unwrap();
+    assert_eq!(s.cameras.len(), 2);
+    assert_eq!((s.cameras[0].yfov, s.cameras[1].yfov), (0.9, 0.5));
+    assert_eq!(s.cameras[1].position(), Vec3::new(0.0, 2.0, 4.0));
+    assert_eq!(s.camera, s.cameras[0]);
+}
+
+#[test]
 fn scene_without_camera_gets_a_framing_camera() {
     let s = Fixture::triangle().load().unwrap();
     assert!(s.cameras.is_empty());
