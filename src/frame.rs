@@ -24,7 +24,9 @@
 //!
 //! The effects plan (`plan.rs`, issue #9) decides which of these steps exist, which lights they
 //! cover and which BSDF lobes their shaders compile; while no light changes, frames after the
-//! first reuse its photon map (no light G-buffers, bounce map, readback, trace or upload).
+//! first reuse its photon map (no light G-buffers, bounce map, readback, trace or upload), and
+//! a camera move ([`Renderer::set_camera`]) keeps it: the photon map does not depend on the
+//! camera (`photon_frame.rs`).
 //! `docs/effects.md`: the rules and the measured equivalence with `--effects all`.
 
 use crate::gpu::{
