@@ -47,6 +47,8 @@ use crate::translucent_frame::{TranslucentFrame, TranslucentResources};
 use glam::{DMat4, UVec4, Vec4};
 use std::sync::Arc;
 
+mod motion;
+
 /// Texels by which shadow cube faces overlap (normal offset 1.5 + PCF 1 + bilinear 0.5).
 const SHADOW_FACE_MARGIN: u32 = 3;
 
