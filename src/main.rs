@@ -62,6 +62,11 @@ struct ViewArgs {
     /// Resize the window after FRAME frames to WxH (FRAME:WxH; tests drive a resize).
     #[arg(long, hide = true, value_parser = parse_resize)]
     resize_at: Option<(u32, (u32, u32))>,
+    /// Orbit every light about the vertical axis through the scene's centre, one turn per
+    /// SECONDS_PER_TURN (default 10), so any scene shows moving light and caustics.
+    #[arg(long, value_name = "SECONDS_PER_TURN", num_args = 0..=1, default_missing_value = "10",
+          value_parser = parse_seconds_per_turn)]
+    orbit_lights: Option<f32>,
 }
 
 fn parse_resize(s: &str) -> Result<(u32, (u32, u32)), String> {
@@ -105,6 +110,11 @@ struct BenchArgs {
     /// Write an SVG of the last overlapped chunk's schedule (the paper's Figure 3).
     #[arg(long)]
     figure: Option<PathBuf>,
+    /// Orbit every light about the vertical axis through the scene's centre, one turn per
+    /// SECONDS_PER_TURN (default 10), so any scene shows moving light and caustics.
+    #[arg(long, value_name = "SECONDS_PER_TURN", num_args = 0..=1, default_missing_value = "10",
+          value_parser = parse_seconds_per_turn)]
+    orbit_lights: Option<f32>,
 }
 
 #[derive(clap::Args)]
@@ -128,6 +138,11 @@ struct PlanArgs {
     /// `auto`: plan; `all`: every pass, variant, light and bounce (the unplanned frame).
     #[arg(long, value_enum, default_value = "auto")]
     effects: ispm::plan::Effects,
+    /// Orbit every light about the vertical axis through the scene's centre, one turn per
+    /// SECONDS_PER_TURN (default 10), so any scene shows moving light and caustics.
+    #[arg(long, value_name = "SECONDS_PER_TURN", num_args = 0..=1, default_missing_value = "10",
+          value_parser = parse_seconds_per_turn)]
+    orbit_lights: Option<f32>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -207,6 +222,14 @@ struct RenderArgs {
     /// of its views around the mirrors and glass it lights, at a higher texel density (0: none).
     #[arg(long, default_value_t = ispm::ispm::CAUSTIC_SHARE, value_parser = parse_share)]
     caustic_share: f32,
+    /// Orbit every light about the vertical axis through the scene's centre, one turn per
+    /// SECONDS_PER_TURN (default 10), so any scene shows moving light and caustics.
+    #[arg(long, value_name = "SECONDS_PER_TURN", num_args = 0..=1, default_missing_value = "10",
+          value_parser = parse_seconds_per_turn)]
+    orbit_lights: Option<f32>,
+    /// Render the scene as it is SECONDS into its motion (glTF animations, --orbit-lights).
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.0, value_parser = parse_time)]
+    time: f32,
 }
 
 fn parse_share(s: &str) -> Result<f32, String> {
@@ -215,6 +238,23 @@ fn parse_share(s: &str) -> Result<f32, String> {
         _ => Err(format!(
             "caustic share {s:?} is not a number from 0 to 0.95"
         )),
+    }
+}
+
+fn parse_seconds_per_turn(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!(
+            "{s:?} is not a positive number of seconds per turn (put the scene before \
+             --orbit-lights)"
+        )),
+    }
+}
+
+fn parse_time(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!("time {s:?} is not a number of seconds ≥ 0")),
     }
 }
 
@@ -236,6 +276,18 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
 
 fn load_scene(arg: Option<&str>) -> anyhow::Result<ispm::scene::Scene> {
     ispm::scene::bundled::resolve(arg)
+}
+
+/// The scene, with its lights orbiting when `--orbit-lights` asks.
+fn load_moving_scene(
+    arg: Option<&str>,
+    orbit_lights: Option<f32>,
+) -> anyhow::Result<ispm::scene::Scene> {
+    let mut scene = load_scene(arg)?;
+    if let Some(seconds) = orbit_lights {
+        scene.orbit_lights(seconds).context("--orbit-lights")?;
+    }
+    Ok(scene)
 }
 
 fn gpu(cli_device: Option<usize>) -> anyhow::Result<std::sync::Arc<Gpu>> {
@@ -270,7 +322,7 @@ fn view(args: ViewArgs, device: Option<usize>) -> anyhow::Result<()> {
         );
         ispm::output::check_writable(path)?;
     }
-    let scene = load_scene(args.scene.as_deref())?;
+    let scene = load_moving_scene(args.scene.as_deref(), args.orbit_lights)?;
     let (width, height) = args.size;
     let settings = ispm::viewer::ViewSettings {
         render: RenderSettings {
@@ -307,7 +359,7 @@ fn bench(args: BenchArgs, device: Option<usize>) -> anyhow::Result<()> {
     {
         ispm::output::check_writable(path)?;
     }
-    let scene = load_scene(args.scene.as_deref())?;
+    let scene = load_moving_scene(args.scene.as_deref(), args.orbit_lights)?;
     let scene_name = args.scene.as_deref().unwrap_or("cornell-box");
     let gpu = gpu(device)?;
     let (width, height) = args.size;
@@ -362,7 +414,7 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
             "--radius {r} must be a positive length"
         );
     }
-    let scene = load_scene(args.scene.as_deref())?;
+    let scene = load_moving_scene(args.scene.as_deref(), args.orbit_lights)?.posed(args.time);
     let (width, height) = args.size;
     let reference = match args.method {
         Method::PhotonGather => Some(ispm::reference::Method::PhotonGather),
@@ -493,7 +545,7 @@ fn render_reference(
 }
 
 fn plan(args: PlanArgs) -> anyhow::Result<()> {
-    let scene = load_scene(args.scene.as_deref())?;
+    let scene = load_moving_scene(args.scene.as_deref(), args.orbit_lights)?;
     let settings = RenderSettings {
         method: args.method,
         photons: args.photons,

@@ -8,15 +8,21 @@
 //!  Esc, close ──► exit                                --frames N ──► screenshot of frame N, exit
 //! ```
 //!
+//! An animated scene (glTF animations, `--orbit-lights`) is posed before each frame
+//! (`Renderer::set_pose`) at the wall-clock time since the first frame; with `--frames N` time
+//! advances by [`FRAME_STEP_SECONDS`] per frame instead, so a scripted run renders the same
+//! frames on any machine.
+//!
 //! The renderer draws at the size the viewer started with; the present blit scales its image
 //! to the window, so a resize costs a swapchain, not a renderer.
 
 use crate::frame::{RenderSettings, Renderer};
 use crate::gpu::{Gpu, GpuOptions, Presented, Swapchain};
-use crate::scene::Scene;
+use crate::scene::{Scene, FRAME_STEP_SECONDS};
 use raw_window_handle::HasDisplayHandle;
 use std::path::PathBuf;
 use std::sync::Arc;
+use std::time::Instant;
 use winit::application::ApplicationHandler;
 use winit::dpi::PhysicalSize;
 use winit::event::{ElementState, KeyEvent, WindowEvent};
@@ -60,6 +66,8 @@ struct Viewer {
     state: Option<State>,
     report: ViewReport,
     error: Option<anyhow::Error>,
+    /// When the first frame began (the animation's clock).
+    started: Option<Instant>,
 }
 
 /// Opens the window and runs until closed (or `frames` are done).
@@ -72,6 +80,7 @@ pub fn run(scene: Scene, settings: ViewSettings) -> anyhow::Result<ViewReport> {
         state: None,
         report: ViewReport::default(),
         error: None,
+        started: None,
     };
     event_loop.run_app(&mut viewer)?;
     if let Some(e) = viewer.error {
@@ -112,14 +121,27 @@ impl Viewer {
         Ok(())
     }
 
+    /// Seconds into the scene's motion for the next frame.
+    fn animation_time(&mut self) -> f32 {
+        let started = *self.started.get_or_insert_with(Instant::now);
+        match self.settings.frames {
+            Some(_) => self.report.frames as f32 * FRAME_STEP_SECONDS,
+            None => started.elapsed().as_secs_f32(),
+        }
+    }
+
     /// One frame: render, present, and the scripted steps of `--frames`.
     fn frame(&mut self, event_loop: &ActiveEventLoop) -> anyhow::Result<()> {
+        let t = self.animation_time();
         let Some(state) = &mut self.state else {
             return Ok(());
         };
         let size = state.window.inner_size();
         if size.width == 0 || size.height == 0 {
             return Ok(()); // minimised: nothing to show, nothing to render
+        }
+        if self.scene.is_animated() {
+            state.renderer.set_pose(&self.scene.pose_at(t))?;
         }
         state.renderer.submit_frame()?;
         let display = state.renderer.display();
