@@ -23,9 +23,10 @@
 //! submission: the same work strictly in order, the baseline `ispm bench` compares against.
 //!
 //! The effects plan (`plan.rs`, issue #9) decides which of these steps exist, which lights they
-//! cover and which BSDF lobes their shaders compile; while no light changes, frames after the
-//! first reuse its photon map (no light G-buffers, bounce map, readback, trace or upload).
-//! `docs/effects.md`: the rules and the measured equivalence with `--effects all`.
+//! cover and which BSDF lobes their shaders compile; while no light changes and no instance
+//! moves, frames after the first reuse its photon map (no light G-buffers, bounce map, readback,
+//! trace or upload). `docs/effects.md`: the rules and the measured equivalence with
+//! `--effects all`. Moving instances and posing an animated scene: `frame/motion.rs`.
 
 use crate::gpu::{
     vk, Buffer, Cmd, Gpu, Image, ImageDesc, QueueRole, Recording, Span, TimelinePoint, Timestamps,

@@ -7,7 +7,7 @@
 //! radiometric [`Light`]s ([`units`](super::units)) and perspective cameras into [`Camera`]s.
 //! Animation channels (translation, rotation, scale; STEP, LINEAR, CUBICSPLINE) become
 //! [`Clip`]s over the flattened node hierarchy ([`Animations`]), and an animated scene is
-//! returned posed at t = 0 ([`super::animation`]).
+//! returned posed at t = 0 ([`Scene::pose_at`]).
 //!
 //! Every error is one line that starts with the file's name. Input that can still be
 //! rendered is repaired with a `log::warn!`; everything else is rejected. `docs/scenes.md`
