@@ -219,7 +219,8 @@ impl Sampler {
                     + v1 * (-2.0 * s3 + 3.0 * s2)
                     + a1 * (dt * (s3 - s2));
                 if rotation {
-                    Vec4::from(Quat::from_vec4(p).normalize())
+                    // A spline through unit keys can pass near zero with wild tangents.
+                    p.try_normalize().unwrap_or(if s < 0.5 { v0 } else { v1 })
                 } else {
                     p
                 }
@@ -283,7 +284,7 @@ impl Animations {
             {
                 match channel.property {
                     Property::Translation => *translation = v.truncate(),
-                    Property::Rotation => *r = Quat::from_vec4(v).normalize(),
+                    Property::Rotation => *r = Quat::from_vec4(v),
                     Property::Scale => *scale = v.truncate(),
                 }
             }
@@ -574,6 +575,19 @@ mod tests {
         // unused.
         assert_eq!(s.sample(0.0, false), v(0.0));
         assert_eq!(s.sample(2.0, false), v(1.0));
+    }
+
+    #[test]
+    fn a_cubic_rotation_through_zero_stays_a_unit_quaternion() {
+        // Keys q and −q with zero tangents: the spline passes through 0 at s = ½.
+        let (q, z) = (Vec4::W, Vec4::ZERO);
+        let s = sampler(
+            Interpolation::CubicSpline,
+            &[0.0, 1.0],
+            &[z, q, z, z, -q, z],
+        );
+        let r = s.sample(0.5, true);
+        assert!(r.is_finite() && (r.length() - 1.0).abs() < 1e-6, "{r:?}");
     }
 
     #[test]
