@@ -7,6 +7,9 @@
 //! chunk is one trace capture (`timing`); a chunk's frame period is its wall time (submitting
 //! its frames and waiting for the last) over its frame count, and the figures are medians over
 //! chunks. Per stage the spans of every frame give the median and the 10th–90th percentile.
+//! An animated scene (glTF animations, `--orbit-lights`) advances by
+//! [`FRAME_STEP_SECONDS`] per frame of each configuration, posed (`Renderer::set_pose`) before
+//! each frame inside the measured time.
 //!
 //! The overlap figures:
 //! - `overlap = frame period ÷ max(CPU stage, GPU stage)`, with the CPU stage the CPU photon
@@ -16,7 +19,7 @@
 
 use crate::frame::{Method, RenderSettings, Renderer, Schedule};
 use crate::gpu::Gpu;
-use crate::scene::Scene;
+use crate::scene::{Scene, FRAME_STEP_SECONDS};
 use crate::timing::{self, Span};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -84,6 +87,8 @@ pub struct BenchReport {
 struct Config {
     name: &'static str,
     renderer: Renderer,
+    /// Frames rendered so far (the animation's clock).
+    frames: u64,
     chunk_ms: Vec<f64>,
     spans: Vec<Span>,
     last_chunk: Vec<Span>,
@@ -163,16 +168,22 @@ fn result(config: &Config) -> ConfigResult {
     }
 }
 
-/// Runs `frames` frames of `renderer` in one capture; returns the wall time per frame and the
-/// spans (frame indices made unique across chunks by the renderer's own counter).
-fn chunk(renderer: &mut Renderer, frames: u32) -> anyhow::Result<(f64, Vec<Span>)> {
+/// Runs `frames` frames of `config`'s renderer in one capture (posing `scene` before each
+/// when it is animated); returns the wall time per frame and the spans (frame indices made
+/// unique across chunks by the renderer's own counter).
+fn chunk(config: &mut Config, scene: &Scene, frames: u32) -> anyhow::Result<(f64, Vec<Span>)> {
     timing::start_capture();
     let start = timing::now_ns();
     let run = (|| {
         for _ in 0..frames {
-            renderer.submit_frame()?;
+            if scene.is_animated() {
+                let t = config.frames as f32 * FRAME_STEP_SECONDS;
+                config.renderer.set_pose(&scene.pose_at(t))?;
+            }
+            config.renderer.submit_frame()?;
+            config.frames += 1;
         }
-        renderer.drain()
+        config.renderer.drain()
     })();
     let wall = timing::now_ns().saturating_sub(start) as f64 * 1e-6;
     let capture = timing::finish_capture();
@@ -199,6 +210,7 @@ pub fn run(
         Ok::<_, anyhow::Error>(Config {
             name,
             renderer: Renderer::new(gpu, scene, render)?,
+            frames: 0,
             chunk_ms: Vec::new(),
             spans: Vec::new(),
             last_chunk: Vec::new(),
@@ -211,7 +223,7 @@ pub fn run(
     ];
     for c in &mut configs {
         progress(&format!("warm-up: {}", c.name));
-        chunk(&mut c.renderer, settings.warmup.max(1))?;
+        chunk(c, scene, settings.warmup.max(1))?;
     }
     let chunks = settings.chunks.clamp(1, settings.frames.max(1));
     for k in 0..chunks {
@@ -221,7 +233,7 @@ pub fn run(
             - frames * u64::from(k) / u64::from(chunks)) as u32;
         for c in &mut configs {
             progress(&format!("chunk {}/{chunks}: {}", k + 1, c.name));
-            let (ms, spans) = chunk(&mut c.renderer, n.max(1))?;
+            let (ms, spans) = chunk(c, scene, n.max(1))?;
             c.chunk_ms.push(ms);
             c.last_chunk = spans.clone();
             c.spans.extend(spans);

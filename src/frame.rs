@@ -23,11 +23,12 @@
 //! submission: the same work strictly in order, the baseline `ispm bench` compares against.
 //!
 //! The effects plan (`plan.rs`, issue #9) decides which of these steps exist, which lights they
-//! cover and which BSDF lobes their shaders compile; while no light changes, frames after the
-//! first reuse its photon map (no light G-buffers, bounce map, readback, trace or upload), and
-//! a camera move ([`Renderer::set_camera`]) keeps it: the photon map does not depend on the
-//! camera (`photon_frame.rs`).
-//! `docs/effects.md`: the rules and the measured equivalence with `--effects all`.
+//! cover and which BSDF lobes their shaders compile; while no light changes and no instance
+//! moves, frames after the first reuse its photon map (no light G-buffers, bounce map, readback,
+//! trace or upload), and a camera move ([`Renderer::set_camera`]) keeps it: the photon map does
+//! not depend on the camera (`photon_frame.rs`). `docs/effects.md`: the rules and the measured
+//! equivalence with `--effects all`. Moving instances and posing an animated scene:
+//! `frame/motion.rs`.
 
 use crate::gpu::{
     vk, Buffer, Cmd, Gpu, Image, ImageDesc, QueueRole, Recording, Span, TimelinePoint, Timestamps,
@@ -48,6 +49,8 @@ use crate::timing;
 use crate::translucent_frame::{TranslucentFrame, TranslucentResources};
 use glam::{DMat4, UVec4, Vec4};
 use std::sync::Arc;
+
+mod motion;
 
 /// Texels by which shadow cube faces overlap (normal offset 1.5 + PCF 1 + bilinear 0.5).
 const SHADOW_FACE_MARGIN: u32 = 3;

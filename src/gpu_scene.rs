@@ -1,6 +1,8 @@
 //! The scene on the GPU: one interleaved vertex buffer and one index buffer for every mesh,
 //! the material buffer, the base-colour textures, and each instance's transform in double
-//! precision (made camera-relative every frame, see [`GpuScene::draws`]).
+//! precision (made camera-relative every frame, see [`GpuScene::draws`]). Instances move by
+//! host writes only ([`GpuScene::set_instance_transform`]): a draw's model matrix is a push
+//! constant computed from its transform every frame, so nothing on the GPU changes.
 
 use crate::gpu::{vk, Access, Buffer, Filter, Gpu, Image, ImageDesc, Sampler, ViewKind};
 use crate::layout::{
@@ -29,6 +31,23 @@ pub struct InstanceDraw {
     /// World-space bounding sphere (centre of the bounds, farthest vertex): the translucent
     /// pass treats a refracting object as this sphere where the ray leaves it.
     pub sphere: (DVec3, f32),
+}
+
+/// Instance `i` of `scene` as drawn at its current transform.
+fn instance_draw(scene: &Scene, i: usize) -> InstanceDraw {
+    let inst = &scene.instances[i];
+    let transform = inst.transform.as_dmat4();
+    let world: Vec<DVec3> = scene.meshes[inst.mesh]
+        .positions
+        .iter()
+        .map(|p| transform.transform_point3(p.as_dvec3()))
+        .collect();
+    InstanceDraw {
+        mesh: inst.mesh,
+        material: scene.meshes[inst.mesh].material as u32,
+        transform,
+        sphere: bounding_sphere(&world),
+    }
 }
 
 /// The bounding sphere of `points`: the centre of their bounds and the farthest of them.
@@ -69,6 +88,8 @@ pub struct GpuScene {
     /// Whether each material has a delta lobe (perfect mirror or refraction): such surfaces
     /// are drawn by the translucent pass, not into the eye G-buffer.
     pub material_delta: Vec<bool>,
+    /// Bounds of the geometry over its whole animation (`Scene::motion_bounds`): what light
+    /// views and kernel sizes are fitted to.
     pub bounds: Aabb,
     pub triangles: usize,
 }
@@ -185,23 +206,8 @@ impl GpuScene {
             .iter()
             .map(Material::has_delta_lobe)
             .collect();
-        let instances = scene
-            .instances
-            .iter()
-            .map(|i| {
-                let transform = i.transform.as_dmat4();
-                let world: Vec<DVec3> = scene.meshes[i.mesh]
-                    .positions
-                    .iter()
-                    .map(|p| transform.transform_point3(p.as_dvec3()))
-                    .collect();
-                InstanceDraw {
-                    mesh: i.mesh,
-                    material: scene.meshes[i.mesh].material as u32,
-                    transform,
-                    sphere: bounding_sphere(&world),
-                }
-            })
+        let instances = (0..scene.instances.len())
+            .map(|i| instance_draw(scene, i))
             .collect();
         Ok(GpuScene {
             vertices,
@@ -214,9 +220,15 @@ impl GpuScene {
             texture_sampler,
             material_textures,
             material_delta,
-            bounds: scene.bounds(),
+            bounds: scene.motion_bounds(),
             triangles: scene.triangle_count(),
         })
+    }
+
+    /// Draws instance `i` at its transform in `scene` from the next recorded frame on (the
+    /// same scene this one was made from, with instances moved).
+    pub fn set_instance_transform(&mut self, scene: &Scene, i: usize) {
+        self.instances[i] = instance_draw(scene, i);
     }
 
     /// Whether `draw` is of a delta material (see [`GpuScene::material_delta`]).

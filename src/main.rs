@@ -81,6 +81,11 @@ struct ViewArgs {
     /// Start from the file's camera N (0-based, in node order; default: the first).
     #[arg(long, value_name = "N")]
     camera: Option<usize>,
+    /// Orbit every light about the vertical axis through the scene's centre, one turn per
+    /// SECONDS_PER_TURN (default 10), so any scene shows moving light and caustics.
+    #[arg(long, value_name = "SECONDS_PER_TURN", num_args = 0..=1, default_missing_value = "10",
+          value_parser = parse_seconds_per_turn)]
+    orbit_lights: Option<f32>,
 }
 
 fn parse_resize(s: &str) -> Result<(u32, (u32, u32)), String> {
@@ -127,6 +132,11 @@ struct BenchArgs {
     /// Render from the file's camera N (0-based, in node order; default: the first).
     #[arg(long, value_name = "N")]
     camera: Option<usize>,
+    /// Orbit every light about the vertical axis through the scene's centre, one turn per
+    /// SECONDS_PER_TURN (default 10), so any scene shows moving light and caustics.
+    #[arg(long, value_name = "SECONDS_PER_TURN", num_args = 0..=1, default_missing_value = "10",
+          value_parser = parse_seconds_per_turn)]
+    orbit_lights: Option<f32>,
 }
 
 #[derive(clap::Args)]
@@ -153,6 +163,11 @@ struct PlanArgs {
     /// Plan the view of the file's camera N (0-based, in node order; default: the first).
     #[arg(long, value_name = "N")]
     camera: Option<usize>,
+    /// Orbit every light about the vertical axis through the scene's centre, one turn per
+    /// SECONDS_PER_TURN (default 10), so any scene shows moving light and caustics.
+    #[arg(long, value_name = "SECONDS_PER_TURN", num_args = 0..=1, default_missing_value = "10",
+          value_parser = parse_seconds_per_turn)]
+    orbit_lights: Option<f32>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -239,6 +254,14 @@ struct RenderArgs {
     /// starts at the --camera one): the headless twin of the viewer's screenshot.
     #[arg(long, value_name = "K")]
     camera_path_frame: Option<u32>,
+    /// Orbit every light about the vertical axis through the scene's centre, one turn per
+    /// SECONDS_PER_TURN (default 10), so any scene shows moving light and caustics.
+    #[arg(long, value_name = "SECONDS_PER_TURN", num_args = 0..=1, default_missing_value = "10",
+          value_parser = parse_seconds_per_turn)]
+    orbit_lights: Option<f32>,
+    /// Render the scene as it is SECONDS into its motion (glTF animations, --orbit-lights).
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.0, value_parser = parse_time)]
+    time: f32,
 }
 
 fn parse_share(s: &str) -> Result<f32, String> {
@@ -247,6 +270,23 @@ fn parse_share(s: &str) -> Result<f32, String> {
         _ => Err(format!(
             "caustic share {s:?} is not a number from 0 to 0.95"
         )),
+    }
+}
+
+fn parse_seconds_per_turn(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!(
+            "{s:?} is not a positive number of seconds per turn (put the scene before \
+             --orbit-lights)"
+        )),
+    }
+}
+
+fn parse_time(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!("time {s:?} is not a number of seconds ≥ 0")),
     }
 }
 
@@ -270,8 +310,13 @@ fn load_scene(arg: Option<&str>) -> anyhow::Result<ispm::scene::Scene> {
     ispm::scene::bundled::resolve(arg)
 }
 
-/// The scene of `arg`, seen from its file's camera `camera` (`--camera N`) if given.
-fn load_scene_from(arg: Option<&str>, camera: Option<usize>) -> anyhow::Result<ispm::scene::Scene> {
+/// The scene of `arg`, seen from its file's camera `camera` (`--camera N`) if given, with its
+/// lights orbiting when `--orbit-lights` asks.
+fn load_scene_from(
+    arg: Option<&str>,
+    camera: Option<usize>,
+    orbit_lights: Option<f32>,
+) -> anyhow::Result<ispm::scene::Scene> {
     let mut scene = load_scene(arg)?;
     if let Some(n) = camera {
         let name = arg.unwrap_or("cornell-box");
@@ -284,6 +329,9 @@ fn load_scene_from(arg: Option<&str>, camera: Option<usize>) -> anyhow::Result<i
                 count - 1
             ),
         })?;
+    }
+    if let Some(seconds) = orbit_lights {
+        scene.orbit_lights(seconds).context("--orbit-lights")?;
     }
     Ok(scene)
 }
@@ -320,7 +368,7 @@ fn view(args: ViewArgs, device: Option<usize>) -> anyhow::Result<()> {
         );
         ispm::output::check_writable(path)?;
     }
-    let scene = load_scene_from(args.scene.as_deref(), args.camera)?;
+    let scene = load_scene_from(args.scene.as_deref(), args.camera, args.orbit_lights)?;
     let (width, height) = args.size;
     let settings = ispm::viewer::ViewSettings {
         render: RenderSettings {
@@ -357,7 +405,7 @@ fn bench(args: BenchArgs, device: Option<usize>) -> anyhow::Result<()> {
     {
         ispm::output::check_writable(path)?;
     }
-    let scene = load_scene_from(args.scene.as_deref(), args.camera)?;
+    let scene = load_scene_from(args.scene.as_deref(), args.camera, args.orbit_lights)?;
     let scene_name = args.scene.as_deref().unwrap_or("cornell-box");
     let gpu = gpu(device)?;
     let (width, height) = args.size;
@@ -412,9 +460,14 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
             "--radius {r} must be a positive length"
         );
     }
-    let mut scene = load_scene_from(args.scene.as_deref(), args.camera)?;
-    if let Some(k) = args.camera_path_frame {
-        scene.camera = ispm::camera_control::scripted_pose(&scene.camera, &scene.bounds(), k);
+    let scene = load_scene_from(args.scene.as_deref(), args.camera, args.orbit_lights)?;
+    // The viewer's scripted path starts from the scene as loaded.
+    let path_pose = args
+        .camera_path_frame
+        .map(|k| ispm::camera_control::scripted_pose(&scene.camera, &scene.bounds(), k));
+    let mut scene = scene.posed(args.time);
+    if let Some(camera) = path_pose {
+        scene.camera = camera;
     }
     let (width, height) = args.size;
     let reference = match args.method {
@@ -546,7 +599,7 @@ fn render_reference(
 }
 
 fn plan(args: PlanArgs) -> anyhow::Result<()> {
-    let scene = load_scene_from(args.scene.as_deref(), args.camera)?;
+    let scene = load_scene_from(args.scene.as_deref(), args.camera, args.orbit_lights)?;
     let settings = RenderSettings {
         method: args.method,
         photons: args.photons,

@@ -31,6 +31,9 @@ use crate::scene::Scene;
 use crate::timing;
 use std::sync::Arc;
 
+/// Poses of an animated scene over one period that the buffers are sized for.
+const POSE_SAMPLES: usize = 24;
+
 pub struct PhotonFrame {
     gpu: Arc<Gpu>,
     scene: Scene,
@@ -136,15 +139,25 @@ impl PhotonFrame {
         };
         let active = effects.photon_mask();
         let budget = (settings.photons, settings.caustic_share);
-        let plan_for = |active: &[bool]| {
+        let plan_for = |scene: &Scene, active: &[bool]| {
             let bounds = &gpu_scene.bounds;
             BouncePlan::with_caustic_share(scene, active, origin, bounds, budget.0, budget.1)
         };
-        let plan = plan_for(&active);
+        let plan = plan_for(scene, &active);
         // Room for every light too: `set_lights` may bring back a light the plan skips now,
         // and move lights (caustic views change size: `BouncePlan::capacity`).
-        let every = plan_for(&vec![true; scene.lights.len()]);
-        let capacity = plan.capacity().max(every.capacity());
+        let every = vec![true; scene.lights.len()];
+        let mut capacity = plan.capacity().max(plan_for(scene, &every).capacity());
+        // And for every pose of an animated scene, so that its caustic views keep their
+        // subdivision (`BouncePlan::within` lowers it only for what was not foreseen).
+        if scene.is_animated() {
+            let period = scene.animations.period();
+            let mut posed = scene.clone();
+            for k in 0..POSE_SAMPLES {
+                posed.set_pose(&scene.pose_at(period * k as f32 / POSE_SAMPLES as f32));
+                capacity = capacity.max(plan_for(&posed, &every).capacity());
+            }
+        }
         let (views, texels) = (capacity.views.max(1), capacity.texels.max(1));
         let light_gbuffer = GBuffer::new(
             gpu,
@@ -222,7 +235,9 @@ impl PhotonFrame {
         Ok(Self {
             gpu: gpu.clone(),
             scene: scene.clone(),
-            bvh: SceneBvh::new(scene),
+            // The instances the scene animates get a BVH level of their own, moved by transform
+            // (`move_instances`); the static geometry's is built here, once.
+            bvh: SceneBvh::with_moving_instances(scene, &effects.motion.instances),
             trace: TraceSettings {
                 max_bounces: effects.max_bounces,
                 seed: settings.seed,
@@ -283,13 +298,56 @@ impl PhotonFrame {
         lights: &[crate::scene::Light],
         active: &[bool],
     ) -> anyhow::Result<()> {
-        let mut scene = self.scene.clone();
-        scene.lights = lights.to_vec();
-        let origin = self.plan.origin;
-        let bounds = &self.bounds;
-        let plan = BouncePlan::within(&scene, active, origin, bounds, self.budget, &self.capacity)?;
-        self.scene.lights = scene.lights;
-        self.plan = plan;
+        // In place (the scene's meshes are not copied), and back if the plan does not fit.
+        let before = std::mem::replace(&mut self.scene.lights, lights.to_vec());
+        let (origin, bounds) = (self.plan.origin, &self.bounds);
+        match BouncePlan::within(
+            &self.scene,
+            active,
+            origin,
+            bounds,
+            self.budget,
+            &self.capacity,
+        ) {
+            Ok(plan) => {
+                self.plan = plan;
+                Ok(())
+            }
+            Err(e) => {
+                self.scene.lights = before;
+                Err(e)
+            }
+        }
+    }
+
+    /// Moves instances (`moved`: index and new world-from-object transform) for the next
+    /// frame's trace, and plans the light views again for `lights` and the effects plan's photon
+    /// mask `active` (caustic windows follow moving mirrors and glass), as
+    /// [`Self::set_lights`] does. The BVH moves the instances by transform; only an instance
+    /// that was static makes it rebuild its static part (once). On error nothing has moved.
+    pub fn move_instances(
+        &mut self,
+        moved: &[(usize, glam::Mat4)],
+        lights: &[crate::scene::Light],
+        active: &[bool],
+    ) -> anyhow::Result<()> {
+        let before: Vec<glam::Mat4> = moved
+            .iter()
+            .map(|&(i, _)| self.scene.instances[i].transform)
+            .collect();
+        for &(i, m) in moved {
+            self.scene.instances[i].transform = m;
+        }
+        if let Err(e) = self.set_lights(lights, active) {
+            for (&(i, _), m) in moved.iter().zip(before) {
+                self.scene.instances[i].transform = m;
+            }
+            return Err(e);
+        }
+        for &(i, m) in moved {
+            self.bvh.set_instance_transform(i, m);
+        }
+        self.bvh.update();
         Ok(())
     }
 
@@ -477,6 +535,11 @@ impl PhotonFrame {
             }
         }
         self.composite.record(cmd, &self.indirect, radiance);
+    }
+
+    /// The CPU tracer's BVH.
+    pub fn bvh(&self) -> &SceneBvh {
+        &self.bvh
     }
 
     /// The light views the bounce map is made of.

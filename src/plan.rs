@@ -11,6 +11,8 @@
 //!   SceneAnalysis::plan (again whenever the camera moves or a light changes):
 //!   lights ──► power, cone vs scene / visible box, closed opaque surfaces ──► per light:
 //!              direct (shadow views) and photons (budget re-split over the active ones)
+//!   animations ──► motion: the instances with a BVH of their own, updated by transform (the
+//!                  static geometry's is built once), and whether frames re-trace photons
 //!   ──► passes(): every pass of the frame, run or skipped, and why
 //! ```
 //!
@@ -97,6 +99,87 @@ pub struct PassPlan {
     pub reason: String,
 }
 
+/// What moves in the scene (glTF animations, `--orbit-lights`), and so what a frame redoes.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct MotionPlan {
+    /// The instances that move (indices into `Scene::instances`): each gets an object-space
+    /// BVH of its mesh, moved by transform every frame (`photon::bvh::SceneBvh::update`); every
+    /// other instance is in the static BVH, built once and never rebuilt.
+    pub instances: Vec<usize>,
+    /// The lights that move (indices into `Scene::lights`).
+    pub lights: Vec<usize>,
+    pub reason: String,
+}
+
+impl MotionPlan {
+    /// What `scene`'s animations move.
+    pub fn of(scene: &Scene) -> Self {
+        let instances = scene.moving_instances();
+        let lights = scene.moving_lights();
+        let names = |names: Vec<&str>| {
+            let shown: Vec<String> = names.iter().take(3).map(|n| format!("'{n}'")).collect();
+            let more = names.len().saturating_sub(3);
+            let more = if more > 0 {
+                format!(" and {more} more")
+            } else {
+                String::new()
+            };
+            format!("{}{more}", shown.join(", "))
+        };
+        let static_triangles: usize = scene
+            .instances
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| instances.binary_search(i).is_err())
+            .map(|(_, inst)| scene.meshes[inst.mesh].triangles.len())
+            .sum();
+        let mut what = Vec::new();
+        if !instances.is_empty() {
+            let moving = instances.iter().map(|&i| scene.instances[i].name.as_str());
+            what.push(format!(
+                "{} instance(s) move ({})",
+                instances.len(),
+                names(moving.collect())
+            ));
+        }
+        if !lights.is_empty() {
+            let moving = lights.iter().map(|&i| scene.lights[i].name.as_str());
+            what.push(format!(
+                "{} light(s) move ({})",
+                lights.len(),
+                names(moving.collect())
+            ));
+        }
+        let reason = if what.is_empty() {
+            "nothing is animated: one BVH, built once; frames reuse the photon map until a light \
+             or an instance is changed"
+                .to_string()
+        } else if instances.is_empty() {
+            format!(
+                "{}: the BVH is static, built once; every frame re-traces the photon map",
+                what.join(", ")
+            )
+        } else {
+            format!(
+                "{}: static geometry's BVH ({static_triangles} triangles) is built once and never \
+                 rebuilt, the moving instances' BVHs are moved by transform each frame; every \
+                 frame re-traces the photon map",
+                what.join(", ")
+            )
+        };
+        Self {
+            instances,
+            lights,
+            reason,
+        }
+    }
+
+    /// Something moves.
+    pub fn moves(&self) -> bool {
+        !self.instances.is_empty() || !self.lights.is_empty()
+    }
+}
+
 /// What a frame of one scene, seen from one camera, needs.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct EffectsPlan {
@@ -119,6 +202,8 @@ pub struct EffectsPlan {
     pub max_bounces_reason: String,
     /// The subsample factor the frame uses (upsample runs above 1).
     pub subsample: u32,
+    /// What moves, and what that costs per frame.
+    pub motion: MotionPlan,
 }
 
 /// A material in use (by an instance), with its lobes.
@@ -422,6 +507,7 @@ impl SceneAnalysis {
             max_bounces,
             max_bounces_reason,
             subsample: self.subsample,
+            motion: MotionPlan::of(scene),
         }
     }
 }
@@ -474,6 +560,7 @@ impl EffectsPlan {
             max_bounces: if ispm { settings.bounces.max(1) } else { 0 },
             max_bounces_reason: "--effects all: --bounces (at least 1)".to_string(),
             subsample,
+            motion: MotionPlan::of(scene),
         }
     }
 
@@ -648,6 +735,12 @@ impl fmt::Display for EffectsPlan {
             "max bounces: {} — {}",
             self.max_bounces, self.max_bounces_reason
         )?;
+        let motion = if self.motion.moves() {
+            "moving"
+        } else {
+            "static"
+        };
+        writeln!(f, "motion: {motion} — {}", self.motion.reason)?;
         for (i, l) in self.lights.iter().enumerate() {
             let what = match (l.direct, l.photons) {
                 (false, 0) => "skipped".to_string(),

@@ -133,4 +133,13 @@ impl TranslucentFrame {
     pub fn invalidate(&mut self) {
         self.environment.invalidate();
     }
+
+    /// Instances moved: the cube map is rendered again, from the centre of `delta`, the delta
+    /// instances' bounds where they are now (`GpuScene::delta_bounds`).
+    pub fn moved(&mut self, delta: Aabb) {
+        if !delta.is_empty() {
+            self.centre = delta.center().as_dvec3();
+        }
+        self.environment.invalidate();
+    }
 }

@@ -15,6 +15,11 @@
 //! path instead, frame k (1 … N) at [`scripted_pose`]`(start, bounds, k)`, so the screenshot is
 //! the pose `ispm render --camera-path-frame N` renders.
 //!
+//! An animated scene (glTF animations, `--orbit-lights`) is posed before each frame
+//! (`Renderer::set_pose`) at the wall-clock time since the first frame; with `--frames N` time
+//! advances by [`FRAME_STEP_SECONDS`] per frame instead, so a scripted run renders the same
+//! frames on any machine.
+//!
 //! The renderer draws at the size the viewer started with; the present blit scales its image
 //! to the window, so a resize costs a swapchain, not a renderer. A camera move costs no photon
 //! trace (`Renderer::set_camera`).
@@ -22,7 +27,7 @@
 use crate::camera_control::{scripted_pose, FlyCamera, MoveKeys};
 use crate::frame::{RenderSettings, Renderer};
 use crate::gpu::{Gpu, GpuOptions, Presented, Swapchain};
-use crate::scene::{Aabb, Scene};
+use crate::scene::{Aabb, Scene, FRAME_STEP_SECONDS};
 use raw_window_handle::HasDisplayHandle;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -78,6 +83,8 @@ struct Viewer {
     report: ViewReport,
     error: Option<anyhow::Error>,
     input: Input,
+    /// When the first frame began (the animation's clock).
+    started: Option<Instant>,
 }
 
 /// The interactive camera and the input that drives it.
@@ -115,6 +122,7 @@ pub fn run(scene: Scene, settings: ViewSettings) -> anyhow::Result<ViewReport> {
         report: ViewReport::default(),
         error: None,
         input,
+        started: None,
     };
     event_loop.run_app(&mut viewer)?;
     if let Some(e) = viewer.error {
@@ -155,8 +163,18 @@ impl Viewer {
         Ok(())
     }
 
+    /// Seconds into the scene's motion for the next frame.
+    fn animation_time(&mut self) -> f32 {
+        let started = *self.started.get_or_insert_with(Instant::now);
+        match self.settings.frames {
+            Some(_) => self.report.frames as f32 * FRAME_STEP_SECONDS,
+            None => started.elapsed().as_secs_f32(),
+        }
+    }
+
     /// One frame: render, present, and the scripted steps of `--frames`.
     fn frame(&mut self, event_loop: &ActiveEventLoop) -> anyhow::Result<()> {
+        let t = self.animation_time();
         let Some(state) = &mut self.state else {
             return Ok(());
         };
@@ -164,6 +182,9 @@ impl Viewer {
         if size.width == 0 || size.height == 0 {
             self.input.last_step = None; // no flying through a minimised stretch
             return Ok(()); // minimised: nothing to show, nothing to render
+        }
+        if self.scene.is_animated() {
+            state.renderer.set_pose(&self.scene.pose_at(t))?;
         }
         let camera = if self.settings.frames.is_some() {
             // The scripted path: this frame's number, 1 … N.

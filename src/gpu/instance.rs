@@ -1,7 +1,8 @@
 //! The Vulkan instance and the validation hook.
 //!
 //! Validation (`ISPM_VALIDATION=1`, and always in the tests) enables
-//! `VK_LAYER_KHRONOS_validation` with synchronization validation through
+//! `VK_LAYER_KHRONOS_validation` with synchronization validation (unless
+//! `GpuOptions::without_sync_validation`) through
 //! `VkValidationFeaturesEXT` (layer 1.3.239 has no `VK_EXT_layer_settings`). A debug messenger is
 //! chained into instance creation *and* created persistently, because a chained one sees only
 //! `vkCreateInstance`/`vkDestroyInstance`. The messenger counts validation and performance
@@ -84,8 +85,10 @@ impl Drop for InstanceParts {
     }
 }
 
+/// The instance, with the validation layer when `validation.0` and its synchronization
+/// validation when `validation.1` as well.
 pub(super) fn create_instance(
-    validation: bool,
+    (validation, sync_validation): (bool, bool),
     extra_extensions: &[&CStr],
 ) -> GpuResult<InstanceParts> {
     // SAFETY: loading the Vulkan loader library runs its initialisers; we load the system's
@@ -129,7 +132,7 @@ pub(super) fn create_instance(
         .enabled_extension_names(&extensions)
         .enabled_layer_names(&layers)
         .push_next(&mut messenger_info);
-    if validation {
+    if validation && sync_validation {
         info = info.push_next(&mut features);
     }
 

@@ -172,6 +172,9 @@ pub struct SceneBvh {
     /// Moving instances, in instance order.
     moving: Vec<usize>,
     static_dirty: bool,
+    /// Builds of the static part so far (1 after construction; more only when an instance
+    /// left it).
+    static_builds: u32,
     triangle_count: usize,
 }
 
@@ -215,6 +218,7 @@ impl SceneBvh {
             mesh_bvhs: (0..scene.meshes.len()).map(|_| None).collect(),
             moving: Vec::new(),
             static_dirty: true,
+            static_builds: 0,
             triangle_count: count as usize,
         };
         bvh.update();
@@ -231,6 +235,11 @@ impl SceneBvh {
         self.static_part
             .as_ref()
             .map_or(Duration::ZERO, |b| b.build_time)
+    }
+
+    /// How many times the static part was built (1 unless an instance left it).
+    pub fn static_builds(&self) -> u32 {
+        self.static_builds
     }
 
     /// Sets instance `instance`'s world-from-object transform; takes effect at [`Self::update`].
@@ -267,6 +276,7 @@ impl SceneBvh {
             }
             self.static_part = Blas::build(triangles, ids);
             self.static_dirty = false;
+            self.static_builds += 1;
         }
         self.moving.clear();
         for i in 0..self.instances.len() {

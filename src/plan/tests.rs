@@ -506,7 +506,15 @@ fn the_pass_list_covers_every_stage_and_prints_one_line_per_decision() {
     assert!(pass(&passes, "upsample").run);
     let text = p.to_string();
     let lines: Vec<&str> = text.lines().collect();
-    assert_eq!(lines.len(), 1 + 4 + 1 + scene.lights.len() + passes.len());
+    // effects, 4 decisions, max bounces, motion, the lights, the passes.
+    assert_eq!(
+        lines.len(),
+        1 + 4 + 1 + 1 + scene.lights.len() + passes.len()
+    );
+    assert!(
+        text.contains("motion: static — nothing is animated"),
+        "{text}"
+    );
     assert!(lines.iter().skip(1).all(|l| l.contains(" — ")), "{text}");
     assert!(text.contains(&format!("light 0 '{}'", scene.lights[0].name)));
 }

@@ -5,19 +5,25 @@
 //! into one [`Mesh`] ([`gltf_mesh`](super::gltf_mesh)), each material into über-BSDF
 //! parameters ([`gltf_material`](super::gltf_material)), KHR_lights_punctual lights into
 //! radiometric [`Light`]s ([`units`](super::units)) and perspective cameras into [`Camera`]s.
+//! Animation channels (translation, rotation, scale; STEP, LINEAR, CUBICSPLINE) become
+//! [`Clip`]s over the flattened node hierarchy ([`Animations`]), and an animated scene is
+//! returned posed at t = 0 ([`Scene::pose_at`]).
 //!
 //! Every error is one line that starts with the file's name. Input that can still be
 //! rendered is repaired with a `log::warn!`; everything else is rejected. `docs/scenes.md`
 //! lists which is which.
 
-use super::gltf_data::{split_glb, Buffers, MAX_VERTICES};
+use super::gltf_data::{read_f32, split_glb, Buffers, MAX_VERTICES};
 use super::gltf_material::{convert_material, TextureCache};
 use super::gltf_mesh::convert_primitive;
 use super::units::{candela_to_watts_per_sr, lux_to_watts_per_m2};
-use super::{Camera, Instance, Light, LightKind, Material, MaterialId, MeshId, Scene};
+use super::{
+    rigid, Animations, Camera, Channel, Clip, Instance, Interpolation, Light, LightKind,
+    LocalTransform, Material, MaterialId, MeshId, Property, RigNode, Sampler, Scene,
+};
 use anyhow::{anyhow, bail, ensure, Context, Result};
-use glam::{Mat4, Quat, Vec3};
-use std::collections::HashMap;
+use glam::{Mat4, Quat, Vec3, Vec4};
+use std::collections::{HashMap, HashSet};
 use std::f32::consts::FRAC_PI_2;
 use std::path::Path;
 
@@ -35,6 +41,8 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
 const MAX_NODE_DEPTH: usize = 256;
 /// Most instances (node × mesh placements) accepted.
 const MAX_INSTANCES: usize = 1 << 20;
+/// Most keyframes one animation sampler may hold.
+const MAX_KEYFRAMES: usize = 1 << 22;
 
 /// Load a scene from a `.gltf` or `.glb` file. External buffers and images are resolved
 /// relative to the file's directory.
@@ -85,9 +93,13 @@ fn load_inner(bytes: &[u8], file: &str, base_dir: Option<&Path>) -> Result<Scene
         meshes_of: HashMap::new(),
         default_material: None,
         vertices: 0,
+        targeted: targeted_nodes(&doc),
+        rig: Animations::default(),
+        occurrences: HashMap::new(),
     };
     builder.materials(&doc)?;
     builder.nodes(&doc)?;
+    builder.animations(&doc)?;
     builder.finish()
 }
 
@@ -108,6 +120,26 @@ fn parse_document(json: &[u8]) -> Result<gltf::Document> {
     );
     // Our own list is authoritative; the gltf crate's validator would reject some we handle.
     root.extensions_required.clear();
+    // The validator checks neither an animation channel's target node nor its path (and the
+    // gltf crate unwraps both).
+    for (a, animation) in root.animations.iter().enumerate() {
+        for (c, channel) in animation.channels.iter().enumerate() {
+            let node = channel.target.node.value();
+            ensure!(
+                node < root.nodes.len(),
+                "invalid glTF: animations[{a}].channels[{c}] targets node {node} of {}",
+                root.nodes.len()
+            );
+            ensure!(
+                !matches!(
+                    channel.target.path,
+                    gltf::json::validation::Checked::Invalid
+                ),
+                "invalid glTF: animations[{a}].channels[{c}].target.path is not translation, \
+                 rotation, scale or weights"
+            );
+        }
+    }
     // The validator indexes `accessors` with POSITION's index before checking it.
     for (m, mesh) in root.meshes.iter().enumerate() {
         for (p, prim) in mesh.primitives.iter().enumerate() {
@@ -152,6 +184,21 @@ struct Builder<'f, 'a, 'b> {
     meshes_of: HashMap<usize, Vec<MeshId>>,
     default_material: Option<MaterialId>,
     vertices: usize,
+    /// glTF nodes an animation channel targets (translation, rotation or scale).
+    targeted: HashSet<usize>,
+    /// The node occurrences visited so far and the node of every instance, light and camera.
+    rig: Animations,
+    /// glTF node index → its occurrences in `rig.nodes`.
+    occurrences: HashMap<usize, Vec<usize>>,
+}
+
+/// The glTF nodes whose translation, rotation or scale some animation channel drives.
+fn targeted_nodes(doc: &gltf::Document) -> HashSet<usize> {
+    doc.animations()
+        .flat_map(|a| a.channels().collect::<Vec<_>>())
+        .filter(|c| c.target().property() != gltf::animation::Property::MorphTargetWeights)
+        .map(|c| c.target().node().index())
+        .collect()
 }
 
 impl Builder<'_, '_, '_> {
@@ -177,40 +224,131 @@ impl Builder<'_, '_, '_> {
             }
         };
         for node in roots {
-            self.visit(&node, Mat4::IDENTITY, 0)?;
+            self.visit(&node, (Mat4::IDENTITY, None), 0)?;
         }
         Ok(())
     }
 
-    fn visit(&mut self, node: &gltf::Node, parent: Mat4, depth: usize) -> Result<()> {
+    /// Visits `node` below its parent's (world transform, occurrence).
+    fn visit(
+        &mut self,
+        node: &gltf::Node,
+        (parent, parent_node): (Mat4, Option<usize>),
+        depth: usize,
+    ) -> Result<()> {
         ensure!(
             depth < MAX_NODE_DEPTH,
             "node hierarchy deeper than {MAX_NODE_DEPTH} (cyclic?) at node {}",
             node.index()
         );
         let what = || format!("node {}", node_name(node));
-        let world = parent * local_transform(node).with_context(what)?;
+        let targeted = self.targeted.contains(&node.index());
+        let local = local_transform(node).with_context(what)?;
+        ensure!(
+            !(targeted && matches!(local, LocalTransform::Matrix(_))),
+            "{}: is animated but has a matrix (glTF: animated nodes have translation, rotation \
+             and scale)",
+            what()
+        );
+        let world = parent * local.matrix(targeted);
         ensure!(world.is_finite(), "{}: world transform overflows", what());
+        let occurrence = self.rig.nodes.len();
+        let moves = targeted || parent_node.is_some_and(|p| self.rig.nodes[p].moves);
+        self.rig.nodes.push(RigNode {
+            name: node_name(node),
+            parent: parent_node,
+            local,
+            targeted,
+            moves,
+        });
+        self.occurrences
+            .entry(node.index())
+            .or_default()
+            .push(occurrence);
         if let Some(mesh) = node.mesh() {
-            self.instance(node, &mesh, world)?;
+            let placed = self.instance(node, &mesh, world)?;
+            let nodes = &mut self.rig.instance_nodes;
+            nodes.extend(std::iter::repeat_n(occurrence, placed));
         }
         if let Some(light) = node.light() {
             if let Some(l) = convert_light(self.file, &light, world).with_context(what)? {
                 self.scene.lights.push(l);
+                self.rig.light_nodes.push(occurrence);
             }
         }
         if let Some(camera) = node.camera() {
             if let Some(c) = convert_camera(self.file, &camera, world).with_context(what)? {
                 self.scene.cameras.push(c);
+                self.rig.camera_nodes.push(occurrence);
             }
         }
         for child in node.children() {
-            self.visit(&child, world, depth + 1)?;
+            self.visit(&child, (world, Some(occurrence)), depth + 1)?;
         }
         Ok(())
     }
 
-    fn instance(&mut self, node: &gltf::Node, mesh: &gltf::Mesh, world: Mat4) -> Result<()> {
+    /// Reads every animation's translation, rotation and scale channels that target a node of
+    /// the scene (morph-target weights are skipped with a warning).
+    fn animations(&mut self, doc: &gltf::Document) -> Result<()> {
+        let mut warned_weights = false;
+        for animation in doc.animations() {
+            let name = animation
+                .name()
+                .map(str::to_owned)
+                .unwrap_or_else(|| format!("#{}", animation.index()));
+            let mut clip = Clip {
+                name: name.clone(),
+                channels: Vec::new(),
+                duration: 0.0,
+            };
+            for channel in animation.channels() {
+                use gltf::animation::Property as P;
+                let property = match channel.target().property() {
+                    P::Translation => Property::Translation,
+                    P::Rotation => Property::Rotation,
+                    P::Scale => Property::Scale,
+                    P::MorphTargetWeights => {
+                        if !warned_weights {
+                            log::warn!(
+                                "{}: animation {name}: morph-target weights are not supported; \
+                                 those channels are ignored",
+                                self.file
+                            );
+                            warned_weights = true;
+                        }
+                        continue;
+                    }
+                };
+                let Some(nodes) = self.occurrences.get(&channel.target().node().index()) else {
+                    continue; // a node outside the scene that is shown
+                };
+                let sampler = read_sampler(self.buffers, &channel.sampler(), property)
+                    .with_context(|| {
+                        format!(
+                            "animation {name}: channel {} (sampler {})",
+                            channel.index(),
+                            channel.sampler().index()
+                        )
+                    })?;
+                clip.duration = clip.duration.max(sampler.times[sampler.times.len() - 1]);
+                for &node in nodes {
+                    clip.channels.push(Channel {
+                        node,
+                        property,
+                        sampler: sampler.clone(),
+                    });
+                }
+            }
+            if !clip.channels.is_empty() {
+                self.rig.clips.push(clip);
+            }
+        }
+        Ok(())
+    }
+
+    /// Places `mesh`'s primitives at `world`; returns how many instances it made.
+    fn instance(&mut self, node: &gltf::Node, mesh: &gltf::Mesh, world: Mat4) -> Result<usize> {
         let det = world.determinant();
         if !(det.is_finite() && det.abs() > 1e-30) {
             log::warn!(
@@ -218,9 +356,10 @@ impl Builder<'_, '_, '_> {
                 self.file,
                 node_name(node)
             );
-            return Ok(());
+            return Ok(0);
         }
         let ids = self.mesh_ids(mesh)?;
+        let placed = ids.len();
         for id in ids {
             ensure!(
                 self.scene.instances.len() < MAX_INSTANCES,
@@ -232,7 +371,7 @@ impl Builder<'_, '_, '_> {
                 transform: world,
             });
         }
-        Ok(())
+        Ok(placed)
     }
 
     fn mesh_ids(&mut self, mesh: &gltf::Mesh) -> Result<Vec<MeshId>> {
@@ -279,9 +418,15 @@ impl Builder<'_, '_, '_> {
             "no triangle geometry in the scene"
         );
         self.scene.textures = std::mem::take(&mut self.textures.textures);
+        if !self.rig.clips.is_empty() {
+            // The rig is kept only for a scene that moves; it starts at t = 0.
+            self.scene.animations = std::mem::take(&mut self.rig);
+            let pose = self.scene.pose_at(0.0);
+            self.scene.set_pose(&pose);
+        }
         self.scene.camera = match self.scene.cameras.first() {
             Some(&c) => c,
-            None => Camera::framing(self.scene.bounds()),
+            None => Camera::framing(self.scene.motion_bounds()),
         };
         Ok(self.scene)
     }
@@ -293,13 +438,14 @@ fn node_name(node: &gltf::Node) -> String {
         .unwrap_or_else(|| format!("#{}", node.index()))
 }
 
-/// The node's local transform, checked finite (matrix, or translation·rotation·scale).
-fn local_transform(node: &gltf::Node) -> Result<Mat4> {
+/// The node's local transform, checked finite (matrix, or translation·rotation·scale with the
+/// quaternion normalised).
+fn local_transform(node: &gltf::Node) -> Result<LocalTransform> {
     match node.transform() {
         gltf::scene::Transform::Matrix { matrix } => {
             let m = Mat4::from_cols_array_2d(&matrix);
             ensure!(m.is_finite(), "non-finite number in matrix");
-            Ok(m)
+            Ok(LocalTransform::Matrix(m))
         }
         gltf::scene::Transform::Decomposed {
             translation,
@@ -315,9 +461,85 @@ fn local_transform(node: &gltf::Node) -> Result<Mat4> {
             );
             let len = r.length();
             ensure!(len > 1e-6, "rotation quaternion has zero length");
-            Ok(Mat4::from_scale_rotation_translation(s, r / len, t))
+            Ok(LocalTransform::Trs {
+                translation: t,
+                rotation: r / len,
+                scale: s,
+            })
         }
     }
+}
+
+/// Reads and checks one animation sampler for `property`.
+fn read_sampler(
+    buffers: &super::gltf_data::Buffers,
+    sampler: &gltf::animation::Sampler,
+    property: Property,
+) -> Result<Sampler> {
+    use gltf::accessor::Dimensions;
+    use gltf::animation::Interpolation as I;
+    let interpolation = match sampler.interpolation() {
+        I::Step => Interpolation::Step,
+        I::Linear => Interpolation::Linear,
+        I::CubicSpline => Interpolation::CubicSpline,
+    };
+    let times = read_f32(buffers, &sampler.input(), Dimensions::Scalar, MAX_KEYFRAMES)
+        .context("keyframe times")?;
+    ensure!(!times.is_empty(), "no keyframes");
+    ensure!(
+        times.iter().all(|t| t.is_finite() && *t >= 0.0),
+        "keyframe times must be finite and ≥ 0"
+    );
+    if let Some(k) = times.windows(2).position(|w| w[0] >= w[1]) {
+        bail!(
+            "keyframe times must increase strictly ({} then {} at keys {k} and {})",
+            times[k],
+            times[k + 1],
+            k + 1
+        );
+    }
+    let rotation = property == Property::Rotation;
+    let (dims, n) = if rotation {
+        (Dimensions::Vec4, 4)
+    } else {
+        (Dimensions::Vec3, 3)
+    };
+    let per_key = if interpolation == Interpolation::CubicSpline {
+        3
+    } else {
+        1
+    };
+    let raw = read_f32(buffers, &sampler.output(), dims, MAX_KEYFRAMES * per_key)
+        .context("keyframe values")?;
+    let count = raw.len() / n;
+    ensure!(
+        count == times.len() * per_key,
+        "{count} keyframe values for {} keyframe times ({interpolation:?} needs {})",
+        times.len(),
+        times.len() * per_key
+    );
+    ensure!(
+        raw.iter().all(|v| v.is_finite()),
+        "non-finite keyframe value"
+    );
+    let mut values: Vec<Vec4> = raw
+        .chunks_exact(n)
+        .map(|c| Vec4::new(c[0], c[1], c[2], c.get(3).copied().unwrap_or(0.0)))
+        .collect();
+    if rotation {
+        // The key values are unit quaternions; cubic-spline tangents are not.
+        for k in 0..times.len() {
+            let v = &mut values[k * per_key + per_key / 2];
+            let len = v.length();
+            ensure!(len > 1e-6, "rotation keyframe {k} is a zero quaternion");
+            *v /= len;
+        }
+    }
+    Ok(Sampler {
+        interpolation,
+        times,
+        values,
+    })
 }
 
 fn convert_light(
@@ -421,14 +643,8 @@ fn convert_camera(file: &str, camera: &gltf::Camera, world: Mat4) -> Result<Opti
         );
     }
     // Cameras are rigid: scale in the node hierarchy is dropped.
-    let (_, rotation, translation) = world.to_scale_rotation_translation();
-    let rotation = if rotation.is_finite() && rotation.length() > 1e-6 {
-        rotation.normalize()
-    } else {
-        Quat::IDENTITY
-    };
     Ok(Some(Camera {
-        transform: Mat4::from_rotation_translation(rotation, translation),
+        transform: rigid(world),
         yfov,
         znear,
         zfar,

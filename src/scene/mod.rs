@@ -7,6 +7,7 @@
 //! `Scene` is already converted from glTF's photometric units (see [`units`]), so nothing
 //! downstream needs to know about lumens or candela.
 
+mod animation;
 pub mod authoring;
 pub mod bundled;
 mod gltf_data;
@@ -14,6 +15,11 @@ mod gltf_material;
 mod gltf_mesh;
 pub mod load;
 pub mod units;
+
+pub use animation::{
+    rigid, Animations, Channel, Clip, Interpolation, LightOrbit, LocalTransform, Pose, Property,
+    RigNode, Sampler, FRAME_STEP_SECONDS, MIN_ANIMATED_SCALE,
+};
 
 use glam::{Mat4, Vec2, Vec3};
 
@@ -39,6 +45,9 @@ pub struct Scene {
     pub camera: Camera,
     /// Every camera in the file, in node order (may be empty).
     pub cameras: Vec<Camera>,
+    /// What moves and how: glTF animation clips with the node hierarchy they drive, and the
+    /// built-in light orbit ([`Scene::pose_at`]; empty for a static scene).
+    pub animations: Animations,
 }
 
 /// An indexed triangle mesh in object space with one material (one glTF primitive).

@@ -2,6 +2,7 @@
 //! next to a failing assertion so a person can look at them.
 #![allow(dead_code)]
 
+pub mod animated;
 pub mod cli;
 pub mod golden;
 

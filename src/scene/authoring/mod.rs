@@ -11,7 +11,7 @@ mod writer;
 pub use shapes::{
     cuboid, icosphere, look_rotation, quad, ring, sphere_uvs, unit_icosphere, Geometry,
 };
-pub use writer::{GltfWriter, MaterialSpec};
+pub use writer::{AnimationChannel, GltfWriter, MaterialSpec};
 
 use glam::{Quat, Vec3};
 

@@ -1,4 +1,5 @@
-//! A minimal glTF 2.0 binary writer: JSON via serde_json plus one BIN chunk.
+//! A minimal glTF 2.0 binary writer: JSON via serde_json plus one BIN chunk. Writes meshes,
+//! materials, a node hierarchy, KHR_lights_punctual lights, cameras and animations.
 
 use super::shapes::{look_rotation, Geometry};
 use crate::scene::units::{watts_per_m2_to_lux, watts_per_sr_to_candela};
@@ -57,23 +58,48 @@ pub struct GltfWriter {
     nodes: Vec<Value>,
     lights: Vec<Value>,
     cameras: Vec<Value>,
+    animations: Vec<Value>,
+    /// Nodes that are some node's child (not roots of the scene).
+    children: BTreeSet<usize>,
     extensions: BTreeSet<&'static str>,
 }
 
+/// Keyframes of one animated node property (`path`: `"translation"`, `"rotation"` or
+/// `"scale"`; `interpolation`: `"STEP"`, `"LINEAR"` or `"CUBICSPLINE"`). `values` holds 3
+/// (translation, scale) or 4 (rotation) floats per key, three keys' worth per time for cubic
+/// splines (in-tangent, value, out-tangent).
+pub struct AnimationChannel<'a> {
+    pub node: usize,
+    pub path: &'static str,
+    pub interpolation: &'static str,
+    pub times: &'a [f32],
+    pub values: &'a [f32],
+}
+
 impl GltfWriter {
+    /// A buffer view of `bytes`; `target` 0: none (animation data).
     fn push_view(&mut self, bytes: &[u8], target: u32) -> usize {
         while self.bin.len() % 4 != 0 {
             self.bin.push(0);
         }
-        self.views.push(json!({"buffer": 0, "byteOffset": self.bin.len(), "byteLength": bytes.len(), "target": target}));
+        let mut view =
+            json!({"buffer": 0, "byteOffset": self.bin.len(), "byteLength": bytes.len()});
+        if target != 0 {
+            view["target"] = json!(target);
+        }
+        self.views.push(view);
         self.bin.extend_from_slice(bytes);
         self.views.len() - 1
     }
 
     fn push_vec(&mut self, data: &[f32], dims: usize, minmax: bool) -> usize {
+        self.push_floats(data, dims, minmax, 34962)
+    }
+
+    fn push_floats(&mut self, data: &[f32], dims: usize, minmax: bool, target: u32) -> usize {
         let bytes: Vec<u8> = data.iter().flat_map(|f| f.to_le_bytes()).collect();
-        let view = self.push_view(&bytes, 34962);
-        let ty = ["", "SCALAR", "VEC2", "VEC3"][dims];
+        let view = self.push_view(&bytes, target);
+        let ty = ["", "SCALAR", "VEC2", "VEC3", "VEC4"][dims];
         let mut acc = json!({"bufferView": view, "componentType": 5126, "count": data.len() / dims, "type": ty});
         if minmax {
             let mut min = vec![f32::INFINITY; dims];
@@ -158,9 +184,46 @@ impl GltfWriter {
         self.materials.len() - 1
     }
 
-    /// Adds a node placing `mesh` with translation and rotation.
-    pub fn mesh_node(&mut self, name: &str, mesh: usize, t: Vec3, r: Quat) {
+    /// Adds a node placing `mesh` with translation and rotation; returns the node's index.
+    pub fn mesh_node(&mut self, name: &str, mesh: usize, t: Vec3, r: Quat) -> usize {
         self.nodes.push(json!({"name": name, "mesh": mesh, "translation": t.to_array(), "rotation": r.to_array()}));
+        self.nodes.len() - 1
+    }
+
+    /// Adds an empty node (a group) with translation and rotation; returns its index.
+    pub fn group(&mut self, name: &str, t: Vec3, r: Quat) -> usize {
+        self.nodes
+            .push(json!({"name": name, "translation": t.to_array(), "rotation": r.to_array()}));
+        self.nodes.len() - 1
+    }
+
+    /// Makes `child` (a node added before) a child of `parent`: it leaves the scene's roots.
+    pub fn add_child(&mut self, parent: usize, child: usize) {
+        let children = &mut self.nodes[parent]["children"];
+        if children.is_null() {
+            *children = json!([]);
+        }
+        if let Some(list) = children.as_array_mut() {
+            list.push(json!(child));
+        }
+        self.children.insert(child);
+    }
+
+    /// Adds an animation of `channels`; returns its index.
+    pub fn animation(&mut self, name: &str, channels: &[AnimationChannel]) -> usize {
+        let mut samplers = Vec::new();
+        let mut targets = Vec::new();
+        for (i, c) in channels.iter().enumerate() {
+            let input = self.push_floats(c.times, 1, true, 0);
+            let dims = if c.path == "rotation" { 4 } else { 3 };
+            let output = self.push_floats(c.values, dims, false, 0);
+            samplers
+                .push(json!({"input": input, "output": output, "interpolation": c.interpolation}));
+            targets.push(json!({"sampler": i, "target": {"node": c.node, "path": c.path}}));
+        }
+        self.animations
+            .push(json!({"name": name, "channels": targets, "samplers": samplers}));
+        self.animations.len() - 1
     }
 
     /// Adds a spot light (intensity in W/sr, written in candela) at `pos` aiming at `target`.
@@ -172,39 +235,42 @@ impl GltfWriter {
         color: [f32; 3],
         w_per_sr: f32,
         cone: (f32, f32),
-    ) {
+    ) -> usize {
         self.lights
             .push(json!({"name": name, "type": "spot", "color": color,
             "intensity": watts_per_sr_to_candela(w_per_sr),
             "spot": {"innerConeAngle": cone.0, "outerConeAngle": cone.1}}));
-        self.light_node(name, pos, target - pos);
+        self.light_node(name, pos, target - pos)
     }
 
-    /// Adds a directional light travelling along `dir` (irradiance in W/m², written in lux).
-    pub fn sun(&mut self, name: &str, dir: Vec3, color: [f32; 3], w_per_m2: f32) {
+    /// Adds a directional light travelling along `dir` (irradiance in W/m², written in lux);
+    /// returns its node.
+    pub fn sun(&mut self, name: &str, dir: Vec3, color: [f32; 3], w_per_m2: f32) -> usize {
         self.lights
             .push(json!({"name": name, "type": "directional", "color": color,
             "intensity": watts_per_m2_to_lux(w_per_m2)}));
-        self.light_node(name, Vec3::ZERO, dir);
+        self.light_node(name, Vec3::ZERO, dir)
     }
 
-    fn light_node(&mut self, name: &str, pos: Vec3, dir: Vec3) {
+    fn light_node(&mut self, name: &str, pos: Vec3, dir: Vec3) -> usize {
         let light = self.lights.len() - 1;
         self.extensions.insert("KHR_lights_punctual");
         self.nodes
             .push(json!({"name": name, "translation": pos.to_array(),
             "rotation": look_rotation(dir).to_array(),
             "extensions": {"KHR_lights_punctual": {"light": light}}}));
+        self.nodes.len() - 1
     }
 
-    /// Adds a perspective camera at `eye` looking at `target`.
-    pub fn camera(&mut self, name: &str, eye: Vec3, target: Vec3, yfov: f32) {
+    /// Adds a perspective camera at `eye` looking at `target`; returns its node.
+    pub fn camera(&mut self, name: &str, eye: Vec3, target: Vec3, yfov: f32) -> usize {
         self.cameras
             .push(json!({"name": name, "type": "perspective",
             "perspective": {"yfov": yfov, "znear": 0.05, "zfar": 50.0, "aspectRatio": 1.0}}));
         self.nodes
             .push(json!({"name": name, "camera": self.cameras.len() - 1,
             "translation": eye.to_array(), "rotation": look_rotation(target - eye).to_array()}));
+        self.nodes.len() - 1
     }
 
     /// The finished `.glb`.
@@ -215,13 +281,18 @@ impl GltfWriter {
         let mut doc = json!({
             "asset": {"version": "2.0", "generator": "ispm make-scenes"},
             "scene": 0,
-            "scenes": [{"nodes": (0..self.nodes.len()).collect::<Vec<_>>()}],
+            "scenes": [{"nodes": (0..self.nodes.len())
+                .filter(|n| !self.children.contains(n))
+                .collect::<Vec<_>>()}],
             "nodes": self.nodes, "meshes": self.meshes, "materials": self.materials,
             "accessors": self.accessors, "bufferViews": self.views,
             "buffers": [{"byteLength": self.bin.len()}],
         });
         if !self.cameras.is_empty() {
             doc["cameras"] = json!(self.cameras);
+        }
+        if !self.animations.is_empty() {
+            doc["animations"] = json!(self.animations);
         }
         if !self.lights.is_empty() {
             doc["extensions"] = json!({"KHR_lights_punctual": {"lights": self.lights}});

@@ -1,0 +1,125 @@
+//! Moving instances, and posing the renderer's scene at a time of its animation.
+//!
+//! ```text
+//!  set_pose(scene.pose_at(t))
+//!    ├─ set_instance_transforms: moved instances only
+//!    │    ├─ GpuScene: their transform and bounding sphere (host; draws push their matrices)
+//!    │    ├─ effects plan made again (geometry changed)
+//!    │    ├─ PhotonFrame: light views planned again (caustic windows follow moving glass),
+//!    │    │  SceneBvh::set_instance_transform + update: moving level only, static BVH kept
+//!    │    ├─ TranslucentFrame: cube map centre follows the delta instances, cube redrawn
+//!    │    └─ photon map invalid: the next frame traces again
+//!    └─ set_lights (when a light moved): as before
+//! ```
+//!
+//! A frame after which nothing moved and no light changed reuses the photon map (`frame.rs`).
+
+use super::Renderer;
+use crate::plan::{EffectsPlan, SceneAnalysis};
+use crate::scene::Pose;
+use glam::Mat4;
+
+impl Renderer {
+    /// Moves the instances to `transforms` (world-from-object, one per `Scene::instances`
+    /// entry, in order) for the next frame. Only instances whose transform changed are touched:
+    /// the GPU draws them there (their model matrices are push constants computed every frame),
+    /// the CPU tracer's BVH moves them by transform (the instances the scene animates were
+    /// declared moving when the renderer was made, and static geometry is never rebuilt), the
+    /// effects plan is made again, the environment cube map is drawn again and, as when a light
+    /// moves, the next frame traces a new photon map. An instance the scene does not animate
+    /// may move too: the tracer's static BVH is then rebuilt once, without it.
+    ///
+    /// Fails, changing nothing, for the wrong number of transforms, a non-finite or singular
+    /// transform, or a plan this renderer was not made for (see [`Renderer::set_lights`]).
+    pub fn set_instance_transforms(&mut self, transforms: &[Mat4]) -> anyhow::Result<()> {
+        let instances = &self.source.instances;
+        anyhow::ensure!(
+            transforms.len() == instances.len(),
+            "{} instance transforms given, the scene has {} instances",
+            transforms.len(),
+            instances.len()
+        );
+        let moved: Vec<(usize, Mat4)> = transforms
+            .iter()
+            .enumerate()
+            .filter(|&(i, m)| *m != instances[i].transform)
+            .map(|(i, m)| (i, *m))
+            .collect();
+        for &(i, m) in &moved {
+            let det = m.determinant();
+            anyhow::ensure!(
+                m.is_finite() && det.is_finite() && det.abs() > 1e-30,
+                "instance {i} ('{}'): the new transform is not finite and invertible",
+                instances[i].name
+            );
+        }
+        if moved.is_empty() {
+            return Ok(()); // nothing moved: the photon map stays valid
+        }
+        // Moved in place (the scene's meshes are not copied), and back if anything fails.
+        let before: Vec<Mat4> = moved
+            .iter()
+            .map(|&(i, _)| self.source.instances[i].transform)
+            .collect();
+        for &(i, m) in &moved {
+            self.source.instances[i].transform = m;
+        }
+        let (analysis, plan) = match self.plan_moved_instances(&moved) {
+            Ok(planned) => planned,
+            Err(e) => {
+                for (&(i, _), m) in moved.iter().zip(before) {
+                    self.source.instances[i].transform = m;
+                }
+                return Err(e);
+            }
+        };
+        for &(i, _) in &moved {
+            self.scene.set_instance_transform(&self.source, i);
+        }
+        if let Some(translucent) = &mut self.translucent {
+            translucent.moved(self.scene.delta_bounds(&self.source));
+        }
+        if plan != self.plan {
+            log::info!("{plan}");
+        }
+        self.analysis = analysis;
+        self.plan = plan;
+        self.photon_map = None;
+        Ok(())
+    }
+
+    /// The scene's analysis (its geometry changed: flat or closed surfaces may not be any more)
+    /// and the effects plan for the scene with `moved` already applied to `source`, and the photon
+    /// part moved (nothing else is changed).
+    fn plan_moved_instances(
+        &mut self,
+        moved: &[(usize, Mat4)],
+    ) -> anyhow::Result<(SceneAnalysis, EffectsPlan)> {
+        let analysis = SceneAnalysis::new(&self.source, &self.settings);
+        let plan = analysis.plan(&self.source, &self.camera);
+        anyhow::ensure!(
+            !plan.indirect.needed || self.photons.is_some(),
+            "the moved instances need indirect light ({}), which this renderer was planned \
+             without ({}): create a new renderer",
+            plan.indirect.reason,
+            self.plan.indirect.reason
+        );
+        if let Some(photons) = &mut self.photons {
+            photons.move_instances(moved, &self.lights, &plan.photon_mask())?;
+        }
+        Ok((analysis, plan))
+    }
+
+    /// Moves the scene to `pose` (from `Scene::pose_at` of the scene this renderer was made
+    /// from) for the next frame: its instances, then its lights. The camera stays where it is:
+    /// who owns the view (the viewer, a script) decides whether to follow an animated camera.
+    pub fn set_pose(&mut self, pose: &Pose) -> anyhow::Result<()> {
+        self.set_instance_transforms(&pose.instances)?;
+        self.set_lights(&pose.lights)
+    }
+
+    /// World-from-object transform of every instance, as the next frame draws them.
+    pub fn instance_transforms(&self) -> Vec<Mat4> {
+        self.source.instances.iter().map(|i| i.transform).collect()
+    }
+}
