@@ -14,6 +14,7 @@ use std::time::Duration;
 use divan::counter::ItemsCount;
 use divan::Bencher;
 use glam::{Vec3, Vec3A};
+use ispm::photon::bsdf::BsdfVariant;
 use ispm::photon::bvh::SceneBvh;
 use ispm::photon::emit::{emit_photons, EmittedPhoton};
 use ispm::photon::ray::Ray;
@@ -41,6 +42,7 @@ static EMITTED: LazyLock<Vec<EmittedPhoton>> = LazyLock::new(|| emit_photons(&SC
 const SETTINGS: TraceSettings = TraceSettings {
     max_bounces: 16,
     seed: 3,
+    variant: BsdfVariant::ALL,
 };
 
 /// Rays the tracer casts per iteration: one per photon alive after each bounce count

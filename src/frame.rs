@@ -168,6 +168,13 @@ pub struct FrameStats {
     /// The passes of the frame that did not run, in frame order, each with the effects plan's
     /// reason (or the photon-map reuse's: nothing moved and no light changed).
     pub passes_skipped: Vec<SkippedPass>,
+    /// The optional über-BSDF lobes compiled out of the frame's shaders and CPU photon trace
+    /// (`glossy_lobe`; `delta_lobes`: mirror and refraction, so no caustic paths), each with the
+    /// effects plan's reason (`EffectsPlan::variants_skipped`).
+    pub variants_skipped: Vec<SkippedPass>,
+    /// Per light, what the effects plan gave it (shadow views and direct light, photons) and
+    /// why: a light with neither was skipped.
+    pub light_plan: Vec<crate::plan::LightPlan>,
     /// The subsample factor the frame used (after clamping to the image size).
     pub subsample: u32,
 }
@@ -749,11 +756,7 @@ impl Renderer {
 
     /// Waits for every frame in flight and reads back the last one.
     pub fn finish(&mut self) -> anyhow::Result<FrameImage> {
-        let (gpu_spans, mut stats) = self.drain()?;
-        stats.passes_run = gpu_spans.iter().map(|s| s.name.clone()).collect();
-        stats.passes_run.dedup();
-        stats.passes_skipped = self.skipped_passes(&stats);
-        stats.subsample = crate::photon_frame::subsample_factor(&self.settings);
+        let (gpu_spans, stats) = self.drain()?;
         let gpu = self.gpu.clone();
         let hdr_bytes = gpu.read_image(&self.radiance)?;
         let ldr = gpu.read_image(&self.display)?;
@@ -770,7 +773,8 @@ impl Renderer {
     }
 
     /// Waits for every frame in flight (oldest first) without reading images back; returns
-    /// the last frame's GPU spans and stats.
+    /// the last frame's GPU spans and stats, with the passes it ran and skipped and the lobes
+    /// compiled out.
     pub fn drain(&mut self) -> anyhow::Result<(Vec<Span>, FrameStats)> {
         anyhow::ensure!(self.frame_index > 0, "no frame was submitted");
         let mut last = None;
@@ -782,7 +786,15 @@ impl Renderer {
                 }
             }
         }
-        last.ok_or_else(|| anyhow::anyhow!("the last frame was already retired"))
+        let (spans, mut stats) =
+            last.ok_or_else(|| anyhow::anyhow!("the last frame was already retired"))?;
+        stats.passes_run = spans.iter().map(|s| s.name.clone()).collect();
+        stats.passes_run.dedup();
+        stats.passes_skipped = self.skipped_passes(&stats);
+        stats.variants_skipped = self.plan.variants_skipped(self.settings.bsdf_variant);
+        stats.light_plan = self.plan.lights.clone();
+        stats.subsample = crate::photon_frame::subsample_factor(&self.settings);
+        Ok((spans, stats))
     }
 
     /// The passes `stats`' frame did not run, in frame order: the photon-map reuse's (already

@@ -241,6 +241,8 @@ impl PhotonFrame {
             trace: TraceSettings {
                 max_bounces: effects.max_bounces,
                 seed: settings.seed,
+                // The plan's lobes (`Renderer::new` narrowed the settings' variant to them).
+                variant: settings.bsdf_variant,
             },
             // The footprint floor of the image the estimate is made at (the low one when
             // subsampling).

@@ -27,7 +27,7 @@ mod tests;
 
 pub use enclosure::{Enclosures, Probe};
 
-use crate::frame::{Method, RenderSettings};
+use crate::frame::{Method, RenderSettings, SkippedPass};
 use crate::photon::bsdf::{bounce_albedo, BsdfVariant, MaterialLobes};
 use crate::photon::emit::{photon_budget, photon_budget_among};
 use crate::scene::{Aabb, Camera, LightKind, Material, Scene};
@@ -649,6 +649,29 @@ impl EffectsPlan {
             glossy: self.glossy.needed,
             delta: self.delta.needed,
         }
+    }
+
+    /// The optional lobes of `compiled` (the variant the frame's shaders and CPU trace were
+    /// built with: this plan's [`Self::bsdf_variant`], narrowed further by
+    /// `RenderSettings::bsdf_variant`) that are off, in the stats' form: `glossy_lobe`,
+    /// `delta_lobes` (mirror and refraction: no caustic paths), each with the plan's reason, or
+    /// the setting's where the plan needed the lobe.
+    pub fn variants_skipped(&self, compiled: BsdfVariant) -> Vec<SkippedPass> {
+        [
+            ("glossy_lobe", compiled.glossy, &self.glossy),
+            ("delta_lobes", compiled.delta, &self.delta),
+        ]
+        .into_iter()
+        .filter(|(_, on, _)| !on)
+        .map(|(name, _, decision)| SkippedPass {
+            name: name.to_string(),
+            reason: if decision.needed {
+                "compiled out by RenderSettings::bsdf_variant".to_string()
+            } else {
+                decision.reason.clone()
+            },
+        })
+        .collect()
     }
 
     /// Per light: gets shadow views and direct light (`LightSetup::active`).

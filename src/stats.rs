@@ -67,6 +67,8 @@ pub fn frame_json(
         "ms": ms,
         "passes_run": s.passes_run,
         "passes_skipped": s.passes_skipped,
+        "variants_skipped": s.variants_skipped,
+        "light_plan": s.light_plan,
         "validation_messages": validation_messages,
     })
 }

@@ -67,6 +67,7 @@ fn stored_power_per_bounce_follows_the_geometric_series_in_a_closed_box() {
         let settings = TraceSettings {
             max_bounces: 8,
             seed: 5,
+            ..Default::default()
         };
         let map = trace_from_lights(&scene, &bvh, &emitted, &settings);
         assert_eq!(
@@ -103,6 +104,7 @@ fn photon_map_is_bit_identical_with_one_and_two_threads() {
     let settings = TraceSettings {
         max_bounces: 12,
         seed: 9,
+        ..Default::default()
     };
     let run = |threads| {
         let pool = rayon::ThreadPoolBuilder::new()

@@ -244,6 +244,15 @@ impl Bsdf {
 
     /// Fresnel-weighted reflectance c of each lobe, indexed by [`Lobe`].
     fn lobe_reflectances(&self, o: &Oriented) -> [Vec3; 4] {
+        self.variant_reflectances::<true, true>(o)
+    }
+
+    /// [`Self::lobe_reflectances`] in the variant `GLOSSY`, `DELTA` ([`BsdfVariant`]): a lobe
+    /// compiled out has c = 0, as in `glsl/common/bsdf.glsl`'s `bsdf_lobe_reflectances`.
+    fn variant_reflectances<const GLOSSY: bool, const DELTA: bool>(
+        &self,
+        o: &Oriented,
+    ) -> [Vec3; 4] {
         let s = if self.fresnel {
             fresnel_ramp(o.cos_o, o.eta)
         } else {
@@ -257,9 +266,13 @@ impl Bsdf {
         };
         [
             self.lambertian * (1.0 - s),
-            glossy,
-            mirror,
-            self.transmission * (1.0 - s),
+            if GLOSSY { glossy } else { Vec3::ZERO },
+            if DELTA { mirror } else { Vec3::ZERO },
+            if DELTA {
+                self.transmission * (1.0 - s)
+            } else {
+                Vec3::ZERO
+            },
         ]
     }
 
@@ -348,12 +361,18 @@ impl Bsdf {
         pdf
     }
 
-    /// Samples the direction of `lobe` alone; returns the direction and, for non-delta lobes,
-    /// cos θi; for refraction also the η crossed (1 under TIR).
-    fn sample_direction(&self, lobe: Lobe, o: &Oriented, u: [f32; 2]) -> Option<(Vec3, f32)> {
+    /// Samples the direction of `lobe` alone; returns the direction and the η crossed (for
+    /// refraction; 1 otherwise and under TIR). `None` for a lobe the variant `GLOSSY`, `DELTA`
+    /// compiles out: its code is not in the function.
+    fn sample_direction<const GLOSSY: bool, const DELTA: bool>(
+        &self,
+        lobe: Lobe,
+        o: &Oriented,
+        u: [f32; 2],
+    ) -> Option<(Vec3, f32)> {
         let wi = match lobe {
             Lobe::Lambertian => o.frame.to_world(cosine_hemisphere(u)),
-            Lobe::Glossy => {
+            Lobe::Glossy if GLOSSY => {
                 let h = o.frame.to_world(blinn_phong_half_vector(u, self.exponent));
                 let wo_h = o.wo.dot(h);
                 if wo_h <= 0.0 {
@@ -361,8 +380,8 @@ impl Bsdf {
                 }
                 2.0 * wo_h * h - o.wo
             }
-            Lobe::Mirror => reflect(o.wo, o.frame.n),
-            Lobe::Refraction => {
+            Lobe::Mirror if DELTA => reflect(o.wo, o.frame.n),
+            Lobe::Refraction if DELTA => {
                 if o.eta == 1.0 {
                     return Some((-o.wo, 1.0));
                 }
@@ -375,6 +394,7 @@ impl Bsdf {
                 let wi = unit(-o.wo / o.eta + (o.cos_o / o.eta - cos_t) * o.frame.n)?;
                 return (wi.dot(o.ng) < 0.0).then_some((wi, o.eta));
             }
+            _ => return None,
         };
         let wi = unit(wi)?;
         Self::reflected_cos(o, wi)?;
@@ -393,15 +413,27 @@ impl Bsdf {
     ) -> Option<BsdfSample> {
         let o = self.orient(wo, n_s, n_g)?;
         let c = self.lobe_reflectances(&o)[lobe as usize];
+        self.sample_oriented::<true, true>(lobe, &o, c, u)
+    }
+
+    /// [`Self::sample_lobe`] at an oriented `wo`, with the lobe's reflectance `c` given, in the
+    /// variant `GLOSSY`, `DELTA`.
+    fn sample_oriented<const GLOSSY: bool, const DELTA: bool>(
+        &self,
+        lobe: Lobe,
+        o: &Oriented,
+        c: Vec3,
+        u: [f32; 2],
+    ) -> Option<BsdfSample> {
         if mean(c) <= 0.0 {
             return None;
         }
-        let (wi, eta) = self.sample_direction(lobe, &o, u)?;
+        let (wi, eta) = self.sample_direction::<GLOSSY, DELTA>(lobe, o, u)?;
         let (weight, pdf) = match lobe {
             Lobe::Lambertian => (c, cosine_hemisphere_pdf(wi.dot(o.frame.n))),
             Lobe::Glossy => {
                 let cos_i = wi.dot(o.frame.n).min(1.0);
-                let pdf = self.glossy_shape_and_pdf(&o, wi, cos_i).1;
+                let pdf = self.glossy_shape_and_pdf(o, wi, cos_i).1;
                 (c * (cos_i / o.cos_o.max(cos_i)), pdf)
             }
             Lobe::Mirror | Lobe::Refraction => (c, 1.0),
@@ -432,7 +464,7 @@ impl Bsdf {
             return None;
         }
         let lobe = choose_lobe(&w, u[0] * total);
-        let (wi, eta) = self.sample_direction(lobe, &o, [u[1], u[2]])?;
+        let (wi, eta) = self.sample_direction::<true, true>(lobe, &o, [u[1], u[2]])?;
         let s = if lobe.is_delta() {
             let p = w[lobe as usize] / total;
             BsdfSample {
@@ -472,12 +504,29 @@ impl Bsdf {
         n_g: Vec3,
         u: [f32; 3],
     ) -> Option<BsdfSample> {
-        let w = self.albedo_weights(wo, n_s, n_g);
+        self.sample_russian_roulette_in::<true, true>(wo, n_s, n_g, u)
+    }
+
+    /// [`Self::sample_russian_roulette`] in the variant `GLOSSY`, `DELTA` ([`BsdfVariant`]),
+    /// the photon tracer's specialisation: a lobe compiled out has c = 0 (so it neither adds to
+    /// the survival probability nor is ever picked) and its sampling code is not in the
+    /// function. For a material without that lobe the result is the same, bit for bit.
+    pub fn sample_russian_roulette_in<const GLOSSY: bool, const DELTA: bool>(
+        &self,
+        wo: Vec3,
+        n_s: Vec3,
+        n_g: Vec3,
+        u: [f32; 3],
+    ) -> Option<BsdfSample> {
+        let o = self.orient(wo, n_s, n_g)?;
+        let c = self.variant_reflectances::<GLOSSY, DELTA>(&o);
+        let w = c.map(mean);
         if u[0] >= w.iter().sum::<f32>() {
             return None;
         }
         let lobe = choose_lobe(&w, u[0]);
-        let mut s = self.sample_lobe(lobe, wo, n_s, n_g, [u[1], u[2]])?;
+        let mut s =
+            self.sample_oriented::<GLOSSY, DELTA>(lobe, &o, c[lobe as usize], [u[1], u[2]])?;
         let p = w[lobe as usize];
         s.weight /= p;
         s.pdf *= p;

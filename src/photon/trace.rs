@@ -27,6 +27,14 @@
 //! (`attrition[0]`: photons emitted with non-zero power; paper Fig. 10).
 //! η is tracked as the product of the relative indices crossed by refraction.
 //!
+//! # Variants
+//! [`TraceSettings::variant`] compiles optional lobes out of the trace as the shaders'
+//! specialisation constants do (`docs/effects.md`): the path loop is monomorphised per
+//! [`BsdfVariant`] (`Bsdf::sample_russian_roulette_in`), so without the delta lobes (no mirror
+//! or refracting material in the scene) it holds no mirror, refraction or η-tracking code: no
+//! caustic paths. A compiled-out lobe has reflectance 0, so for materials without it the photon
+//! map is the same bit for bit. [`first_bounce`] (the CPU references) always has every lobe.
+//!
 //! # Determinism
 //! Each path draws from `Rng::new(seed_from_position(origin, seed))` (frame-coherent: the
 //! same start gives the same path). Work is split into fixed-size chunks traced in parallel by
@@ -34,7 +42,7 @@
 //! on the number of threads. Each chunk is a `trace_chunk` span on its worker's track
 //! ([`crate::timing`]), in the frame of the thread that called [`trace_photons`].
 
-use super::bsdf::{Bsdf, Lobe};
+use super::bsdf::{Bsdf, BsdfVariant, Lobe};
 use super::bvh::SceneBvh;
 use super::emit::EmittedPhoton;
 use super::ray::{Hit, Ray};
@@ -55,6 +63,9 @@ pub struct TraceSettings {
     pub max_bounces: u32,
     /// The renderer's `--seed`.
     pub seed: u32,
+    /// The über-BSDF lobes compiled into the trace (module docs, "Variants"): the effects
+    /// plan's, as for the shaders.
+    pub variant: BsdfVariant,
 }
 
 impl Default for TraceSettings {
@@ -62,6 +73,7 @@ impl Default for TraceSettings {
         Self {
             max_bounces: 16,
             seed: 0,
+            variant: BsdfVariant::ALL,
         }
     }
 }
@@ -170,21 +182,26 @@ pub fn has_finite_lobe(bsdf: &Bsdf) -> bool {
         || (bsdf.exponent.is_finite() && (bsdf.glossy.max_element() > 0.0 || bsdf.fresnel))
 }
 
-/// Scatters a photon arriving at `hit` along `dir`; `None` when absorbed.
-fn scatter(
+/// Scatters a photon arriving at `hit` along `dir` with the BSDF variant `GLOSSY`, `DELTA`;
+/// `None` when absorbed.
+fn scatter<const GLOSSY: bool, const DELTA: bool>(
     bsdf: &Bsdf,
     hit: &Hit,
     dir: Vec3,
     state: &PhotonState,
     rng: &mut Rng,
 ) -> Option<PhotonState> {
-    let s =
-        bsdf.sample_russian_roulette(-dir, hit.shading_normal, hit.geometric_normal, rng.next_3())?;
+    let s = bsdf.sample_russian_roulette_in::<GLOSSY, DELTA>(
+        -dir,
+        hit.shading_normal,
+        hit.geometric_normal,
+        rng.next_3(),
+    )?;
     let power = state.power * s.weight;
     if !carries_power(power) {
         return None;
     }
-    let eta = if s.lobe == Lobe::Refraction {
+    let eta = if DELTA && s.lobe == Lobe::Refraction {
         state.eta * s.eta
     } else {
         state.eta
@@ -215,7 +232,7 @@ pub fn first_bounce(scene: &Scene, bvh: &SceneBvh, photon: &EmittedPhoton) -> Op
         bounces: 0,
     };
     let mut rng = Rng::new(hash2(photon.seed, FIRST_BOUNCE_STREAM));
-    scatter(
+    scatter::<true, true>(
         &bsdf_at(scene, &hit),
         &hit,
         photon.direction,
@@ -242,7 +259,8 @@ impl Chunk {
     }
 }
 
-fn trace_path(
+/// One photon's path from `start`, in the BSDF variant `GLOSSY`, `DELTA`.
+fn trace_path<const GLOSSY: bool, const DELTA: bool>(
     scene: &Scene,
     bvh: &SceneBvh,
     start: &PhotonState,
@@ -276,7 +294,7 @@ fn trace_path(
         if k >= max {
             return;
         }
-        match scatter(&bsdf, &hit, state.direction, &state, &mut rng) {
+        match scatter::<GLOSSY, DELTA>(&bsdf, &hit, state.direction, &state, &mut rng) {
             Some(next) => {
                 state = next;
                 out.attrition[state.bounces as usize] += 1;
@@ -319,6 +337,14 @@ pub fn trace_photons(
     let settings = TraceSettings {
         max_bounces,
         ..*settings
+    };
+    // The variant's own copy of the path loop: what it compiles out is not in it.
+    type PathFn = fn(&Scene, &SceneBvh, &PhotonState, &TraceSettings, &mut Chunk);
+    let trace_path: PathFn = match (settings.variant.glossy, settings.variant.delta) {
+        (true, true) => trace_path::<true, true>,
+        (true, false) => trace_path::<true, false>,
+        (false, true) => trace_path::<false, true>,
+        (false, false) => trace_path::<false, false>,
     };
     let frame = crate::timing::current_frame();
     let chunks: Vec<Chunk> = starts
@@ -378,12 +404,73 @@ mod tests {
         let settings = TraceSettings {
             max_bounces: 1,
             seed: 1,
+            variant: BsdfVariant::ALL,
         };
         let map = trace_from_lights(&scene, &bvh, &emitted, &settings);
         assert_eq!(map.attrition.len(), 2);
         // Closed box: every photon that survived its first bounce is stored once, at hit 2.
         assert_eq!(map.photons.len() as u64, map.attrition[1]);
         assert_eq!(map.stored_power[0], Vec3::ZERO);
+    }
+
+    fn trace(scene: &Scene, variant: BsdfVariant) -> PhotonMap {
+        let bvh = SceneBvh::new(scene);
+        let emitted = emit_photons(scene, 4000, 7);
+        let settings = TraceSettings {
+            max_bounces: 8,
+            seed: 3,
+            variant,
+        };
+        trace_from_lights(scene, &bvh, &emitted, &settings)
+    }
+
+    const NO_OPTIONAL_LOBES: BsdfVariant = BsdfVariant {
+        glossy: false,
+        delta: false,
+    };
+
+    #[test]
+    fn a_diffuse_scene_traces_the_same_photon_map_with_glossy_and_delta_lobes_compiled_out() {
+        let scene = crate::reference::scenes::cornell(1);
+        let all = trace(&scene, BsdfVariant::ALL);
+        assert!(all.photons.len() > 1000);
+        assert!(
+            trace(&scene, NO_OPTIONAL_LOBES) == all,
+            "the photon map changed"
+        );
+    }
+
+    #[test]
+    fn compiling_out_the_delta_lobes_ends_caustic_paths_at_the_mirror_and_changes_nothing_else() {
+        let mut scene = crate::reference::scenes::cornell(1);
+        scene.materials[0] = Material {
+            name: "mirror".into(),
+            lambertian: Vec3::ZERO,
+            glossy: Vec3::splat(0.9),
+            exponent: f32::INFINITY,
+            ..Material::default()
+        };
+        let all = trace(&scene, BsdfVariant::ALL);
+        let no_delta = trace(
+            &scene,
+            BsdfVariant {
+                glossy: true,
+                delta: false,
+            },
+        );
+        // Without the mirror lobe the mirror absorbs: the paths through it (the caustics) end
+        // there, every other path is the same, so every photon stored is one of the full map's.
+        assert!(no_delta.photons.len() < all.photons.len());
+        let mut full: Vec<&[u8]> = all.photons.iter().map(bytemuck::bytes_of).collect();
+        full.sort_unstable();
+        for p in &no_delta.photons {
+            assert!(
+                full.binary_search(&bytemuck::bytes_of(p)).is_ok(),
+                "{p:?} is not in the full photon map"
+            );
+        }
+        // A wall of six is a mirror: many paths go through it.
+        assert!(all.photons.len() - no_delta.photons.len() > 100);
     }
 
     #[test]

@@ -80,6 +80,7 @@ pub(super) fn photon_map(ctx: &Ctx, photons: usize, seed: u32) -> PhotonMap {
     let settings = TraceSettings {
         max_bounces: ctx.settings.bounces.max(1),
         seed,
+        variant: crate::photon::bsdf::BsdfVariant::ALL,
     };
     trace_from_lights(ctx.scene, ctx.bvh, &emitted, &settings)
 }
