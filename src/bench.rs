@@ -16,9 +16,18 @@
 //!   trace and the GPU stage the sum of the frame's GPU passes: 1 when the slower unit never
 //!   waits for the other, (CPU + GPU)/max when nothing overlaps;
 //! - `speed-up = serial period ÷ overlapped period`.
+//!
+//! These three render every pass and shader variant and trace every frame
+//! (`Effects::All`). With [`BenchSettings::compare_effects`] (`--compare-effects`) a fourth
+//! renderer, the overlapped frame as the effects plan makes it (`Effects::Auto`:
+//! passes, lobes, lights and bounces the scene does not need skipped, and a static scene's
+//! photon map reused), joins the alternation, and `effects_speedup` = all ÷ planned frame
+//! period. Every configuration's last frame reports the passes it ran and skipped and the lobes
+//! compiled out, with the plan's reasons (`FrameStats`).
 
-use crate::frame::{Method, RenderSettings, Renderer, Schedule};
+use crate::frame::{Method, RenderSettings, Renderer, Schedule, SkippedPass};
 use crate::gpu::Gpu;
+use crate::plan::Effects;
 use crate::scene::{Scene, FRAME_STEP_SECONDS};
 use crate::timing::{self, Span};
 use serde::Serialize;
@@ -35,6 +44,9 @@ pub struct BenchSettings {
     pub warmup: u32,
     /// Chunks the measured frames are split into (alternating configurations).
     pub chunks: u32,
+    /// Also measure the planned frame (`Effects::Auto`) against the overlapped one, which
+    /// runs everything (`Effects::All`).
+    pub compare_effects: bool,
 }
 
 /// Median and spread of one stage, in milliseconds.
@@ -61,6 +73,12 @@ pub struct ConfigResult {
     pub gpu_ms: f64,
     /// Median per frame of the CPU photon trace.
     pub cpu_ms: f64,
+    /// The passes the last measured frame ran (`FrameStats::passes_run`).
+    pub passes_run: Vec<String>,
+    /// The passes it skipped, with the effects plan's reasons.
+    pub passes_skipped: Vec<SkippedPass>,
+    /// The über-BSDF lobes compiled out of its shaders and CPU trace, with the reasons.
+    pub variants_skipped: Vec<SkippedPass>,
 }
 
 /// The whole benchmark.
@@ -75,6 +93,10 @@ pub struct BenchReport {
     pub overlapped: ConfigResult,
     pub serial: ConfigResult,
     pub direct_only: ConfigResult,
+    /// The overlapped frame as the effects plan makes it (`--compare-effects` only).
+    pub planned: Option<ConfigResult>,
+    /// Overlapped (`Effects::All`) frame period ÷ planned frame period (`--compare-effects`).
+    pub effects_speedup: Option<f64>,
     /// Overlapped frame period ÷ max(CPU stage, GPU stage).
     pub overlap: f64,
     /// Serial frame period ÷ overlapped frame period.
@@ -92,6 +114,8 @@ struct Config {
     chunk_ms: Vec<f64>,
     spans: Vec<Span>,
     last_chunk: Vec<Span>,
+    /// The last measured frame's stats.
+    last_stats: crate::frame::FrameStats,
 }
 
 /// The value at quantile `q` (0..=1) of `values`, interpolated linearly between the closest
@@ -165,12 +189,15 @@ fn result(config: &Config) -> ConfigResult {
         stages,
         gpu_ms: quantile(&gpu_per_frame(&config.spans), 0.5),
         cpu_ms,
+        passes_run: config.last_stats.passes_run.clone(),
+        passes_skipped: config.last_stats.passes_skipped.clone(),
+        variants_skipped: config.last_stats.variants_skipped.clone(),
     }
 }
 
 /// Runs `frames` frames of `config`'s renderer in one capture (posing `scene` before each
 /// when it is animated); returns the wall time per frame and the spans (frame indices made
-/// unique across chunks by the renderer's own counter).
+/// unique across chunks by the renderer's own counter), and keeps the last frame's stats.
 fn chunk(config: &mut Config, scene: &Scene, frames: u32) -> anyhow::Result<(f64, Vec<Span>)> {
     timing::start_capture();
     let start = timing::now_ns();
@@ -187,7 +214,7 @@ fn chunk(config: &mut Config, scene: &Scene, frames: u32) -> anyhow::Result<(f64
     })();
     let wall = timing::now_ns().saturating_sub(start) as f64 * 1e-6;
     let capture = timing::finish_capture();
-    run?;
+    config.last_stats = run?.1;
     Ok((wall / f64::from(frames.max(1)), capture.spans))
 }
 
@@ -199,12 +226,13 @@ pub fn run(
     settings: &BenchSettings,
     mut progress: impl FnMut(&str),
 ) -> anyhow::Result<BenchReport> {
-    let make = |name: &'static str, method: Method, schedule: Schedule| {
+    let make = |name: &'static str, method: Method, schedule: Schedule, effects: Effects| {
         let render = RenderSettings {
             method,
             schedule,
-            // Every frame traces: a planned frame of a static scene reuses its photon map.
-            effects: crate::plan::Effects::All,
+            // `All`: every frame traces (a planned frame of a static scene reuses its photon
+            // map) and runs every pass and variant.
+            effects,
             ..settings.render.clone()
         };
         Ok::<_, anyhow::Error>(Config {
@@ -214,13 +242,33 @@ pub fn run(
             chunk_ms: Vec::new(),
             spans: Vec::new(),
             last_chunk: Vec::new(),
+            last_stats: Default::default(),
         })
     };
-    let mut configs = [
-        make("overlapped", Method::Ispm, Schedule::Overlapped)?,
-        make("serial", Method::Ispm, Schedule::Serial)?,
-        make("direct only", Method::Direct, Schedule::Overlapped)?,
+    let mut configs = vec![
+        make(
+            "overlapped",
+            Method::Ispm,
+            Schedule::Overlapped,
+            Effects::All,
+        )?,
+        make("serial", Method::Ispm, Schedule::Serial, Effects::All)?,
+        make(
+            "direct only",
+            Method::Direct,
+            Schedule::Overlapped,
+            Effects::All,
+        )?,
     ];
+    if settings.compare_effects {
+        // `Renderer::new` logs its plan at info level, as for every configuration.
+        configs.push(make(
+            "planned",
+            Method::Ispm,
+            Schedule::Overlapped,
+            Effects::Auto,
+        )?);
+    }
     for c in &mut configs {
         progress(&format!("warm-up: {}", c.name));
         chunk(c, scene, settings.warmup.max(1))?;
@@ -239,9 +287,14 @@ pub fn run(
             c.spans.extend(spans);
         }
     }
-    let [overlapped, serial, direct] = configs;
-    let (o, s, d) = (result(&overlapped), result(&serial), result(&direct));
+    let planned = (configs.len() > 3).then(|| result(&configs[3]));
+    let (o, s, d) = (
+        result(&configs[0]),
+        result(&configs[1]),
+        result(&configs[2]),
+    );
     let bound = o.cpu_ms.max(o.gpu_ms);
+    let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { 0.0 };
     Ok(BenchReport {
         scene: scene_name.to_string(),
         device: gpu.properties.name.clone(),
@@ -250,15 +303,13 @@ pub fn run(
         photons: settings.render.photons,
         frames: settings.frames,
         overlap: if bound > 0.0 { o.frame_ms / bound } else { 0.0 },
-        speedup: if o.frame_ms > 0.0 {
-            s.frame_ms / o.frame_ms
-        } else {
-            0.0
-        },
+        speedup: ratio(s.frame_ms, o.frame_ms),
+        effects_speedup: planned.as_ref().map(|p| ratio(o.frame_ms, p.frame_ms)),
+        planned,
         overlapped: o,
         serial: s,
         direct_only: d,
-        last_overlapped_spans: overlapped.last_chunk,
+        last_overlapped_spans: std::mem::take(&mut configs[0].last_chunk),
     })
 }
 
@@ -291,6 +342,19 @@ impl BenchReport {
             "overlap = frame ÷ max(CPU, GPU) = {:.3}; serial ÷ overlapped = {:.3}\n",
             self.overlap, self.speedup
         );
+        if let (Some(planned), Some(speedup)) = (&self.planned, self.effects_speedup) {
+            out += &format!(
+                "\neffects: planned {:.2} ms against all {:.2} ms (overlapped); all ÷ planned = \
+                 {speedup:.3}\n",
+                planned.frame_ms, self.overlapped.frame_ms
+            );
+            for p in &planned.passes_skipped {
+                out += &format!("  skipped {}: {}\n", p.name, p.reason);
+            }
+            for v in &planned.variants_skipped {
+                out += &format!("  compiled out {}: {}\n", v.name, v.reason);
+            }
+        }
         out
     }
 }

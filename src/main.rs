@@ -129,6 +129,11 @@ struct BenchArgs {
     /// Write an SVG of the last overlapped chunk's schedule (the paper's Figure 3).
     #[arg(long)]
     figure: Option<PathBuf>,
+    /// Also measure the frame as the effects plan makes it (`--effects auto`) against the
+    /// overlapped frame, which runs every pass and variant (`--effects all`), in the same
+    /// alternating chunks.
+    #[arg(long)]
+    compare_effects: bool,
     /// Render from the file's camera N (0-based, in node order; default: the first).
     #[arg(long, value_name = "N")]
     camera: Option<usize>,
@@ -421,6 +426,7 @@ fn bench(args: BenchArgs, device: Option<usize>) -> anyhow::Result<()> {
         frames: args.frames,
         warmup: args.warmup,
         chunks: args.chunks,
+        compare_effects: args.compare_effects,
     };
     let report = ispm::bench::run(&gpu, &scene, scene_name, &settings, |step| {
         log::info!("bench: {step}")

@@ -291,10 +291,87 @@ fn bench_measures_overlapped_serial_and_direct_frames_and_writes_json_and_figure
     }
     // The direct-only frame runs no photon pass.
     assert!(report["direct_only"]["stages"]["gpu.photon_volumes"].is_null());
+    // Each configuration's last frame records its passes, run and skipped with reasons.
+    let names = |config: &str, list: &str| -> Vec<String> {
+        report[config][list]
+            .as_array()
+            .unwrap_or_else(|| panic!("{config}.{list}: {report}"))
+            .iter()
+            .map(|p| p.as_str().or(p["name"].as_str()).expect("name").to_string())
+            .collect()
+    };
+    assert!(names("overlapped", "passes_run").contains(&"bounce_map".to_string()));
+    assert!(names("direct_only", "passes_skipped").contains(&"bounce_map".to_string()));
+    assert!(report["direct_only"]["passes_skipped"][0]["reason"].is_string());
+    assert!(
+        report["planned"].is_null(),
+        "planned without --compare-effects"
+    );
     assert!(report["overlap"].as_f64().is_some_and(|v| v > 0.0));
     assert!(report["speedup"].as_f64().is_some_and(|v| v > 0.0));
     let figure = std::fs::read_to_string(&svg).expect("figure written");
     assert!(figure.starts_with("<svg") && figure.contains("photon_volumes"));
+}
+
+/// `ispm bench --compare-effects`: the planned frame beside the unplanned (overlapped) one,
+/// with what it skipped and why.
+#[test]
+fn bench_compare_effects_measures_the_planned_frame_beside_everything_and_records_its_skips() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let json = dir.path().join("bench.json");
+    let out = ispm(&[
+        "bench",
+        "--size",
+        "48x32",
+        "--frames",
+        "2",
+        "--chunks",
+        "2",
+        "--warmup",
+        "1",
+        "--photons",
+        "2000",
+        "--shadow-resolution",
+        "64",
+        "--compare-effects",
+        "--json",
+        json.to_str().expect("utf8"),
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("all ÷ planned"), "{stdout}");
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&json).expect("json written")).expect("valid JSON");
+    let planned = &report["planned"];
+    assert!(
+        planned["frame_ms"].as_f64().is_some_and(|v| v > 0.0),
+        "{report}"
+    );
+    assert_eq!(planned["chunk_frame_ms"].as_array().map(Vec::len), Some(2));
+    assert!(report["effects_speedup"].as_f64().is_some_and(|v| v > 0.0));
+    // The bundled cornell-box is static: after the warm-up the planned frames reuse the photon
+    // map, while the overlapped (`--effects all`) frames trace every time.
+    let skipped = planned["passes_skipped"]
+        .as_array()
+        .expect("passes_skipped");
+    let trace = skipped
+        .iter()
+        .find(|p| p["name"] == "cpu_trace")
+        .unwrap_or_else(|| panic!("{planned}"));
+    assert!(
+        trace["reason"]
+            .as_str()
+            .is_some_and(|r| r.contains("reused")),
+        "{trace}"
+    );
+    let traced = report["overlapped"]["passes_run"].as_array().expect("run");
+    assert!(traced.iter().any(|p| p == "bounce_map"), "{report}");
+    assert!(report["overlapped"]["stages"]["cpu.cpu_trace"]["frames"].as_u64() == Some(2));
+    assert!(planned["stages"]["cpu.cpu_trace"].is_null(), "{planned}");
 }
 
 /// A floor, a box and a sun, seen by two cameras (front, then from above at the side).

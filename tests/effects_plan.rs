@@ -596,7 +596,13 @@ fn a_dark_scene_traces_only_the_bounces_that_carry_power_and_renders_the_same_wi
     );
     // What they add: measured on lavapipe 3.8·10⁻³ of the peak at most (the kernels of a few
     // deep photons), relMSE 1.9·10⁻⁶; allowed about 3×.
-    assert_close("plan_dark_bounces", &planned.frame, &all.frame, 1.2e-2, 6e-6);
+    assert_close(
+        "plan_dark_bounces",
+        &planned.frame,
+        &all.frame,
+        1.2e-2,
+        6e-6,
+    );
 }
 
 #[test]
