@@ -134,3 +134,34 @@ fn glass_sphere_is_refractive_eta_1_5_under_a_spot() {
     assert_eq!(glass.ior, 1.5);
     assert!(glass.fresnel && glass.has_delta_lobe());
 }
+
+#[test]
+fn diffuse_box_is_lambertian_only_so_the_plan_compiles_every_optional_lobe_out() {
+    let s = scene("diffuse-box");
+    assert_eq!(s.lights.len(), 1);
+    let spot = &s.lights[0];
+    assert!(matches!(spot.kind, LightKind::Spot { .. }));
+    assert!(spot.direction.y < -0.99 && spot.position.y > 1.8);
+    for m in &s.materials {
+        assert!(m.lambertian.max_element() > 0.0, "{}", m.name);
+        assert_eq!(m.glossy, Vec3::ZERO, "{}", m.name);
+        assert_eq!(m.transmission, Vec3::ZERO, "{}", m.name);
+        assert!(!m.fresnel && !m.has_delta_lobe(), "{}", m.name);
+    }
+    let names: Vec<&str> = s.instances.iter().map(|i| i.name.as_str()).collect();
+    assert!(names.contains(&"tall-block") && names.contains(&"white-sphere"));
+    let b = s.bounds();
+    assert!((b.extent() - Vec3::splat(2.0)).length() < 1e-3, "a 2 m box");
+    let settings = ispm::frame::RenderSettings::default();
+    let plan = ispm::plan::EffectsPlan::analyse(&s, &settings, &s.camera);
+    let none = ispm::photon::bsdf::BsdfVariant {
+        glossy: false,
+        delta: false,
+    };
+    assert_eq!(plan.bsdf_variant(), none, "{plan}");
+    assert!(!plan.translucent.needed && plan.indirect.needed, "{plan}");
+    assert!(
+        plan.lights[0].direct && plan.lights[0].photons > 0,
+        "{plan}"
+    );
+}

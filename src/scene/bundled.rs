@@ -8,7 +8,7 @@ use anyhow::Result;
 use std::path::Path;
 
 /// Names of the bundled scenes, the first being the default.
-pub const BUNDLED: &[&str] = &["cornell-box", "caustic-ring", "glass-sphere"];
+pub const BUNDLED: &[&str] = &["cornell-box", "caustic-ring", "glass-sphere", "diffuse-box"];
 
 /// The scene used when the command line names none.
 pub const DEFAULT_SCENE: &str = "cornell-box";
@@ -19,6 +19,7 @@ pub fn bundled(name: &str) -> Option<&'static [u8]> {
         "cornell-box" => Some(include_bytes!("../../assets/cornell-box.glb")),
         "caustic-ring" => Some(include_bytes!("../../assets/caustic-ring.glb")),
         "glass-sphere" => Some(include_bytes!("../../assets/glass-sphere.glb")),
+        "diffuse-box" => Some(include_bytes!("../../assets/diffuse-box.glb")),
         _ => None,
     }
 }

@@ -21,6 +21,7 @@ pub fn all() -> Vec<(&'static str, Vec<u8>)> {
         ("cornell-box", cornell_box()),
         ("caustic-ring", caustic_ring()),
         ("glass-sphere", glass_sphere()),
+        ("diffuse-box", diffuse_box()),
     ]
 }
 
@@ -179,6 +180,52 @@ pub fn glass_sphere() -> Vec<u8> {
         "camera",
         Vec3::new(2.0, 1.5, 2.0),
         Vec3::new(0.0, 0.4, 0.0),
+        0.7,
+    );
+    w.glb()
+}
+
+/// A Cornell box, diffuse only: the `cornell-box` room (white, red and green walls, open
+/// towards the camera) with a tall white block, a matte white sphere and one white spot light
+/// under the ceiling. Nothing glossy, mirrored or transparent, so the effects plan compiles both
+/// optional lobes out and runs no translucent pass (docs/effects.md).
+pub fn diffuse_box() -> Vec<u8> {
+    let mut w = GltfWriter::default();
+    let white = w.material(&MaterialSpec::diffuse("white", WHITE));
+    let red = w.material(&MaterialSpec::diffuse("red", [0.63, 0.065, 0.05]));
+    let green = w.material(&MaterialSpec::diffuse("green", [0.14, 0.45, 0.091]));
+    let walls = [
+        ("floor", Vec3::ZERO, Vec3::Y, white),
+        ("ceiling", Vec3::new(0.0, 2.0, 0.0), Vec3::NEG_Y, white),
+        ("back", Vec3::new(0.0, 1.0, -1.0), Vec3::Z, white),
+        ("left", Vec3::new(-1.0, 1.0, 0.0), Vec3::X, red),
+        ("right", Vec3::new(1.0, 1.0, 0.0), Vec3::NEG_X, green),
+    ];
+    for (name, c, n, m) in walls {
+        let mesh = w.mesh(name, &quad(c, n, 1.0, 1.0), m);
+        w.mesh_node(name, mesh, Vec3::ZERO, Quat::IDENTITY);
+    }
+    let tall = w.mesh("tall-block", &cuboid(Vec3::new(0.3, 0.6, 0.3)), white);
+    w.mesh_node(
+        "tall-block",
+        tall,
+        Vec3::new(-0.35, 0.6, -0.3),
+        Quat::from_rotation_y(0.3),
+    );
+    let ball = w.mesh("white-sphere", &icosphere(0.3, 3), white);
+    w.mesh_node(
+        "white-sphere",
+        ball,
+        Vec3::new(0.35, 0.3, 0.25),
+        Quat::IDENTITY,
+    );
+    // 4 W/sr from 1.95 m straight down: about 1.05 W/m² on the floor below it.
+    let at = Vec3::new(0.0, 1.95, 0.0);
+    w.spot("spot", at, at - Vec3::Y, [1.0, 1.0, 1.0], 4.0, (0.7, 0.9));
+    w.camera(
+        "camera",
+        Vec3::new(0.0, 1.0, 3.6),
+        Vec3::new(0.0, 1.0, 0.0),
         0.7,
     );
     w.glb()
