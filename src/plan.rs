@@ -748,7 +748,7 @@ impl fmt::Display for EffectsPlan {
                 "mirror/refraction lobes (shaders, caustic paths)",
                 &self.delta,
             ),
-            ("glossy lobe (shaders)", &self.glossy),
+            ("glossy lobe (shaders, CPU trace)", &self.glossy),
             ("indirect light (photons)", &self.indirect),
         ] {
             writeln!(f, "{what}: {} — {}", yes(d.needed), d.reason)?;

@@ -179,7 +179,7 @@ fn plan_prints_one_line_per_decision_naming_the_material_or_light_behind_it() {
          transmissive material 'mirror-metal'\n",
         "mirror/refraction lobes (shaders, caustic paths): yes — material 'mirror-metal' is a \
          perfect mirror\n",
-        "glossy lobe (shaders): no — no material has a finite-exponent glossy lobe\n",
+        "glossy lobe (shaders, CPU trace): no — no material has a finite-exponent glossy lobe\n",
         "light 0 'sun': direct + 100000 photons",
         "pass upsample: skip — --subsample 1",
     ] {

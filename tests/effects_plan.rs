@@ -641,3 +641,21 @@ fn drain_reports_the_passes_and_variants_skipped_as_finish_does() {
     assert_eq!(drained.variants_skipped, finished.variants_skipped);
     assert!(drained.passes_skipped[0].reason.contains("reused"));
 }
+
+#[test]
+fn a_scene_with_nothing_to_receive_indirect_light_runs_no_photon_passes_and_renders_the_same() {
+    // The grey box's floor alone under its lamp: light leaving the plane never meets it again.
+    let mut scene = grey_box(0.5, 1.0);
+    scene.instances.retain(|i| i.name == "wall2");
+    assert_eq!(scene.instances.len(), 1);
+    let planned = render(&scene, settings(Effects::Auto));
+    assert!(!planned.photons, "a photon part without a receiver");
+    for pass in PHOTON_PASSES {
+        assert_skipped(&planned.frame, pass, "all geometry lies in one plane");
+    }
+    // The unplanned frame runs them all and stores nothing.
+    let all = render(&scene, settings(Effects::All));
+    assert!(ran(&all.frame, "bounce_map") && ran(&all.frame, "photon_volumes"));
+    assert_eq!(all.frame.stats.stored_photons, 0);
+    assert_close("plan_no_receiver", &planned.frame, &all.frame, 1e-5, 1e-9);
+}
