@@ -276,7 +276,9 @@ mod tests {
         // the transfer family.
         let (rel, state) = release(Access::ComputeStorageWrite, graphics, transfer);
         let rel = rel.expect("a release");
-        assert!(rel.src_access.contains(vk::AccessFlags2::SHADER_STORAGE_WRITE));
+        assert!(rel
+            .src_access
+            .contains(vk::AccessFlags2::SHADER_STORAGE_WRITE));
         let (acq, _) = acquire(state, graphics, transfer, Access::TransferSrc);
         assert_eq!(
             acq.map(|a| (a.src_family, a.dst_family, a.dst_access)),
