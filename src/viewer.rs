@@ -202,7 +202,7 @@ impl Viewer {
         state.renderer.set_camera(camera)?;
         state.renderer.submit_frame()?;
         let display = state.renderer.display();
-        if state.swapchain.present(display)? == Presented::OutOfDate {
+        if state.swapchain.present(display, None)? == Presented::OutOfDate {
             state.swapchain.recreate((size.width, size.height))?;
             self.report.recreated += 1;
         }
