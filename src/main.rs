@@ -46,6 +46,9 @@ enum Command {
     ///   wheel      fly speed ×1.25 per notch (starts at a quarter of the scene's diagonal per s)
     ///   F          frame the scene: back away along the view until its bounds fit
     ///   C          the file's next camera (--camera N picks the first one shown)
+    ///   Tab        show / hide the overlay (times, effects plan, settings, debug views)
+    ///   P          screenshot (PNG) + its stats JSON, into --shots DIR (default: .)
+    ///   T          Chrome trace of the next 30 frames, into --shots DIR
     ///   Esc        quit
     ///
     /// With --frames N the camera follows a scripted path instead (a swing about the point

@@ -85,6 +85,23 @@ pub struct Overlay {
     debug_view: Option<DebugView>,
 }
 
+/// What the edits of `edited` over `applied` call for: a new renderer when a knob that shapes
+/// it changed and nothing is being `dragging` (a slider in motion would make one per frame),
+/// the display transform at once (which `applied` then takes).
+fn settle(applied: &mut RenderSettings, edited: &RenderSettings, dragging: bool) -> Changes {
+    let shape = |s: &RenderSettings| (s.method, s.photons, s.bounces, s.radius, s.subsample);
+    let mut changes = Changes::default();
+    if !dragging && shape(edited) != shape(applied) {
+        changes.rebuild = Some(edited.clone());
+    }
+    if (edited.tonemap, edited.exposure_ev) != (applied.tonemap, applied.exposure_ev) {
+        changes.display = Some((edited.tonemap, edited.exposure_ev));
+        applied.tonemap = edited.tonemap;
+        applied.exposure_ev = edited.exposure_ev;
+    }
+    changes
+}
+
 /// A stable colour per pass name.
 fn pass_colour(name: &str) -> Color32 {
     let h = name.bytes().fold(2166136261u32, |h, b| {
@@ -193,20 +210,10 @@ impl Overlay {
                         .show(ui, |ui| self.contents_ui(ui, input, &mut changes));
                 });
         });
-        // A knob that shapes the renderer: applied once nothing is being dragged.
+        let debug_view = changes.debug_view;
         let dragging = self.ctx.is_using_pointer();
-        let rebuild_knobs =
-            |s: &RenderSettings| (s.method, s.photons, s.bounces, s.radius, s.subsample);
-        if !dragging && rebuild_knobs(&self.edited) != rebuild_knobs(&self.applied) {
-            changes.rebuild = Some(self.edited.clone());
-        }
-        if (self.edited.tonemap, self.edited.exposure_ev)
-            != (self.applied.tonemap, self.applied.exposure_ev)
-        {
-            changes.display = Some((self.edited.tonemap, self.edited.exposure_ev));
-            self.applied.tonemap = self.edited.tonemap;
-            self.applied.exposure_ev = self.edited.exposure_ev;
-        }
+        let mut changes = settle(&mut self.applied, &self.edited, dragging);
+        changes.debug_view = debug_view;
         self.input
             .handle_platform_output(window, output.platform_output);
         let primitives = self.ctx.tessellate(output.shapes, output.pixels_per_point);
@@ -390,5 +397,63 @@ impl Overlay {
         if self.debug_view != before {
             changes.debug_view = Some(self.debug_view);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shape_knobs_rebuild_once_released_and_display_knobs_apply_at_once() {
+        let mut applied = RenderSettings::default();
+        let mut edited = applied.clone();
+        assert!(settle(&mut applied, &edited, false).rebuild.is_none());
+        edited.photons = 5_000;
+        // Dragged: not yet.
+        assert!(settle(&mut applied, &edited, true).rebuild.is_none());
+        let changes = settle(&mut applied, &edited, false);
+        assert_eq!(changes.rebuild.map(|s| s.photons), Some(5_000));
+        assert!(changes.display.is_none());
+
+        let mut applied = RenderSettings::default();
+        let mut edited = applied.clone();
+        edited.exposure_ev = 1.5;
+        edited.tonemap = Tonemap::Aces;
+        let changes = settle(&mut applied, &edited, true);
+        assert_eq!(changes.display, Some((Tonemap::Aces, 1.5)));
+        assert!(changes.rebuild.is_none());
+        // Applied: asked once.
+        assert!(settle(&mut applied, &edited, false).display.is_none());
+    }
+
+    #[test]
+    fn pass_times_sum_the_outermost_gpu_scopes_by_name_in_frame_order() {
+        use crate::gpu::QueueRole;
+        use crate::timing::Track;
+        let span = |name: &str, depth, ms: u64| Span {
+            name: name.into(),
+            track: Track::Gpu {
+                queue: 0,
+                role: QueueRole::Graphics,
+            },
+            frame: Some(1),
+            depth,
+            begin_ns: 0,
+            end_ns: ms * 1_000_000,
+        };
+        let spans = [
+            span("shadow_maps", 0, 2),
+            span("inner", 1, 1),
+            span("direct", 0, 3),
+            span("shadow_maps", 0, 4),
+        ];
+        assert_eq!(
+            pass_times(&spans),
+            vec![
+                ("shadow_maps".to_string(), 6.0),
+                ("direct".to_string(), 3.0)
+            ]
+        );
     }
 }

@@ -46,8 +46,6 @@ pub struct OverlayPass {
     to_free: Vec<(Option<TimelinePoint>, Vec<egui::TextureId>)>,
     /// The textures of the frame being recorded that egui frees after it.
     frees: Vec<egui::TextureId>,
-    /// Vertices drawn by the last [`OverlayPass::record`] (tests, logs).
-    pub last_vertices: usize,
 }
 
 impl OverlayPass {
@@ -94,7 +92,6 @@ impl OverlayPass {
             draws: VecDeque::new(),
             to_free: Vec::new(),
             frees: Vec::new(),
-            last_vertices: 0,
         })
     }
 
@@ -236,14 +233,6 @@ impl OverlayPass {
             )
         };
         drawn.map_err(|e| anyhow::anyhow!("overlay: cannot record egui's draw: {e}"))?;
-        self.last_vertices = frame
-            .primitives
-            .iter()
-            .map(|p| match &p.primitive {
-                egui::epaint::Primitive::Mesh(m) => m.vertices.len(),
-                egui::epaint::Primitive::Callback(_) => 0,
-            })
-            .sum();
         Ok(())
     }
 
