@@ -87,7 +87,7 @@ fn glass_sphere_shows_its_surroundings_instead_of_black() {
             frame.stats.passes_run
         );
         let glass = radiance_at(&scene, frame, Vec3::new(0.0, 0.5, 0.0), 6);
-        let floor = radiance_at(&scene, frame, Vec3::new(0.9, 0.0, 0.6), 2);
+        let floor = radiance_at(&scene, frame, Vec3::new(0.0, 0.0, 0.9), 2);
         assert!(
             floor.length() > 0.05,
             "lit floor {floor} ({})",

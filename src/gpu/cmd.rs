@@ -656,56 +656,39 @@ impl<'a> Cmd<'a> {
     /// waits for this one.
     pub fn release_buffer(&self, buffer: &Buffer, to: QueueRole) {
         let mut last = buffer.access.lock().unwrap_or_else(|e| e.into_inner());
-        let (src, dst) = (self.family, self.gpu.queue(to).family);
-        if src != dst {
-            let f = last.info();
-            let barrier = vk::BufferMemoryBarrier2::default()
-                .src_stage_mask(f.stage)
-                .src_access_mask(f.access)
-                .dst_stage_mask(vk::PipelineStageFlags2::NONE)
-                .dst_access_mask(vk::AccessFlags2::NONE)
-                .src_queue_family_index(src)
-                .dst_queue_family_index(dst)
-                .buffer(buffer.raw)
-                .offset(0)
-                .size(vk::WHOLE_SIZE);
-            let barriers = [barrier];
-            let dep = vk::DependencyInfo::default().buffer_memory_barriers(&barriers);
-            // SAFETY: recording state on a queue of family `src`, which owns the buffer; the
-            // buffer is live; synchronization2 is enabled.
-            unsafe { self.device().cmd_pipeline_barrier2(self.raw, &dep) };
-            *last = Access::Released;
-        } else {
-            *last = Access::Nothing;
-        }
+        let (barrier, next) = super::access::release(*last, self.family, self.gpu.queue(to).family);
+        self.ownership_barrier(buffer, barrier);
+        *last = next;
     }
 
     /// Takes `buffer` over from the queue of `from` (see [`Cmd::release_buffer`], recorded in a
     /// submission this one waits for) for the access `to`.
     pub fn acquire_buffer(&self, buffer: &Buffer, from: QueueRole, to: Access) {
         let mut last = buffer.access.lock().unwrap_or_else(|e| e.into_inner());
-        let (src, dst) = (self.gpu.queue(from).family, self.family);
-        // A buffer never released (new, or the families are equal) needs no acquire.
-        if src != dst && *last == Access::Released {
-            let t = to.info();
-            let barrier = vk::BufferMemoryBarrier2::default()
-                .src_stage_mask(vk::PipelineStageFlags2::NONE)
-                .src_access_mask(vk::AccessFlags2::NONE)
-                .dst_stage_mask(t.stage)
-                .dst_access_mask(t.access)
-                .src_queue_family_index(src)
-                .dst_queue_family_index(dst)
-                .buffer(buffer.raw)
-                .offset(0)
-                .size(vk::WHOLE_SIZE);
-            let barriers = [barrier];
-            let dep = vk::DependencyInfo::default().buffer_memory_barriers(&barriers);
-            // SAFETY: recording state on a queue of family `dst`; the matching release was
-            // submitted on `src` before the semaphore this submission waits on; the buffer is
-            // live; synchronization2 is enabled.
-            unsafe { self.device().cmd_pipeline_barrier2(self.raw, &dep) };
-        }
-        *last = to;
+        let (barrier, next) =
+            super::access::acquire(*last, self.gpu.queue(from).family, self.family, to);
+        self.ownership_barrier(buffer, barrier);
+        *last = next;
+    }
+
+    /// Records one half of a queue-family ownership transfer of all of `buffer`.
+    fn ownership_barrier(&self, buffer: &Buffer, barrier: Option<super::access::OwnershipBarrier>) {
+        let Some(b) = barrier else { return };
+        let barriers = [vk::BufferMemoryBarrier2::default()
+            .src_stage_mask(b.src_stage)
+            .src_access_mask(b.src_access)
+            .dst_stage_mask(b.dst_stage)
+            .dst_access_mask(b.dst_access)
+            .src_queue_family_index(b.src_family)
+            .dst_queue_family_index(b.dst_family)
+            .buffer(buffer.raw)
+            .offset(0)
+            .size(vk::WHOLE_SIZE)];
+        let dep = vk::DependencyInfo::default().buffer_memory_barriers(&barriers);
+        // SAFETY: recording state on this command buffer's queue, of the family that owns the
+        // buffer (a release) or that receives it after a semaphore wait on the matching release
+        // (an acquire); the buffer is live; synchronization2 is enabled.
+        unsafe { self.device().cmd_pipeline_barrier2(self.raw, &dep) };
     }
 
     /// Blits all of `src` (in [`Access::BlitSrc`]) onto the swapchain image `dst` of `extent`,
