@@ -37,6 +37,7 @@ use crate::gpu::{
 use crate::gpu_scene::GpuScene;
 use crate::layout::FrameUniforms;
 use crate::lighting::LightSetup;
+use crate::passes::debug_view::{DebugInputs, DebugView, DebugViewPass};
 use crate::passes::direct::{DirectInputs, DirectPass};
 use crate::passes::eye_gbuffer::{EyeGBufferPass, GBuffer, View};
 use crate::passes::shadow_map::{self, ShadowMapPass};
@@ -236,6 +237,11 @@ pub struct Renderer {
     last_frame_done: Option<TimelinePoint>,
     /// The last photon-map upload (it reads the staging buffer the next trace writes).
     last_upload: Option<TimelinePoint>,
+    /// The newest retired frame's GPU spans and stats (the viewer's live times).
+    last_retired: Option<(Vec<Span>, FrameStats)>,
+    /// An intermediate buffer shown instead of the frame, and the pass that shows it (made
+    /// when first recorded, again when its inputs change).
+    debug_view: Option<(DebugView, Option<DebugViewPass>)>,
 }
 
 /// What one frame in flight keeps until it is retired.
@@ -460,6 +466,8 @@ impl Renderer {
             broken: false,
             last_frame_done: None,
             last_upload: None,
+            last_retired: None,
+            debug_view: None,
         })
     }
 
@@ -634,7 +642,9 @@ impl Renderer {
         self.broken = true;
         let gpu = self.gpu.clone();
         let slot = (self.frame_index % FRAMES_IN_FLIGHT as u64) as usize;
-        self.retire_slot(slot)?;
+        if let Some(retired) = self.retire_slot(slot)? {
+            self.last_retired = Some(retired);
+        }
         // The span covers the host's part of this frame only, so frames' spans never overlap
         // on the main thread's track.
         let frame_span = timing::frame(self.frame_index);
@@ -729,6 +739,7 @@ impl Renderer {
         }
 
         // Box D (graphics): photon volumes, upsampling, composite, glass, tonemap.
+        self.prepare_debug_view()?;
         let d = gpu.record(QueueRole::Graphics, "box D", Some(timestamps.clone()))?;
         self.record_estimate_and_finish(&d.cmd(), &frame);
         // The upload (which itself follows the readback); the readback too, for frames whose
@@ -757,6 +768,7 @@ impl Renderer {
     /// Waits for every frame in flight and reads back the last one.
     pub fn finish(&mut self) -> anyhow::Result<FrameImage> {
         let (gpu_spans, stats) = self.drain()?;
+        self.last_retired = Some((gpu_spans.clone(), stats.clone()));
         let gpu = self.gpu.clone();
         let hdr_bytes = gpu.read_image(&self.radiance)?;
         let ldr = gpu.read_image(&self.display)?;
@@ -951,13 +963,13 @@ impl Renderer {
 
     /// Box D: photon volumes (+ upsampling and composite), glass and mirrors, tonemapping.
     fn record_estimate_and_finish(&mut self, cmd: &Cmd, frame: &FrameSetup) {
+        let composite = !matches!(self.debug_view, Some((DebugView::DirectOnly, _)));
         if let Some(photons) = &mut self.photons {
             photons.record_estimate(
                 cmd,
-                &self.frame_uniforms,
-                &self.scene.materials,
-                &self.gbuffer,
+                (&self.frame_uniforms, &self.scene.materials, &self.gbuffer),
                 &mut self.radiance,
+                composite,
             );
         }
         if let Some(translucent) = &mut self.translucent {
@@ -977,6 +989,82 @@ impl Renderer {
             self.settings.exposure_ev,
             &mut self.display,
         );
+        if let Some((_, Some(pass))) = &self.debug_view {
+            let inputs = DebugInputs {
+                frame: &self.frame_uniforms,
+                gbuffer: &self.gbuffer,
+                photons: self.photons.as_ref().map(PhotonFrame::debug_sources),
+                tonemap: self.settings.tonemap,
+                exposure_ev: self.settings.exposure_ev,
+            };
+            pass.record(cmd, &inputs, &mut self.display);
+        }
+    }
+
+    /// What the debug views read.
+    fn debug_inputs(&self) -> DebugInputs<'_> {
+        DebugInputs {
+            frame: &self.frame_uniforms,
+            gbuffer: &self.gbuffer,
+            photons: self.photons.as_ref().map(PhotonFrame::debug_sources),
+            tonemap: self.settings.tonemap,
+            exposure_ev: self.settings.exposure_ev,
+        }
+    }
+
+    /// Makes the debug view's pass if it has none or its inputs changed (a larger photon
+    /// buffer); the old one retires once the frames using it are done.
+    fn prepare_debug_view(&mut self) -> anyhow::Result<()> {
+        let Some((view, pass)) = &self.debug_view else {
+            return Ok(());
+        };
+        let (view, inputs) = (*view, self.debug_inputs());
+        if pass.as_ref().is_some_and(|p| p.fits(view, &inputs)) {
+            return Ok(());
+        }
+        let made = DebugViewPass::new(&self.gpu, view, &inputs, &self.display)?;
+        self.debug_view = Some((view, Some(made)));
+        Ok(())
+    }
+
+    /// Shows `view` (an intermediate buffer, `passes/debug_view.rs`) instead of the frame from
+    /// the next frame on; `None`: the frame. Fails for a view of the photon part of the frame
+    /// when this renderer has none (no indirect light).
+    pub fn set_debug_view(&mut self, view: Option<DebugView>) -> anyhow::Result<()> {
+        if let Some(v) = view {
+            anyhow::ensure!(
+                !v.needs_photons() || self.photons.is_some(),
+                "the debug view {} needs indirect light, which this frame has none of ({})",
+                v.label(),
+                self.plan.indirect.reason
+            );
+        }
+        if view != self.debug_view.as_ref().map(|(v, _)| *v) {
+            self.debug_view = view.map(|v| (v, None));
+        }
+        Ok(())
+    }
+
+    /// The debug view the frames show, if any.
+    pub fn debug_view(&self) -> Option<DebugView> {
+        self.debug_view.as_ref().map(|(v, _)| *v)
+    }
+
+    /// The newest finished frame's GPU spans and stats, without waiting (`None` until a frame
+    /// has retired). Its `passes_run`/`passes_skipped` are filled in by [`Self::finish`] only.
+    pub fn last_frame_times(&self) -> Option<&(Vec<Span>, FrameStats)> {
+        self.last_retired.as_ref()
+    }
+
+    /// Changes the display transform from the next frame on (no new renderer needed).
+    pub fn set_display_transform(&mut self, tonemap: Tonemap, exposure_ev: f32) {
+        self.settings.tonemap = tonemap;
+        self.settings.exposure_ev = exposure_ev;
+    }
+
+    /// The settings the frames use (after the plan's adjustments).
+    pub fn settings(&self) -> &RenderSettings {
+        &self.settings
     }
 
     pub fn gpu(&self) -> &Arc<Gpu> {

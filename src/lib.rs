@@ -11,6 +11,8 @@
 //!   needs; no Vulkan.
 //! - [`timing`]: CPU and GPU spans on one host clock, Chrome trace JSON.
 //! - [`camera_control`]: the viewer's fly camera and scripted camera path; no window.
+//! - [`viewer`], [`overlay`]: `ispm view`'s window, keys and egui overlay (drawn by
+//!   `gpu::OverlayPass`).
 
 pub mod bench;
 pub mod camera_control;
@@ -21,6 +23,7 @@ pub mod ispm;
 pub mod layout;
 pub mod lighting;
 pub mod output;
+pub mod overlay;
 pub mod passes;
 pub mod photon;
 pub mod photon_frame;

@@ -46,6 +46,9 @@ enum Command {
     ///   wheel      fly speed ×1.25 per notch (starts at a quarter of the scene's diagonal per s)
     ///   F          frame the scene: back away along the view until its bounds fit
     ///   C          the file's next camera (--camera N picks the first one shown)
+    ///   Tab        show / hide the overlay (times, effects plan, settings, debug views)
+    ///   P          screenshot (PNG) + its stats JSON, into --shots DIR (default: .)
+    ///   T          Chrome trace of the next 30 frames, into --shots DIR
     ///   Esc        quit
     ///
     /// With --frames N the camera follows a scripted path instead (a swing about the point
@@ -78,6 +81,19 @@ struct ViewArgs {
     /// Resize the window after FRAME frames to WxH (FRAME:WxH; tests drive a resize).
     #[arg(long, hide = true, value_parser = parse_resize)]
     resize_at: Option<(u32, (u32, u32))>,
+    /// Where the P (screenshot + stats) and T (trace) keys write (default: the current
+    /// directory).
+    #[arg(long, value_name = "DIR")]
+    shots: Option<PathBuf>,
+    /// Start showing an intermediate buffer instead of the frame (the overlay switches them).
+    #[arg(long, value_enum)]
+    debug_view: Option<ispm::passes::debug_view::DebugView>,
+    /// Start with the overlay shown (Tab toggles it).
+    #[arg(long, hide = true)]
+    overlay: bool,
+    /// Press KEY (p, t or tab) at the start of frame FRAME (FRAME:KEY; tests simulate keys).
+    #[arg(long, hide = true, value_parser = parse_press)]
+    press: Vec<(u32, ispm::viewer::ViewKey)>,
     /// Start from the file's camera N (0-based, in node order; default: the first).
     #[arg(long, value_name = "N")]
     camera: Option<usize>,
@@ -96,6 +112,20 @@ fn parse_resize(s: &str) -> Result<(u32, (u32, u32)), String> {
         .parse()
         .map_err(|_| format!("{s:?} is not FRAME:WxH"))?;
     Ok((frame, parse_size(size)?))
+}
+
+fn parse_press(s: &str) -> Result<(u32, ispm::viewer::ViewKey), String> {
+    use ispm::viewer::ViewKey;
+    let bad = || format!("{s:?} is not FRAME:KEY with KEY p, t or tab");
+    let (frame, key) = s.split_once(':').ok_or_else(bad)?;
+    let frame: u32 = frame.parse().map_err(|_| bad())?;
+    let key = match key.to_ascii_lowercase().as_str() {
+        "p" => ViewKey::Screenshot,
+        "t" => ViewKey::Trace,
+        "tab" => ViewKey::ToggleOverlay,
+        _ => return Err(bad()),
+    };
+    Ok((frame, key))
 }
 
 #[derive(clap::Args)]
@@ -267,6 +297,10 @@ struct RenderArgs {
     /// Render the scene as it is SECONDS into its motion (glTF animations, --orbit-lights).
     #[arg(long, value_name = "SECONDS", default_value_t = 0.0, value_parser = parse_time)]
     time: f32,
+    /// GPU methods: write an intermediate buffer, false-coloured, instead of the frame (the
+    /// viewer's debug views; PNG output).
+    #[arg(long, value_enum)]
+    debug_view: Option<ispm::passes::debug_view::DebugView>,
 }
 
 fn parse_share(s: &str) -> Result<f32, String> {
@@ -373,6 +407,13 @@ fn view(args: ViewArgs, device: Option<usize>) -> anyhow::Result<()> {
         );
         ispm::output::check_writable(path)?;
     }
+    if let Some(dir) = &args.shots {
+        anyhow::ensure!(
+            dir.is_dir(),
+            "--shots {}: not a directory (the P and T keys write into it)",
+            dir.display()
+        );
+    }
     let scene = load_scene_from(args.scene.as_deref(), args.camera, args.orbit_lights)?;
     let (width, height) = args.size;
     let settings = ispm::viewer::ViewSettings {
@@ -387,12 +428,18 @@ fn view(args: ViewArgs, device: Option<usize>) -> anyhow::Result<()> {
         frames: args.frames,
         screenshot: args.screenshot,
         resize_at: args.resize_at,
+        overlay: args.overlay,
+        debug_view: args.debug_view,
+        shots: args.shots,
+        presses: args.press,
     };
     let report = ispm::viewer::run(scene, settings)?;
     log::info!(
-        "{} frames, {} swapchain(s) recreated",
+        "{} frames, {} swapchain(s) recreated, overlay drawn in {} (at most {} vertices)",
         report.frames,
-        report.recreated
+        report.recreated,
+        report.overlay_frames,
+        report.overlay_vertices
     );
     if !report.validation_messages.is_empty() {
         for m in &report.validation_messages {
@@ -483,6 +530,10 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
         Method::Ispm | Method::Direct => None,
     };
     if let Some(method) = reference {
+        anyhow::ensure!(
+            args.debug_view.is_none(),
+            "--debug-view shows the GPU methods' buffers (ispm, direct) only"
+        );
         if let Some(trace) = &args.trace {
             anyhow::bail!(
                 "{}: --trace records the GPU methods (ispm, direct) only",
@@ -490,6 +541,13 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
             );
         }
         return render_reference(&args, &scene, method, format);
+    }
+    if let Some(view) = args.debug_view {
+        anyhow::ensure!(
+            format == OutputFormat::Png || view == ispm::passes::debug_view::DebugView::DirectOnly,
+            "{}: --debug-view {view:?} is an 8-bit false-colour image: write a .png",
+            args.output.display()
+        );
     }
     let gpu = gpu(device)?;
     let settings = RenderSettings {
@@ -518,6 +576,9 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
     }
     let (frame, triangles) = {
         let mut renderer = Renderer::new(&gpu, &scene, settings)?;
+        renderer
+            .set_debug_view(args.debug_view)
+            .context("--debug-view")?;
         for _ in 1..args.frames.unwrap_or(1) {
             renderer.submit_frame()?;
         }

@@ -18,6 +18,7 @@ use crate::gpu_scene::GpuScene;
 use crate::ispm::{BouncePlan, Capacity};
 use crate::passes::bounce_map::{BounceMapIo, BounceMapPass};
 use crate::passes::composite::CompositePass;
+use crate::passes::debug_view::PhotonSources;
 use crate::passes::eye_gbuffer::GBuffer;
 use crate::passes::light_gbuffer::LightGBufferPass;
 use crate::passes::photon_volumes::{self, PhotonVolumeInputs, PhotonVolumesPass};
@@ -483,14 +484,14 @@ impl PhotonFrame {
     /// Photon volumes into the indirect buffer (at 1/N resolution and upsampled, at
     /// `--subsample N > 1`), then radiance += indirect. Takes the photon buffer over from the
     /// transfer queue after an upload (a no-op in a frame that reuses the photon map) and keeps
-    /// it until the next [`Self::record_emission`].
+    /// it until the next [`Self::record_emission`]. Without `composite` (the direct-only debug
+    /// view) the estimate is made but not added.
     pub fn record_estimate(
         &mut self,
         cmd: &Cmd,
-        frame: &Buffer,
-        materials: &Buffer,
-        gbuffer: &GBuffer,
+        (frame, materials, gbuffer): (&Buffer, &Buffer, &GBuffer),
         radiance: &mut Image,
+        composite: bool,
     ) {
         if self.count > 0 {
             cmd.acquire_buffer(
@@ -536,7 +537,43 @@ impl PhotonFrame {
                 sub.upsample.record(cmd, &inputs, &mut self.indirect);
             }
         }
-        self.composite.record(cmd, &self.indirect, radiance);
+        if composite {
+            self.composite.record(cmd, &self.indirect, radiance);
+        }
+    }
+
+    /// What the debug views read of the photon part of the frame (`passes/debug_view.rs`).
+    pub fn debug_sources(&self) -> PhotonSources<'_> {
+        let lum = |c: glam::Vec3| c.dot(glam::Vec3::new(0.2126, 0.7152, 0.0722));
+        let first = self.plan.views.first().map(|v| (v.texels.x, v.texels.y));
+        let (offset, records) = self.plan.views.first().map_or((0, 0), |v| {
+            (v.texels.z as usize, (v.texels.x * v.texels.y) as usize)
+        });
+        let bounce_peak = self
+            .last_bounce_map
+            .iter()
+            .skip(offset)
+            .take(records)
+            .map(|p| lum(p.power))
+            .fold(0.0, f32::max);
+        let photon_peak = self
+            .last_photons
+            .iter()
+            .take(self.count as usize)
+            .map(|p| lum(p.power))
+            .fold(0.0, f32::max);
+        PhotonSources {
+            light_gbuffer: &self.light_gbuffer,
+            first_view_extent: first.unwrap_or((0, 0)),
+            views: &self.views,
+            bounce_map: &self.bounce_map,
+            bounce_peak,
+            photons: &self.photons,
+            count: self.count,
+            photon_peak,
+            offset: self.eye_offset(),
+            indirect: &self.indirect,
+        }
     }
 
     /// The CPU tracer's BVH.

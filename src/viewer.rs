@@ -11,7 +11,19 @@
 //!
 //! Keys: `W` `A` `S` `D` fly in the view's plane, `Q` `E` down and up; hold the right mouse
 //! button to look around; the wheel changes the fly speed; `F` frames the scene; `C` steps
-//! through the file's cameras; `Esc` quits. With `--frames N` the camera follows the scripted
+//! through the file's cameras; `Tab` shows or hides the overlay (`overlay.rs`: times, effects
+//! plan, settings, debug views); `P` writes a screenshot of the frame (PNG, the renderer's
+//! image with its debug view, without the overlay) and its stats JSON beside it; `T` records
+//! a Chrome trace of the next [`TRACE_FRAMES`] frames; `Esc` quits. `P` and `T` write into
+//! `--shots DIR` (default: the current directory) as `ispm-<unix seconds>-<n>.png|.json` and
+//! `ispm-<unix seconds>-<n>.trace.json`.
+//!
+//! ```text
+//!  frame k:  presses of frame k (--press, tests) ─► trace capture starts (T)
+//!            ─► set_pose, set_camera, submit_frame ─► overlay UI (egui) ─► present(blit + overlay)
+//!            ─► knob changes: display transform / debug view now, new Renderer if its shape changed
+//!            ─► screenshot (P: finish() = wait + read back) ─► trace ends after 30 frames (drain, write)
+//! ``` With `--frames N` the camera follows the scripted
 //! path instead, frame k (1 … N) at [`scripted_pose`]`(start, bounds, k)`, so the screenshot is
 //! the pose `ispm render --camera-path-frame N` renders.
 //!
@@ -26,7 +38,9 @@
 
 use crate::camera_control::{scripted_pose, FlyCamera, MoveKeys};
 use crate::frame::{RenderSettings, Renderer};
-use crate::gpu::{Gpu, GpuOptions, Presented, Swapchain};
+use crate::gpu::{Gpu, GpuOptions, OverlayPass, Presented, Swapchain};
+use crate::overlay::{Changes, Overlay, OverlayInput};
+use crate::passes::debug_view::DebugView;
 use crate::scene::{Aabb, Scene, FRAME_STEP_SECONDS};
 use raw_window_handle::HasDisplayHandle;
 use std::path::PathBuf;
@@ -44,6 +58,20 @@ const PIXELS_PER_NOTCH: f64 = 50.0;
 /// The longest time step a frame flies (a stalled frame does not throw the camera far).
 const MAX_FLY_STEP_S: f32 = 0.1;
 
+/// Frames a `T` trace records.
+pub const TRACE_FRAMES: u32 = 30;
+
+/// A key the viewer acts on, pressed by the user or by `--press` (tests).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ViewKey {
+    /// `P`: screenshot and stats.
+    Screenshot,
+    /// `T`: trace the next frames.
+    Trace,
+    /// `Tab`: show or hide the overlay.
+    ToggleOverlay,
+}
+
 /// What `ispm view` was asked to do.
 #[derive(Clone, Debug)]
 pub struct ViewSettings {
@@ -55,6 +83,14 @@ pub struct ViewSettings {
     pub screenshot: Option<PathBuf>,
     /// Ask the window system for this size after this many frames (tests drive a resize).
     pub resize_at: Option<(u32, (u32, u32))>,
+    /// Start with the overlay shown.
+    pub overlay: bool,
+    /// Start with this debug view.
+    pub debug_view: Option<DebugView>,
+    /// Where `P` and `T` write (`None`: the current directory).
+    pub shots: Option<PathBuf>,
+    /// Keys pressed at the start of frame N (1-based): tests simulate `P`, `T` and `Tab`.
+    pub presses: Vec<(u32, ViewKey)>,
 }
 
 /// What a finished `ispm view` run reports.
@@ -64,11 +100,18 @@ pub struct ViewReport {
     /// Swapchains made after the first (resizes, out-of-date presents).
     pub recreated: u32,
     pub validation_messages: Vec<String>,
+    /// Files `P` and `T` wrote.
+    pub written: Vec<PathBuf>,
+    /// Frames the overlay was drawn in, and the most vertices it drew in one.
+    pub overlay_frames: u32,
+    pub overlay_vertices: usize,
 }
 
 struct State {
-    // Field order is drop order: the swapchain (and its surface) before the window.
+    // Field order is drop order: the overlay's pass and the swapchain (and its surface) before
+    // the window.
     renderer: Renderer,
+    overlay_pass: OverlayPass,
     swapchain: Swapchain,
     gpu: Arc<Gpu>,
     window: Arc<Window>,
@@ -85,6 +128,15 @@ struct Viewer {
     input: Input,
     /// When the first frame began (the animation's clock).
     started: Option<Instant>,
+    overlay: Option<Overlay>,
+    /// Keys to act on at the next frame.
+    pending: Vec<ViewKey>,
+    /// A trace capture running: frames still to record.
+    tracing: Option<u32>,
+    /// Files `P`/`T` wrote so far (their names' counter).
+    shots_written: u32,
+    /// When the last frame began (the overlay's frame interval).
+    last_frame: Option<Instant>,
 }
 
 /// The interactive camera and the input that drives it.
@@ -123,10 +175,19 @@ pub fn run(scene: Scene, settings: ViewSettings) -> anyhow::Result<ViewReport> {
         error: None,
         input,
         started: None,
+        overlay: None,
+        pending: Vec::new(),
+        tracing: None,
+        shots_written: 0,
+        last_frame: None,
     };
     event_loop.run_app(&mut viewer)?;
     if let Some(e) = viewer.error {
         return Err(e);
+    }
+    if viewer.tracing.is_some() {
+        // Closed mid-trace: the capture ends unwritten.
+        let _ = crate::timing::finish_capture();
     }
     if let Some(state) = &viewer.state {
         viewer.report.validation_messages = state.gpu.validation_messages();
@@ -152,14 +213,141 @@ impl Viewer {
         })?;
         let size = window.inner_size();
         let swapchain = Swapchain::new(&gpu, window.as_ref(), (size.width, size.height))?;
-        let renderer = Renderer::new(&gpu, &self.scene, self.settings.render.clone())?;
+        let mut renderer = Renderer::new(&gpu, &self.scene, self.settings.render.clone())?;
+        renderer.set_debug_view(self.settings.debug_view)?;
+        let overlay_pass = OverlayPass::new(&gpu, swapchain.format)?;
+        self.overlay = Some(Overlay::new(
+            &window,
+            &self.settings.render,
+            self.settings.debug_view,
+            self.settings.overlay,
+        ));
         window.request_redraw();
         self.state = Some(State {
             renderer,
+            overlay_pass,
             swapchain,
             gpu,
             window,
         });
+        Ok(())
+    }
+
+    /// Where `P` and `T` write their `n`th file of this run (`ext`: "png", "json",
+    /// "trace.json").
+    fn shot_path(&self, n: u32, ext: &str) -> PathBuf {
+        let secs = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_secs());
+        let dir = self
+            .settings
+            .shots
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("."));
+        dir.join(format!("ispm-{secs}-{n:03}.{ext}"))
+    }
+
+    /// `P`: waits for the frames in flight, writes the last one's image (PNG) and its stats
+    /// (JSON) beside it.
+    fn screenshot(&mut self) -> anyhow::Result<()> {
+        self.shots_written += 1;
+        let png = self.shot_path(self.shots_written, "png");
+        let json = png.with_extension("json");
+        let Some(state) = &mut self.state else {
+            return Ok(());
+        };
+        let frame = state.renderer.finish()?;
+        let stats = crate::stats::frame_json(
+            &self.scene,
+            &frame,
+            state.renderer.triangles(),
+            state.renderer.settings().bounces,
+            state.gpu.validation_message_count(),
+        );
+        crate::output::write_png(&png, frame.width, frame.height, &frame.ldr)?;
+        crate::output::write_atomically(&json, |f| {
+            serde_json::to_writer_pretty(f, &stats)
+                .map_err(|e| anyhow::anyhow!("{}: cannot write JSON: {e}", json.display()))
+        })?;
+        eprintln!("wrote {} and {}", png.display(), json.display());
+        self.report.written.extend([png, json]);
+        Ok(())
+    }
+
+    /// The end of a `T` trace: waits for the traced frames (their GPU spans join the capture
+    /// as they retire) and writes the Chrome trace.
+    fn finish_trace(&mut self) -> anyhow::Result<()> {
+        self.tracing = None;
+        if let Some(state) = &mut self.state {
+            state.renderer.drain()?;
+        }
+        let capture = crate::timing::finish_capture();
+        self.shots_written += 1;
+        let path = self.shot_path(self.shots_written, "trace.json");
+        capture.write_chrome(&path)?;
+        eprintln!("wrote {} ({TRACE_FRAMES} frames)", path.display());
+        self.report.written.push(path);
+        Ok(())
+    }
+
+    /// Acts on the keys of this frame (before it is issued).
+    fn keys_before_frame(&mut self) {
+        let frame = self.report.frames + 1;
+        let scripted = self
+            .settings
+            .presses
+            .iter()
+            .filter(|(at, _)| *at == frame)
+            .map(|(_, k)| *k);
+        let keys: Vec<ViewKey> = self.pending.drain(..).chain(scripted).collect();
+        for key in keys {
+            match key {
+                ViewKey::ToggleOverlay => {
+                    if let Some(o) = &mut self.overlay {
+                        o.shown = !o.shown;
+                    }
+                }
+                ViewKey::Trace if self.tracing.is_none() && !crate::timing::capturing() => {
+                    crate::timing::start_capture();
+                    self.tracing = Some(TRACE_FRAMES);
+                }
+                ViewKey::Trace => log::warn!("T: a trace is already being recorded"),
+                // After the frame (it shows the frame just rendered).
+                ViewKey::Screenshot => self.pending.push(key),
+            }
+        }
+    }
+
+    /// Applies what the overlay's knobs changed.
+    fn apply(&mut self, changes: Changes) -> anyhow::Result<()> {
+        let Some(state) = &mut self.state else {
+            return Ok(());
+        };
+        if let Some((tonemap, exposure)) = changes.display {
+            state.renderer.set_display_transform(tonemap, exposure);
+            self.settings.render.tonemap = tonemap;
+            self.settings.render.exposure_ev = exposure;
+        }
+        if let Some(view) = changes.debug_view {
+            state.renderer.set_debug_view(view)?;
+        }
+        if let Some(settings) = changes.rebuild {
+            if self.tracing.is_some() {
+                return Ok(()); // not in the middle of a trace: applied after it
+            }
+            let view = state.renderer.debug_view();
+            let camera = *state.renderer.camera();
+            log::info!("new renderer for the overlay's settings");
+            let mut renderer = Renderer::new(&state.gpu, &self.scene, settings.clone())?;
+            renderer.set_camera(camera)?;
+            // A view of the photon part goes when the new settings have none.
+            let view = view.filter(|v| renderer.set_debug_view(Some(*v)).is_ok());
+            state.renderer = renderer;
+            self.settings.render = settings.clone();
+            if let Some(o) = &mut self.overlay {
+                o.applied(&settings, view);
+            }
+        }
         Ok(())
     }
 
@@ -174,7 +362,13 @@ impl Viewer {
 
     /// One frame: render, present, and the scripted steps of `--frames`.
     fn frame(&mut self, event_loop: &ActiveEventLoop) -> anyhow::Result<()> {
+        self.keys_before_frame();
         let t = self.animation_time();
+        let now = Instant::now();
+        let interval_ms = self
+            .last_frame
+            .replace(now)
+            .map_or(0.0, |t| now.duration_since(t).as_secs_f64() * 1e3);
         let Some(state) = &mut self.state else {
             return Ok(());
         };
@@ -201,12 +395,58 @@ impl Viewer {
         };
         state.renderer.set_camera(camera)?;
         state.renderer.submit_frame()?;
+        let mut changes = Changes::default();
+        let overlay_frame = match &mut self.overlay {
+            Some(overlay) => {
+                let last_written = self.report.written.last().and_then(|p| p.to_str());
+                let input = OverlayInput {
+                    plan: state.renderer.plan(),
+                    last: state.renderer.last_frame_times(),
+                    interval_ms,
+                    has_photons: state.renderer.photons().is_some(),
+                    tracing: self.tracing,
+                    last_written,
+                };
+                let (frame, c) = overlay.frame(&state.window, &input);
+                changes = c;
+                frame
+            }
+            None => None,
+        };
+        if let Some(f) = &overlay_frame {
+            self.report.overlay_frames += 1;
+            let vertices = f
+                .primitives
+                .iter()
+                .map(|p| match &p.primitive {
+                    egui::epaint::Primitive::Mesh(m) => m.vertices.len(),
+                    egui::epaint::Primitive::Callback(_) => 0,
+                })
+                .sum::<usize>();
+            self.report.overlay_vertices = self.report.overlay_vertices.max(vertices);
+        }
         let display = state.renderer.display();
-        if state.swapchain.present(display)? == Presented::OutOfDate {
+        let overlay = overlay_frame.as_ref().map(|f| (&mut state.overlay_pass, f));
+        if state.swapchain.present(display, overlay)? == Presented::OutOfDate {
             state.swapchain.recreate((size.width, size.height))?;
             self.report.recreated += 1;
         }
         self.report.frames += 1;
+        if self.pending.contains(&ViewKey::Screenshot) {
+            self.pending.retain(|k| *k != ViewKey::Screenshot);
+            self.screenshot()?;
+        }
+        if let Some(left) = self.tracing {
+            if left <= 1 {
+                self.finish_trace()?;
+            } else {
+                self.tracing = Some(left - 1);
+            }
+        }
+        self.apply(changes)?;
+        let Some(state) = &mut self.state else {
+            return Ok(());
+        };
         if let Some((at, (w, h))) = self.settings.resize_at {
             if self.report.frames == at {
                 let _ = state.window.request_inner_size(PhysicalSize::new(w, h));
@@ -250,6 +490,8 @@ impl Viewer {
                     .frame_scene(render.width as f32 / render.height as f32);
             }
             "c" => self.next_camera(),
+            "p" => self.pending.push(ViewKey::Screenshot),
+            "t" => self.pending.push(ViewKey::Trace),
             _ => {}
         }
     }
@@ -286,6 +528,35 @@ impl ApplicationHandler for Viewer {
     }
 
     fn window_event(&mut self, event_loop: &ActiveEventLoop, _: WindowId, event: WindowEvent) {
+        if let WindowEvent::KeyboardInput {
+            event:
+                KeyEvent {
+                    logical_key: Key::Named(NamedKey::Tab),
+                    state: ElementState::Pressed,
+                    repeat: false,
+                    ..
+                },
+            ..
+        } = event
+        {
+            // Ours, not egui's (which moves its keyboard focus with Tab).
+            self.pending.push(ViewKey::ToggleOverlay);
+            return;
+        }
+        let used_by_overlay = match (&mut self.overlay, &self.state) {
+            (Some(overlay), Some(state)) => overlay.on_window_event(&state.window, &event),
+            _ => false,
+        };
+        let input_event = matches!(
+            event,
+            WindowEvent::KeyboardInput { .. }
+                | WindowEvent::MouseInput { .. }
+                | WindowEvent::CursorMoved { .. }
+                | WindowEvent::MouseWheel { .. }
+        );
+        if used_by_overlay && input_event {
+            return;
+        }
         match event {
             WindowEvent::CloseRequested => event_loop.exit(),
             WindowEvent::KeyboardInput {

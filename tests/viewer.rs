@@ -1,7 +1,9 @@
 //! `ispm view` under Xvfb on lavapipe with validation and synchronization validation on: the
 //! viewer's smoke test renders frames along its scripted camera path into a real window and
 //! swapchain, survives a resize the test drives, and its screenshot is the headless render of
-//! the path's last pose (and not of its first).
+//! the path's last pose (and not of its first). With the overlay shown and a debug view on,
+//! the simulated `P`, `T` and `Tab` keys write a screenshot (the headless render of the same
+//! pose and view), its stats JSON and a 30-frame Chrome trace, and toggle the overlay.
 
 mod common;
 
@@ -10,6 +12,11 @@ use std::process::Command;
 
 /// Runs `ispm ARGS` inside a fresh virtual X server.
 fn under_xvfb(args: &[&str]) -> std::process::Output {
+    under_xvfb_with(args, &[])
+}
+
+/// [`under_xvfb`] with environment variables.
+fn under_xvfb_with(args: &[&str], envs: &[(&str, &str)]) -> std::process::Output {
     let xvfb = Command::new("xvfb-run")
         .arg("--help")
         .output()
@@ -23,6 +30,7 @@ fn under_xvfb(args: &[&str]) -> std::process::Output {
         .arg(env!("CARGO_BIN_EXE_ispm"))
         .args(args)
         .env("ISPM_VALIDATION", "1")
+        .envs(envs.iter().copied())
         .output()
         .expect("run xvfb-run")
 }
@@ -170,5 +178,161 @@ fn view_with_orbiting_lights_runs_120_clean_frames_and_ends_on_the_headless_rend
     assert!(
         moved > 1000,
         "only {moved} of 4096 pixels changed in half a turn (2629 measured)"
+    );
+}
+
+#[test]
+fn view_with_overlay_and_debug_view_writes_screenshot_stats_and_a_30_frame_trace_on_p_and_t() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let shots = dir.path().join("shots");
+    std::fs::create_dir(&shots).expect("shots dir");
+    let common = [
+        "--size",
+        "96x64",
+        "--photons",
+        "4000",
+        "--debug-view",
+        "bounce-map",
+    ];
+    let mut args = vec!["view", "cornell-box"];
+    args.extend(common);
+    args.extend([
+        "--frames",
+        "45",
+        "--overlay",
+        "--press",
+        "3:t",
+        "--press",
+        "40:p",
+        "--press",
+        "42:tab",
+        "--shots",
+        shots.to_str().expect("utf8"),
+    ]);
+    let out = under_xvfb_with(&args, &[("RUST_LOG", "ispm=info")]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "ispm view failed:\n{stderr}");
+    assert!(!stderr.contains("validation message"), "{stderr}");
+    // Drawn in frames 1 … 41, hidden by Tab from frame 42 on.
+    let drawn = stderr
+        .lines()
+        .find_map(|l| {
+            l.split_once("overlay drawn in ")
+                .map(|(_, rest)| rest.to_string())
+        })
+        .unwrap_or_else(|| panic!("no overlay report in:\n{stderr}"));
+    let numbers: Vec<usize> = drawn
+        .split(|c: char| !c.is_ascii_digit())
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    assert_eq!(numbers[0], 41, "{drawn}");
+    assert!(
+        numbers[1] > 100,
+        "the overlay drew only {} vertices",
+        numbers[1]
+    );
+
+    let mut files: Vec<String> = std::fs::read_dir(&shots)
+        .expect("shots")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    files.sort();
+    let find = |suffix: &str| {
+        let found: Vec<&String> = files
+            .iter()
+            .filter(|f| f.ends_with(suffix) && (suffix != ".json" || !f.ends_with(".trace.json")))
+            .collect();
+        assert_eq!(found.len(), 1, "{suffix} in {files:?}");
+        shots.join(found[0])
+    };
+    let (png, stats, trace) = (find(".png"), find(".json"), find(".trace.json"));
+    assert_eq!(
+        png.with_extension("json"),
+        stats,
+        "the stats lie beside the screenshot"
+    );
+
+    // The screenshot is frame 40's debug view: the headless render of that pose and view.
+    let shot = image::open(&png).expect("screenshot PNG").to_rgba8();
+    let mut args = vec!["render", "cornell-box", "--camera-path-frame", "40"];
+    args.extend(common);
+    let headless = headless(&args, &dir.path().join("headless.png"));
+    let differ = differing(&shot, &headless);
+    assert_eq!(
+        differ, 0,
+        "{differ} pixels differ from the headless debug view"
+    );
+
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&stats).expect("stats")).expect("stats JSON");
+    assert_eq!(
+        (stats["width"].as_u64(), stats["height"].as_u64()),
+        (Some(96), Some(64))
+    );
+    let ran: Vec<&str> = stats["passes_run"]
+        .as_array()
+        .expect("passes_run")
+        .iter()
+        .filter_map(|v| v.as_str())
+        .collect();
+    assert!(
+        ran.contains(&"debug_view") && ran.contains(&"tonemap"),
+        "{ran:?}"
+    );
+    assert!(stats["ms"]["direct"].as_f64().expect("direct ms") > 0.0);
+    let skipped = stats["passes_skipped"].as_array().expect("passes_skipped");
+    assert!(
+        skipped.iter().any(|p| p["name"] == "cpu_trace"
+            && p["reason"].as_str().is_some_and(|r| r.contains("reused"))),
+        "frame 40 reuses the photon map: {skipped:?}"
+    );
+
+    let trace: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&trace).expect("trace")).expect("trace JSON");
+    let events = trace["traceEvents"].as_array().expect("traceEvents");
+    let frames: std::collections::BTreeSet<u64> = events
+        .iter()
+        .filter(|e| e["name"] == "frame" && e["cat"] == "cpu")
+        .filter_map(|e| e["args"]["frame"].as_u64())
+        .collect();
+    assert_eq!(frames.len(), 30, "traced frames {frames:?}");
+    let first = *frames.first().expect("a frame");
+    assert_eq!(
+        frames.iter().copied().collect::<Vec<_>>(),
+        (first..first + 30).collect::<Vec<_>>()
+    );
+    for pass in ["eye_gbuffer", "direct", "debug_view"] {
+        let traced = events
+            .iter()
+            .filter(|e| e["name"] == pass && e["cat"] == "gpu")
+            .filter_map(|e| e["args"]["frame"].as_u64())
+            .filter(|f| frames.contains(f))
+            .count();
+        assert_eq!(traced, 30, "GPU spans of {pass} in the traced frames");
+    }
+}
+
+#[test]
+fn view_refuses_a_shots_path_that_is_not_a_directory() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let file = dir.path().join("file");
+    std::fs::write(&file, b"x").expect("write");
+    let out = Command::new(env!("CARGO_BIN_EXE_ispm"))
+        .args([
+            "view",
+            "--frames",
+            "1",
+            "--shots",
+            file.to_str().expect("utf8"),
+        ])
+        .output()
+        .expect("run ispm");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "{stderr}");
+    assert!(
+        lines[0].contains("--shots") && lines[0].contains("not a directory"),
+        "{stderr}"
     );
 }

@@ -692,9 +692,16 @@ impl<'a> Cmd<'a> {
     }
 
     /// Blits all of `src` (in [`Access::BlitSrc`]) onto the swapchain image `dst` of `extent`,
-    /// scaled with a linear filter, leaving `dst` ready to present. The submission waits for the
-    /// image's acquisition at the transfer stages.
-    pub(super) fn blit_to_swapchain(&self, src: &Image, dst: vk::Image, extent: vk::Extent2D) {
+    /// scaled with a linear filter, leaving `dst` ready to present (`then_present`) or in
+    /// TRANSFER_DST_OPTIMAL for the overlay to draw on (`overlay.rs`). The submission waits for
+    /// the image's acquisition at the transfer stages.
+    pub(super) fn blit_to_swapchain(
+        &self,
+        src: &Image,
+        dst: vk::Image,
+        extent: vk::Extent2D,
+        then_present: bool,
+    ) {
         let range = vk::ImageSubresourceRange {
             aspect_mask: vk::ImageAspectFlags::COLOR,
             base_mip_level: 0,
@@ -755,6 +762,9 @@ impl<'a> Cmd<'a> {
                 vk::Filter::LINEAR,
             )
         };
+        if !then_present {
+            return;
+        }
         let to_present = vk::ImageMemoryBarrier2::default()
             .src_stage_mask(vk::PipelineStageFlags2::BLIT)
             .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)

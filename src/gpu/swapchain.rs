@@ -7,6 +7,9 @@
 //!  acquire(sem A) ──► graphics: wait A, blit, signal render_done[image] + timeline ──► present(wait render_done[image])
 //! ```
 //!
+//! With an overlay ([`OverlayPass`], `overlay.rs`), egui's triangles are drawn over the blit in
+//! the same command buffer, through a view of the image (dynamic rendering).
+//!
 //! One `render_done` semaphore per swapchain image (an image is only acquired again after the
 //! presentation that waited on its semaphore), and acquire semaphores from a pool, each reused
 //! only once the submission that waited on it has completed (its timeline point). The renderer
@@ -15,6 +18,7 @@
 
 use super::device::{Gpu, QueueRole, TimelinePoint};
 use super::error::{vk_err, GpuError, GpuResult};
+use super::overlay::{OverlayFrame, OverlayPass};
 use super::resources::Image;
 use super::Access;
 use ash::vk;
@@ -39,6 +43,8 @@ pub struct Swapchain {
     loader: ash::khr::swapchain::Device,
     raw: vk::SwapchainKHR,
     images: Vec<vk::Image>,
+    /// A colour view of each image (the overlay draws through them).
+    views: Vec<vk::ImageView>,
     pub format: vk::Format,
     pub extent: vk::Extent2D,
     render_done: Vec<vk::Semaphore>,
@@ -100,6 +106,7 @@ impl Swapchain {
             loader,
             raw: vk::SwapchainKHR::null(),
             images: Vec::new(),
+            views: Vec::new(),
             format: vk::Format::UNDEFINED,
             extent: vk::Extent2D::default(),
             render_done: Vec::new(),
@@ -161,7 +168,9 @@ impl Swapchain {
             .image_color_space(format.color_space)
             .image_extent(extent)
             .image_array_layers(1)
-            .image_usage(vk::ImageUsageFlags::TRANSFER_DST)
+            // Blitted to, then drawn on by the overlay (every surface supports colour
+            // attachment usage).
+            .image_usage(vk::ImageUsageFlags::TRANSFER_DST | vk::ImageUsageFlags::COLOR_ATTACHMENT)
             .image_sharing_mode(vk::SharingMode::EXCLUSIVE)
             .pre_transform(caps.current_transform)
             .composite_alpha(vk::CompositeAlphaFlagsKHR::OPAQUE)
@@ -179,6 +188,23 @@ impl Swapchain {
             .map_err(vk_err("vkGetSwapchainImagesKHR"))?;
         self.format = format.format;
         self.extent = extent;
+        for &image in &self.images {
+            let info = vk::ImageViewCreateInfo::default()
+                .image(image)
+                .view_type(vk::ImageViewType::TYPE_2D)
+                .format(format.format)
+                .subresource_range(vk::ImageSubresourceRange {
+                    aspect_mask: vk::ImageAspectFlags::COLOR,
+                    base_mip_level: 0,
+                    level_count: 1,
+                    base_array_layer: 0,
+                    layer_count: 1,
+                });
+            // SAFETY: the image belongs to the swapchain just created, in its format.
+            let view = unsafe { self.gpu.raw().create_image_view(&info, None) }
+                .map_err(vk_err("vkCreateImageView"))?;
+            self.views.push(view);
+        }
         for _ in 0..self.images.len() {
             let s = binary_semaphore(&self.gpu)?;
             self.render_done.push(s);
@@ -196,6 +222,9 @@ impl Swapchain {
             }
             for (s, _) in self.acquire.drain(..) {
                 d.destroy_semaphore(s, None);
+            }
+            for v in self.views.drain(..) {
+                d.destroy_image_view(v, None);
             }
             if self.raw != vk::SwapchainKHR::null() {
                 self.loader.destroy_swapchain(self.raw, None);
@@ -219,8 +248,15 @@ impl Swapchain {
     }
 
     /// Shows `image` (the renderer's tonemapped output, last written on the graphics queue):
-    /// acquire, blit (scaled to the window), present.
-    pub fn present(&mut self, image: &Image) -> anyhow::Result<Presented> {
+    /// acquire, blit (scaled to the window), the overlay's draw over it if given, present.
+    pub fn present(
+        &mut self,
+        image: &Image,
+        mut overlay: Option<(&mut OverlayPass, &OverlayFrame)>,
+    ) -> anyhow::Result<Presented> {
+        if let Some((pass, frame)) = &mut overlay {
+            pass.prepare(frame)?;
+        }
         let slot = self.free_acquire_semaphore()?;
         let semaphore = self.acquire[slot].0;
         // SAFETY: the swapchain and semaphore are live; the semaphore is unsignalled (its last
@@ -231,7 +267,12 @@ impl Swapchain {
         };
         let index = match acquired {
             Ok((index, _suboptimal)) => index,
-            Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => return Ok(Presented::OutOfDate),
+            Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => {
+                if let Some((pass, _)) = overlay {
+                    pass.submitted(None);
+                }
+                return Ok(Presented::OutOfDate);
+            }
             Err(e) => return Err(vk_err("vkAcquireNextImageKHR")(e).into()),
         };
         let target = self.images[index as usize];
@@ -240,7 +281,11 @@ impl Swapchain {
             let cmd = rec.cmd();
             let _scope = cmd.scope("present");
             cmd.transition(image, Access::BlitSrc);
-            cmd.blit_to_swapchain(image, target, self.extent);
+            cmd.blit_to_swapchain(image, target, self.extent, overlay.is_none());
+            if let Some((pass, frame)) = &mut overlay {
+                let view = self.views[index as usize];
+                pass.record(&cmd, (target, view, self.extent), frame)?;
+            }
         }
         let done = self.render_done[index as usize];
         let point = self.gpu.submit_with_binary(
@@ -250,6 +295,9 @@ impl Swapchain {
             &[done],
         )?;
         self.acquire[slot].1 = Some(point);
+        if let Some((pass, _)) = overlay {
+            pass.submitted(Some(point));
+        }
         let waits = [done];
         let swapchains = [self.raw];
         let indices = [index];

@@ -17,9 +17,11 @@
 //! | [`environment`] | graphics | scene geometry (opaque), lights, shadow atlas | environment cube map (cached) |
 //! | [`translucent`] | graphics | delta instances, lights, shadow atlas, cube map, eye depth | HDR radiance (over) |
 //! | [`tonemap`] | graphics (compute) | HDR radiance | 8-bit display image |
+//! | [`debug_view`] | graphics (compute) | one intermediate buffer (G-buffers, bounce map, photons, indirect) | 8-bit display image (over) |
 
 pub mod bounce_map;
 pub mod composite;
+pub mod debug_view;
 pub mod direct;
 pub mod environment;
 pub mod eye_gbuffer;
