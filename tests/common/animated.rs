@@ -31,19 +31,7 @@ pub fn glass_on_a_carousel() -> Carousel {
     let mut w = GltfWriter::default();
     let white = w.material(&MaterialSpec::diffuse("white", [0.75, 0.75, 0.75]));
     let red = w.material(&MaterialSpec::diffuse("red", [0.7, 0.15, 0.1]));
-    let glass = w.material(&MaterialSpec {
-        base_color: [1.0, 1.0, 1.0],
-        roughness: 0.0,
-        transmission_factor: 0.95,
-        ior_ext: Some(1.5),
-        lambertian: [0.0; 3],
-        glossy: [0.04; 3],
-        exponent: f32::INFINITY,
-        transmission: [0.95; 3],
-        ior: 1.5,
-        fresnel: true,
-        ..MaterialSpec::diffuse("glass", [0.0; 3])
-    });
+    let glass = w.material(&MaterialSpec::glass("glass"));
     let floor = w.mesh("floor", &quad(Vec3::ZERO, Vec3::Y, 1.5, 1.5), white);
     w.mesh_node("floor", floor, Vec3::ZERO, Quat::IDENTITY);
     let block = w.mesh(

@@ -27,13 +27,31 @@ pub fn all() -> Vec<(&'static str, Vec<u8>)> {
 
 const WHITE: [f32; 3] = [0.75, 0.75, 0.75];
 
+/// The Cornell room both Cornell boxes share: white, red and green diffuse materials (white is
+/// the first, so its index is returned) and five 2 m walls, open towards the camera at +Z.
+fn cornell_room(w: &mut GltfWriter) -> usize {
+    let white = w.material(&MaterialSpec::diffuse("white", WHITE));
+    let red = w.material(&MaterialSpec::diffuse("red", [0.63, 0.065, 0.05]));
+    let green = w.material(&MaterialSpec::diffuse("green", [0.14, 0.45, 0.091]));
+    let walls = [
+        ("floor", Vec3::ZERO, Vec3::Y, white),
+        ("ceiling", Vec3::new(0.0, 2.0, 0.0), Vec3::NEG_Y, white),
+        ("back", Vec3::new(0.0, 1.0, -1.0), Vec3::Z, white),
+        ("left", Vec3::new(-1.0, 1.0, 0.0), Vec3::X, red),
+        ("right", Vec3::new(1.0, 1.0, 0.0), Vec3::NEG_X, green),
+    ];
+    for (name, c, n, m) in walls {
+        let mesh = w.mesh(name, &quad(c, n, 1.0, 1.0), m);
+        w.mesh_node(name, mesh, Vec3::ZERO, Quat::IDENTITY);
+    }
+    white
+}
+
 /// The paper's Figure 6: a 2 m Cornell box (open towards the camera at +Z) with a glossy purple
 /// sphere, a glass sphere (η = 1.3), a white box and two spot lights (white, blue) aiming down.
 pub fn cornell_box() -> Vec<u8> {
     let mut w = GltfWriter::default();
-    let white = w.material(&MaterialSpec::diffuse("white", WHITE));
-    let red = w.material(&MaterialSpec::diffuse("red", [0.63, 0.065, 0.05]));
-    let green = w.material(&MaterialSpec::diffuse("green", [0.14, 0.45, 0.091]));
+    let white = cornell_room(&mut w);
     let purple = w.material(&MaterialSpec {
         base_color: [0.45, 0.15, 0.55],
         roughness: 0.376,
@@ -55,17 +73,6 @@ pub fn cornell_box() -> Vec<u8> {
         fresnel: true,
         ..MaterialSpec::diffuse("glass-1.3", [0.0; 3])
     });
-    let walls = [
-        ("floor", Vec3::ZERO, Vec3::Y, white),
-        ("ceiling", Vec3::new(0.0, 2.0, 0.0), Vec3::NEG_Y, white),
-        ("back", Vec3::new(0.0, 1.0, -1.0), Vec3::Z, white),
-        ("left", Vec3::new(-1.0, 1.0, 0.0), Vec3::X, red),
-        ("right", Vec3::new(1.0, 1.0, 0.0), Vec3::NEG_X, green),
-    ];
-    for (name, c, n, m) in walls {
-        let mesh = w.mesh(name, &quad(c, n, 1.0, 1.0), m);
-        w.mesh_node(name, mesh, Vec3::ZERO, Quat::IDENTITY);
-    }
     let sphere = w.mesh("glossy-sphere", &icosphere(0.3, 3), purple);
     w.mesh_node(
         "glossy-sphere",
@@ -146,19 +153,7 @@ pub fn caustic_ring() -> Vec<u8> {
 pub fn glass_sphere() -> Vec<u8> {
     let mut w = GltfWriter::default();
     let floor_m = w.material(&MaterialSpec::diffuse("floor", WHITE));
-    let glass = w.material(&MaterialSpec {
-        base_color: [1.0, 1.0, 1.0],
-        roughness: 0.0,
-        transmission_factor: 0.95,
-        ior_ext: Some(1.5),
-        lambertian: [0.0; 3],
-        glossy: [0.04; 3],
-        exponent: f32::INFINITY,
-        transmission: [0.95; 3],
-        ior: 1.5,
-        fresnel: true,
-        ..MaterialSpec::diffuse("glass-1.5", [0.0; 3])
-    });
+    let glass = w.material(&MaterialSpec::glass("glass-1.5"));
     let floor = w.mesh("floor", &quad(Vec3::ZERO, Vec3::Y, 3.0, 3.0), floor_m);
     w.mesh_node("floor", floor, Vec3::ZERO, Quat::IDENTITY);
     let ball = w.mesh("glass-sphere", &icosphere(0.5, 4), glass);
@@ -194,20 +189,7 @@ pub fn glass_sphere() -> Vec<u8> {
 /// optional lobes out and runs no translucent pass (docs/effects.md).
 pub fn diffuse_box() -> Vec<u8> {
     let mut w = GltfWriter::default();
-    let white = w.material(&MaterialSpec::diffuse("white", WHITE));
-    let red = w.material(&MaterialSpec::diffuse("red", [0.63, 0.065, 0.05]));
-    let green = w.material(&MaterialSpec::diffuse("green", [0.14, 0.45, 0.091]));
-    let walls = [
-        ("floor", Vec3::ZERO, Vec3::Y, white),
-        ("ceiling", Vec3::new(0.0, 2.0, 0.0), Vec3::NEG_Y, white),
-        ("back", Vec3::new(0.0, 1.0, -1.0), Vec3::Z, white),
-        ("left", Vec3::new(-1.0, 1.0, 0.0), Vec3::X, red),
-        ("right", Vec3::new(1.0, 1.0, 0.0), Vec3::NEG_X, green),
-    ];
-    for (name, c, n, m) in walls {
-        let mesh = w.mesh(name, &quad(c, n, 1.0, 1.0), m);
-        w.mesh_node(name, mesh, Vec3::ZERO, Quat::IDENTITY);
-    }
+    let white = cornell_room(&mut w);
     let tall = w.mesh("tall-block", &cuboid(Vec3::new(0.3, 0.6, 0.3)), white);
     w.mesh_node(
         "tall-block",

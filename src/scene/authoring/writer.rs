@@ -45,6 +45,24 @@ impl MaterialSpec {
             double_sided: false,
         }
     }
+
+    /// Clear glass of refractive index η = 1.5: 95 % transmission, a Fresnel-weighted mirror
+    /// (ρS = 0.04 at normal incidence), no diffuse part.
+    pub fn glass(name: &'static str) -> Self {
+        Self {
+            base_color: [1.0, 1.0, 1.0],
+            roughness: 0.0,
+            transmission_factor: 0.95,
+            ior_ext: Some(1.5),
+            lambertian: [0.0; 3],
+            glossy: [0.04; 3],
+            exponent: f32::INFINITY,
+            transmission: [0.95; 3],
+            ior: 1.5,
+            fresnel: true,
+            ..Self::diffuse(name, [0.0; 3])
+        }
+    }
 }
 
 /// Accumulates a glTF document and its BIN chunk.
