@@ -515,9 +515,32 @@ impl Renderer {
             "the changed lights need {views} shadow views, this renderer has {capacity}: create a \
              new renderer"
         );
-        let mut source = self.source.clone();
-        source.lights = lights.to_vec();
-        let plan = self.analysis.plan(&source, &self.camera);
+        // In place (the scene's meshes are not copied every frame a light moves), and back if
+        // the new lights do not fit this renderer.
+        let before = std::mem::replace(&mut self.source.lights, lights.to_vec());
+        let plan = match self.plan_lights(lights) {
+            Ok(plan) => plan,
+            Err(e) => {
+                self.source.lights = before;
+                return Err(e);
+            }
+        };
+        if let Some(translucent) = &mut self.translucent {
+            translucent.invalidate(); // the cube map holds direct light
+        }
+        if plan != self.plan {
+            log::info!("{plan}");
+        }
+        self.lights = lights.to_vec();
+        self.plan = plan;
+        self.photon_map = None;
+        Ok(())
+    }
+
+    /// The plan for `self.source` with `lights` already in it, and the photon part moved to
+    /// them ([`Self::set_lights`]).
+    fn plan_lights(&mut self, lights: &[Light]) -> anyhow::Result<EffectsPlan> {
+        let plan = self.analysis.plan(&self.source, &self.camera);
         anyhow::ensure!(
             !plan.indirect.needed || self.photons.is_some(),
             "the moved lights need indirect light ({}), which this renderer was planned without \
@@ -528,17 +551,7 @@ impl Renderer {
         if let Some(photons) = &mut self.photons {
             photons.set_lights(lights, &plan.photon_mask())?;
         }
-        if let Some(translucent) = &mut self.translucent {
-            translucent.invalidate(); // the cube map holds direct light
-        }
-        if plan != self.plan {
-            log::info!("{plan}");
-        }
-        self.lights = lights.to_vec();
-        self.source = source;
-        self.plan = plan;
-        self.photon_map = None;
-        Ok(())
+        Ok(plan)
     }
 
     /// Moves the eye for the next frame: position, orientation, field of view and near plane
@@ -566,12 +579,12 @@ impl Renderer {
         if camera == self.camera {
             return Ok(());
         }
-        let mut source = self.source.clone();
-        source.camera = camera;
-        let plan = self.analysis.plan(&source, &camera);
+        let plan = self.analysis.plan(&self.source, &camera);
         if plan.indirect.needed && self.photons.is_none() {
             // Every photon light was enclosed away from the old view: the photon part of the
             // frame is made now, as a new renderer for this camera would have it.
+            let mut source = self.source.clone();
+            source.camera = camera;
             self.photons = Some(PhotonFrame::new(
                 &self.gpu,
                 &source,
@@ -602,7 +615,7 @@ impl Renderer {
             log::debug!("{plan}");
         }
         self.camera = camera;
-        self.source = source;
+        self.source.camera = camera;
         self.plan = plan;
         Ok(())
     }
