@@ -164,8 +164,9 @@ pub fn glass_sphere() -> Vec<u8> {
         Quat::IDENTITY,
     );
     // 10 W/sr from 2.7 m, 50° above the plane, behind the sphere as the camera sees it: the
-    // ball lens (focal length nR / 2(n − 1) = 0.75 m from its centre) focuses the light 0.65 m
-    // down its axis, on the floor in front of the sphere, where the camera sees the caustic.
+    // ball lens (focal length nR / 2(n − 1) = 0.75 m from its centre) focuses the light down its
+    // axis, which meets the floor 0.65 m from the centre, just short of the focus: a tight
+    // caustic on the floor in front of the sphere, where the camera sees it.
     w.spot(
         "spot",
         Vec3::new(-1.5, 2.6, -0.9),
