@@ -120,15 +120,6 @@ fn golden_glass_sphere() {
     golden("glass-sphere");
 }
 
-/// Where `world` lands in a `size`² image from the scene's camera (pixel coordinates).
-fn project(scene: &Scene, world: Vec3, size: u32) -> glam::Vec2 {
-    let cam = &scene.camera;
-    let p = cam.transform.inverse().transform_point3(world);
-    let t = (cam.yfov * 0.5).tan();
-    let ndc = glam::Vec2::new(p.x / -p.z / t, p.y / -p.z / t);
-    glam::Vec2::new((ndc.x + 1.0) * 0.5, (1.0 - ndc.y) * 0.5) * size as f32
-}
-
 /// The glass sphere's golden frame shows the focused caustic: the brightest indirect light lies
 /// where the ball lens's axis (from the spot through the sphere's centre) meets the plane, in
 /// front of the sphere, and focused there it outshines the spot's direct light on the plane
@@ -173,10 +164,16 @@ fn glass_sphere_focuses_its_caustic_where_the_ball_lens_axis_meets_the_plane() {
     // The paraxial focus lies 0.75 m down the axis, 0.65 m to the plane: the caustic's core is
     // where the axis meets the plane.
     let axis_hit = sphere + (sphere - light) * (sphere.y / (light.y - sphere.y));
-    let expected = project(&scene, axis_hit, size);
+    let project = |p: Vec3| {
+        scene
+            .camera
+            .project_to_pixel(p, size, size)
+            .expect("in front of the camera")
+    };
+    let expected = project(axis_hit);
     let peak = weight / top.len() as f32;
     // The plane beside the sphere, lit by the spot and outside the sphere's shadow.
-    let lit = project(&scene, Vec3::new(0.0, 0.0, 0.9), size);
+    let lit = project(Vec3::new(0.0, 0.0, 0.9));
     let at = |v: glam::Vec2| (v.y as u32 * size + v.x as u32) as usize;
     let lit_radiance = luminance(&frame.hdr[4 * at(lit)..4 * at(lit) + 4]);
     eprintln!(
