@@ -11,15 +11,6 @@ use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
 use ispm::reference::scenes::{cornell, grey_box};
 use ispm::scene::{Camera, Scene};
 
-/// What a frame that reuses the photon map skips.
-const REUSED: &[&str] = &[
-    "light_gbuffers",
-    "bounce_map",
-    "readback",
-    "cpu_trace",
-    "upload",
-];
-
 fn settings() -> RenderSettings {
     RenderSettings {
         method: Method::Ispm,
@@ -70,7 +61,7 @@ fn ran(frame: &FrameImage, pass: &str) -> bool {
 /// reason, no trace.
 fn assert_reused(frame: &FrameImage, from: u64) {
     let why = format!("photon map of frame {from} reused");
-    for pass in REUSED {
+    for pass in common::REUSED_PHOTON_MAP_SKIPS {
         let skipped = frame
             .stats
             .passes_skipped

@@ -27,15 +27,6 @@ const PHOTON_PASSES: &[&str] = &[
     "composite",
 ];
 
-/// What a frame that reuses the photon map skips.
-const REUSED: &[&str] = &[
-    "light_gbuffers",
-    "bounce_map",
-    "readback",
-    "cpu_trace",
-    "upload",
-];
-
 fn settings(effects: Effects) -> RenderSettings {
     RenderSettings {
         method: Method::Ispm,
@@ -357,7 +348,7 @@ fn a_static_scene_reuses_its_photon_map_until_a_light_moves() {
     r.submit_frame().expect("frame 1");
     r.set_lights(&scene.lights).expect("the same lights");
     let second = r.render().expect("frame 2");
-    for pass in REUSED {
+    for pass in common::REUSED_PHOTON_MAP_SKIPS {
         assert_skipped(&second, pass, "photon map of frame 0 reused");
     }
     assert_eq!(second.stats.cpu_trace_ms, 0.0);

@@ -10,6 +10,16 @@ use ispm::gpu::{Gpu, GpuOptions};
 use std::path::PathBuf;
 use std::sync::Arc;
 
+/// The passes a frame that reuses the photon map skips (the tests' own statement of it, not
+/// the renderer's list).
+pub const REUSED_PHOTON_MAP_SKIPS: &[&str] = &[
+    "light_gbuffers",
+    "bounce_map",
+    "readback",
+    "cpu_trace",
+    "upload",
+];
+
 /// A device with the validation layer and synchronization validation on (always, in tests).
 pub fn gpu() -> Arc<Gpu> {
     Gpu::new(&GpuOptions {
