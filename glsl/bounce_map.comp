@@ -25,8 +25,8 @@ layout(std430, set = 0, binding = 6) writeonly buffer BounceMap {
 };
 
 layout(push_constant) uniform Push {
-    uint seed;  // the renderer's --seed
-    uint pad0;
+    uint seed;        // the renderer's --seed
+    uint first_view;  // the dispatch's first view (gl_GlobalInvocationID.z counts from it)
     uint pad1;
     uint pad2;
 } push;
@@ -43,14 +43,15 @@ bool first_hit_is_delta(ivec3 t) {
 }
 
 void main() {
-    BounceView view = views[gl_GlobalInvocationID.z];
+    uint v = push.first_view + gl_GlobalInvocationID.z;
+    BounceView view = views[v];
     uvec2 size = view.texels.xy;
     uvec2 xy = gl_GlobalInvocationID.xy;
     if (xy.x >= size.x || xy.y >= size.y) {
         return;
     }
     uint index = view.texels.z + xy.y * size.x + xy.x;
-    ivec3 texel = ivec3(xy, int(gl_GlobalInvocationID.z));
+    ivec3 texel = ivec3(xy, int(v));
     BounceMapPhoton photon = BounceMapPhoton(vec3(0.0), vec3(0.0), 1.0, 0.0);
     vec4 pos = texelFetch(g_position, texel, 0);
     if (pos.w == 0.0) {

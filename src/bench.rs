@@ -25,7 +25,7 @@
 //! period. Every configuration's last frame reports the passes it ran and skipped and the lobes
 //! compiled out, with the plan's reasons (`FrameStats`).
 
-use crate::frame::{Method, RenderSettings, Renderer, Schedule, SkippedPass};
+use crate::frame::{Method, RenderSettings, Renderer, ReusedLight, Schedule, SkippedPass};
 use crate::gpu::Gpu;
 use crate::plan::Effects;
 use crate::scene::{Scene, FRAME_STEP_SECONDS};
@@ -79,6 +79,9 @@ pub struct ConfigResult {
     pub passes_skipped: Vec<SkippedPass>,
     /// The über-BSDF lobes compiled out of its shaders and CPU trace, with the reasons.
     pub variants_skipped: Vec<SkippedPass>,
+    /// The lights whose photons the last measured frame traced, and those it kept.
+    pub lights_retraced: Vec<usize>,
+    pub lights_reused: Vec<ReusedLight>,
 }
 
 /// The whole benchmark.
@@ -192,6 +195,8 @@ fn result(config: &Config) -> ConfigResult {
         passes_run: config.last_stats.passes_run.clone(),
         passes_skipped: config.last_stats.passes_skipped.clone(),
         variants_skipped: config.last_stats.variants_skipped.clone(),
+        lights_retraced: config.last_stats.lights_retraced.clone(),
+        lights_reused: config.last_stats.lights_reused.clone(),
     }
 }
 

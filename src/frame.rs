@@ -26,7 +26,9 @@
 //! cover and which BSDF lobes their shaders compile; while no light changes and no instance
 //! moves, frames after the first reuse its photon map (no light G-buffers, bounce map, readback,
 //! trace or upload), and a camera move ([`Renderer::set_camera`]) keeps it: the photon map does
-//! not depend on the camera (`photon_frame.rs`). `docs/effects.md`: the rules and the measured
+//! not depend on the camera (`photon_frame.rs`); when a light changes, only the lights whose
+//! planned views changed are re-traced, the others' photons kept (`photon_frame/retrace.rs`).
+//! `docs/effects.md`: the rules and the measured
 //! equivalence with `--effects all`. Moving instances and posing an animated scene:
 //! `frame/motion.rs`.
 
@@ -178,6 +180,24 @@ pub struct FrameStats {
     pub light_plan: Vec<crate::plan::LightPlan>,
     /// The subsample factor the frame used (after clamping to the image size).
     pub subsample: u32,
+    /// The lights (indices in `scene.lights`) whose photons the frame traced: their light
+    /// G-buffers, bounce map, readback and CPU trace ran (`photon_frame/retrace.rs`).
+    pub lights_retraced: Vec<usize>,
+    /// The lights whose photons the frame kept from an earlier frame, each with why: all of
+    /// them in a frame that reuses the whole photon map.
+    pub lights_reused: Vec<ReusedLight>,
+    /// Bounce-map photons the frame traced on the CPU: `bounce_map_photons` less the reused
+    /// lights' (0 in a frame that reuses the whole map).
+    pub traced_bounce_map_photons: usize,
+}
+
+/// A light whose photons a frame kept, and why.
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct ReusedLight {
+    /// Its index in `scene.lights`.
+    pub light: usize,
+    pub name: String,
+    pub reason: String,
 }
 
 /// A pass a frame did not run, and why.
@@ -486,7 +506,8 @@ impl Renderer {
 
     /// Moves the scene's lights (the same lights in the same order, with new transforms or
     /// powers) for the next frame. The effects plan's light decisions are made again for them;
-    /// a change of lights also makes the next frame trace a new photon map. Fails when the moved
+    /// the next frame traces the photons of the lights whose planned views changed again (a
+    /// changed power shifts every light's budget) and keeps the others'. Fails when the moved
     /// lights call for indirect light this renderer was planned without (create a new one).
     pub fn set_lights(&mut self, lights: &[Light]) -> anyhow::Result<()> {
         anyhow::ensure!(
@@ -677,6 +698,19 @@ impl Renderer {
             let reason = format!(
                 "photon map of frame {from} reused: nothing moved and no light changed since"
             );
+            let mut lights: Vec<ReusedLight> = traced.lights_reused.clone();
+            lights.extend(traced.lights_retraced.iter().map(|&light| ReusedLight {
+                light,
+                ..Default::default()
+            }));
+            lights.sort_by_key(|l| l.light);
+            for l in &mut lights {
+                l.name.clone_from(&self.lights[l.light].name);
+                l.reason = format!(
+                    "light {} ({}) unchanged: the photon map of frame {from} reused",
+                    l.light, l.name
+                );
+            }
             stats = FrameStats {
                 cpu_trace_ms: 0.0,
                 passes_skipped: REUSE_SKIPS
@@ -686,6 +720,9 @@ impl Renderer {
                         reason: reason.clone(),
                     })
                     .collect(),
+                lights_retraced: Vec::new(),
+                lights_reused: lights,
+                traced_bounce_map_photons: 0,
                 ..traced.clone()
             };
         }
@@ -725,9 +762,11 @@ impl Renderer {
         if let (Some(photons), false) = (&mut self.photons, reuse) {
             if let Some(readback) = readback_done {
                 timing::timed("readback wait", || gpu.wait(readback))?;
-                if let Some(previous) = self.last_upload.take() {
-                    gpu.wait(previous)?; // the staging buffer is free again (long done by now)
-                }
+            }
+            if let Some(previous) = self.last_upload.take() {
+                // The staging buffer is free again (long done by now): the trace writes it,
+                // also when every light's photons were kept.
+                gpu.wait(previous)?;
             }
             // Without photons to emit (every light's mask off) the map is emptied.
             stats = photons.trace()?;

@@ -75,6 +75,7 @@ use crate::photon::types::BounceMapPhoton;
 use crate::scene::{Aabb, LightKind, Scene};
 use crate::shared_constants::{BOUNCE_VIEW_CAUSTIC, BOUNCE_VIEW_PARENT, BOUNCE_VIEW_WHOLE};
 use glam::{DMat4, DVec2, DVec3, DVec4, UVec4, Vec4};
+use std::ops::Range;
 
 /// Largest light-G-buffer resolution per view (texels per side).
 pub const MAX_RESOLUTION: u32 = 2048;
@@ -668,11 +669,70 @@ impl BouncePlan {
         self.max_extent = (self.max_extent.0.max(width), self.max_extent.1.max(height));
     }
 
+    /// The views of light `light` (its index in `scene.lights`): its main views, then its
+    /// caustic views, one contiguous range; empty for a light that gets no photons.
+    pub fn light_views(&self, light: usize) -> Range<usize> {
+        let Some(first) = self.view_lights.iter().position(|&l| l == light) else {
+            return 0..0;
+        };
+        let count = self.view_lights[first..]
+            .iter()
+            .take_while(|&&l| l == light)
+            .count();
+        first..first + count
+    }
+
+    /// The bounce-map records of the consecutive views `views` (e.g. [`Self::light_views`]).
+    pub fn texel_range(&self, views: Range<usize>) -> Range<usize> {
+        let start = self
+            .views
+            .get(views.start)
+            .map_or(0, |v| v.texels.z as usize);
+        let count: usize = self.extents[views]
+            .iter()
+            .map(|&(w, h)| (w * h) as usize)
+            .sum();
+        start..start + count
+    }
+
+    /// Whether light `light` is planned bit for bit as in `other`: the same views at the same
+    /// places (view indices: the light G-buffer's layers and the caustic views' parents;
+    /// bounce-map offsets: the GPU's random numbers are seeded by the record's index), with the
+    /// same matrices, uniforms, extents, caustic windows and power, from the same origin. With
+    /// the geometry, the seed and the bounces unchanged, its bounce-map records and photons
+    /// are then the same too (`photon_frame/retrace.rs`).
+    pub fn same_light_views(&self, other: &BouncePlan, light: usize) -> bool {
+        let (a, b) = (self.light_views(light), other.light_views(light));
+        a == b
+            && self.origin == other.origin
+            && bytemuck::cast_slice::<BounceView, u8>(&self.views[a.clone()])
+                == bytemuck::cast_slice::<BounceView, u8>(&other.views[b.clone()])
+            && bytemuck::cast_slice::<FrameUniforms, u8>(&self.uniforms[a.clone()])
+                == bytemuck::cast_slice::<FrameUniforms, u8>(&other.uniforms[b.clone()])
+            && self.view_matrices[a.clone()] == other.view_matrices[b.clone()]
+            && self.extents[a] == other.extents[b]
+    }
+
     /// The photons to continue on the CPU: every bounce-map record with power, placed at the
     /// hit point its texel ray and depth describe (in world space).
     pub fn photon_starts(&self, bounce_map: &[BounceMapPhoton]) -> Vec<PhotonState> {
+        self.photon_starts_in(bounce_map, 0..self.views.len())
+    }
+
+    /// [`Self::photon_starts`] of the views `views` only (e.g. one light's), in the same order.
+    pub fn photon_starts_in(
+        &self,
+        bounce_map: &[BounceMapPhoton],
+        views: Range<usize>,
+    ) -> Vec<PhotonState> {
         let mut starts = Vec::new();
-        for (v, view) in self.views.iter().enumerate() {
+        for (v, view) in self
+            .views
+            .iter()
+            .enumerate()
+            .take(views.end)
+            .skip(views.start)
+        {
             let (width, height) = (view.texels.x, view.texels.y);
             if width == 0 || height == 0 {
                 continue;
@@ -783,6 +843,34 @@ mod tests {
             }
         }
         n
+    }
+
+    #[test]
+    fn a_lights_views_are_compared_alone_and_in_place() {
+        let scene = point_and_spot();
+        let origin = DVec3::new(0.0, 0.0, 5.0);
+        let plan = BouncePlan::new(&scene, origin, &scene.bounds(), 60_000);
+        assert_eq!(plan.light_views(0), 0..6);
+        assert_eq!(plan.light_views(1), 6..7);
+        assert_eq!(plan.light_views(2), 0..0);
+        let point = plan.texel_range(0..6);
+        assert_eq!(point.start, 0);
+        assert_eq!(plan.texel_range(6..7), point.end..plan.texels);
+        // The spot turns: its views change, the point light's stay bit for bit.
+        let mut turned = scene.clone();
+        turned.lights[1].direction = Vec3::new(0.2, -1.0, 0.0).normalize();
+        let moved = BouncePlan::new(&turned, origin, &scene.bounds(), 60_000);
+        assert!(moved.same_light_views(&plan, 0));
+        assert!(!moved.same_light_views(&plan, 1));
+        // The point light brighter: both budgets (split by power) change.
+        let mut brighter = scene.clone();
+        brighter.lights[0].intensity *= 4.0;
+        let brighter = BouncePlan::new(&brighter, origin, &scene.bounds(), 60_000);
+        assert!(!brighter.same_light_views(&plan, 0));
+        assert!(!brighter.same_light_views(&plan, 1));
+        // Another origin moves every view.
+        let elsewhere = BouncePlan::new(&scene, DVec3::ZERO, &scene.bounds(), 60_000);
+        assert!(!elsewhere.same_light_views(&plan, 0));
     }
 
     #[test]

@@ -334,6 +334,17 @@ impl Overlay {
                     };
                     ui.colored_label(colour, format!("{mark} {} — {reason}", p.name));
                 }
+                if let Some(s) = stats {
+                    for &l in &s.lights_retraced {
+                        ui.colored_label(
+                            Color32::LIGHT_GREEN,
+                            format!("✔ light {l}: photons traced"),
+                        );
+                    }
+                    for l in &s.lights_reused {
+                        ui.colored_label(Color32::GRAY, format!("× {}", l.reason));
+                    }
+                }
                 ui.collapsing("the plan's decisions", |ui| {
                     ui.monospace(input.plan.to_string());
                 });

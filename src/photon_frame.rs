@@ -1,6 +1,7 @@
 //! The photon part of an ISPM frame: light G-buffers → bounce map → readback → CPU trace →
 //! upload → photon volumes (→ upsample at `--subsample N > 1`) → composite. Owns the buffers
-//! and passes those steps use; `frame.rs` calls its three steps in order.
+//! and passes those steps use; `frame.rs` calls its three steps in order. The first four run
+//! for the lights whose photons changed only; the others' are kept (`retrace.rs`).
 //!
 //! The photon map does not depend on the camera: light G-buffers, bounce map and photon
 //! positions are relative to the scene's centre (`BouncePlan::origin`), and the photon volumes
@@ -12,11 +13,11 @@
 //!                                                                 ▲ set_view: the eye, yfov
 //! ```
 
-use crate::frame::{FrameStats, RenderSettings};
+use crate::frame::{FrameStats, RenderSettings, ReusedLight, SkippedPass};
 use crate::gpu::{vk, Access, Buffer, Cmd, Gpu, Image, MemoryLocation, QueueRole, ViewKind};
 use crate::gpu_scene::GpuScene;
 use crate::ispm::{BouncePlan, Capacity};
-use crate::passes::bounce_map::{BounceMapIo, BounceMapPass};
+use crate::passes::bounce_map::{BounceMapIo, BounceMapPass, ViewBatch};
 use crate::passes::composite::CompositePass;
 use crate::passes::debug_view::PhotonSources;
 use crate::passes::eye_gbuffer::GBuffer;
@@ -27,10 +28,14 @@ use crate::photon::bvh::SceneBvh;
 use crate::photon::kernel::KernelSettings;
 use crate::photon::trace::{trace_photons, TraceSettings};
 use crate::photon::types::{BounceMapPhoton, Photon};
-use crate::plan::EffectsPlan;
+use crate::plan::{Effects, EffectsPlan};
 use crate::scene::Scene;
 use crate::timing;
+use retrace::{add_attrition, LightPhotons, Traced};
+use std::ops::Range;
 use std::sync::Arc;
+
+mod retrace;
 
 /// Poses of an animated scene over one period that the buffers are sized for.
 const POSE_SAMPLES: usize = 24;
@@ -69,6 +74,15 @@ pub struct PhotonFrame {
     /// The last frame's bounce map and photon map (positions relative to `plan.origin`).
     last_bounce_map: Vec<BounceMapPhoton>,
     last_photons: Vec<Photon>,
+    /// The photon map per light, and the plan it was traced with (`retrace.rs`).
+    traced: Traced,
+    /// Whether unchanged lights keep their photons (not under `--effects all`).
+    reuse_lights: bool,
+    /// Per light: whether this frame traces its photons again ([`Self::record_emission`]).
+    retrace: Vec<bool>,
+    /// The views this frame's light G-buffers and bounce map are made for, in batches of
+    /// consecutive views (the re-traced lights'); empty: nothing emitted on the GPU.
+    batches: Vec<ViewBatch>,
     /// The eye the photon volumes are drawn for ([`Self::set_view`]).
     eye: glam::DVec3,
     /// The kernel's scene-relative clamp, before the view's footprint floor.
@@ -269,6 +283,10 @@ impl PhotonFrame {
             composite,
             last_bounce_map: Vec::new(),
             last_photons: Vec::new(),
+            traced: Traced::default(),
+            reuse_lights: settings.effects == Effects::Auto,
+            retrace: Vec::new(),
+            batches: Vec::new(),
             eye: scene.camera.position().as_dvec3(),
             kernel_clamp,
             estimate_height,
@@ -351,20 +369,27 @@ impl PhotonFrame {
             self.bvh.set_instance_transform(i, m);
         }
         self.bvh.update();
+        // Every light's photons depend on the geometry.
+        self.traced.invalidate();
         Ok(())
     }
 
-    /// Whether this frame has photons to emit (a budget and a light with power).
+    /// Whether this frame's [`Self::record_emission`] made bounce-map records to read back:
+    /// a budget, a light with power, and a light whose photons are traced again.
     pub fn emits(&self) -> bool {
-        self.plan.texels > 0
+        !self.batches.is_empty()
     }
 
-    /// Box A: the light views' uniforms, the light G-buffers and the bounce map; hands the
-    /// bounce map to the transfer queue for [`Self::record_readback`], and the photon buffer
-    /// (kept by the graphics queue while frames reuse the photon map) for
-    /// [`Self::record_upload`]: the upload must wait for this submission.
+    /// Box A: the light views' uniforms, and the light G-buffers and bounce map of the lights
+    /// whose photons are traced again (`retrace.rs`: the others' are kept); hands the bounce map
+    /// to the transfer queue for [`Self::record_readback`], and the photon buffer (kept by the
+    /// graphics queue while frames reuse the photon map) for [`Self::record_upload`]: the
+    /// upload must wait for this submission.
     pub fn record_emission(&mut self, cmd: &Cmd, scene: &GpuScene) {
         let plan = &self.plan;
+        let lights = self.scene.lights.len();
+        self.retrace = self.traced.changed(plan, lights, self.reuse_lights);
+        self.batches.clear();
         if plan.texels == 0 {
             // No photons this frame (the lights went dark): nothing to upload or draw, so the
             // photon buffer's hand-offs stay paired.
@@ -375,15 +400,54 @@ impl PhotonFrame {
             cmd.release_buffer(&self.photons, QueueRole::Transfer);
             self.photons_on_graphics = false;
         }
+        // The re-traced lights' views, consecutive ones in one batch.
+        let mut ranges: Vec<Range<usize>> = Vec::new();
+        for views in (0..lights)
+            .filter(|&l| self.retrace[l])
+            .map(|l| plan.light_views(l))
+            .filter(|r| !r.is_empty())
+        {
+            match ranges.last_mut() {
+                Some(last) if last.end == views.start => last.end = views.end,
+                _ => ranges.push(views),
+            }
+        }
+        self.batches = ranges
+            .iter()
+            .map(|r| ViewBatch {
+                first: r.start as u32,
+                count: r.len() as u32,
+                extent: plan.extents[r.clone()]
+                    .iter()
+                    .fold((0, 0), |(w, h), &(x, y)| (w.max(x), h.max(y))),
+            })
+            .collect();
+        if self.batches.is_empty() {
+            return; // every light's photons are kept: nothing to draw, read back or trace
+        }
         self.light_pass.update(cmd, &plan.uniforms);
         cmd.update_buffer(&self.views, 0, bytemuck::cast_slice(&plan.views));
-        // Origin-relative models; each view's uniforms hold its light clip transform.
+        // Origin-relative models; each view's uniforms hold its light clip transform. The kept
+        // lights' layers are not drawn (an empty extent): they hold what they held when those
+        // lights were last traced, with the same views.
         let relative = scene.draws(plan.origin, None);
         let draws = vec![relative; plan.views.len()];
+        let extents: Vec<(u32, u32)> = plan
+            .extents
+            .iter()
+            .enumerate()
+            .map(|(v, &e)| {
+                if ranges.iter().any(|r| r.contains(&v)) {
+                    e
+                } else {
+                    (0, 0)
+                }
+            })
+            .collect();
         {
             let _scope = cmd.scope("light_gbuffers");
             self.light_pass
-                .record(cmd, scene, &draws, &plan.extents, &mut self.light_gbuffer);
+                .record(cmd, scene, &draws, &extents, &mut self.light_gbuffer);
         }
         let io = BounceMapIo {
             materials: &scene.materials,
@@ -391,32 +455,38 @@ impl PhotonFrame {
             light_gbuffer: &self.light_gbuffer,
             bounce_map: &self.bounce_map,
         };
-        self.bounce_pass.record(
-            cmd,
-            &io,
-            plan.max_extent,
-            plan.views.len() as u32,
-            self.trace.seed,
-        );
+        self.bounce_pass
+            .record(cmd, &io, &self.batches, self.trace.seed);
         cmd.release_buffer(&self.bounce_map, QueueRole::Transfer);
     }
 
-    /// The GPU→CPU copy of the bounce map (on the transfer queue), handing it back to the
-    /// graphics queue.
+    /// The GPU→CPU copy of the bounce map's records this frame made (on the transfer queue),
+    /// handing it back to the graphics queue.
     pub fn record_readback(&self, cmd: &Cmd) {
-        if self.plan.texels == 0 {
+        if self.batches.is_empty() {
             return;
         }
         let _scope = cmd.scope("readback");
+        let record = size_of::<BounceMapPhoton>() as u64;
+        let ranges: Vec<Range<u64>> = self
+            .batches
+            .iter()
+            .map(|b| {
+                let views = b.first as usize..(b.first + b.count) as usize;
+                let texels = self.plan.texel_range(views);
+                texels.start as u64 * record..texels.end as u64 * record
+            })
+            .collect();
         cmd.acquire_buffer(&self.bounce_map, QueueRole::Graphics, Access::TransferSrc);
-        cmd.copy_buffer(&self.bounce_map, &self.readback);
+        cmd.copy_buffer_ranges(&self.bounce_map, &self.readback, &ranges);
         cmd.transition_buffer(&self.readback, Access::HostRead);
         cmd.release_buffer(&self.bounce_map, QueueRole::Graphics);
     }
 
-    /// Box C, on the host once the readback has completed: traces the bounce map's surviving
-    /// photons on every core and writes the photon map into the staging buffer for
-    /// [`Self::record_upload`]. The previous frame's upload must have completed.
+    /// Box C, on the host once the readback has completed: traces the re-traced lights'
+    /// bounce-map photons on every core, keeps the other lights' photons, and writes the photon
+    /// map (light after light) into the staging buffer for [`Self::record_upload`]. The
+    /// previous frame's upload must have completed.
     pub fn trace(&mut self) -> anyhow::Result<FrameStats> {
         let plan = &self.plan;
         let mut stats = FrameStats {
@@ -425,29 +495,93 @@ impl PhotonFrame {
         };
         if plan.texels == 0 {
             self.count = 0;
+            self.traced.invalidate();
             return Ok(stats);
         }
-        let bytes = self.readback.read()?;
-        let records = plan.texels * size_of::<BounceMapPhoton>();
-        let bounce_map: Vec<BounceMapPhoton> = bytemuck::pod_collect_to_vec(&bytes[..records]);
-        let trace_span = timing::span("cpu_trace");
-        let starts = plan.photon_starts(&bounce_map);
-        let map = trace_photons(&self.scene, &self.bvh, &starts, &self.trace);
-        stats.cpu_trace_ms = trace_span.finish();
-        stats.bounce_map_photons = starts.len();
-        stats.stored_photons = map.photons.len();
-        stats.attrition = map.attrition;
-
-        // Origin-relative positions, subtracted in f64 (see DESIGN: precision far from the
-        // world's origin); the photon volumes add the eye's offset (module docs).
-        let relative: Vec<Photon> = map
-            .photons
+        let lights = self.scene.lights.len();
+        if self.retrace.len() != lights {
+            // No emission recorded for these lights: nothing can be kept or read.
+            self.retrace = vec![false; lights];
+            anyhow::ensure!(
+                self.batches.is_empty(),
+                "the photon trace ran without its emission"
+            );
+        }
+        let fresh: Vec<BounceMapPhoton> = if self.batches.is_empty() {
+            Vec::new()
+        } else {
+            let bytes = self.readback.read()?;
+            let records = plan.texels * size_of::<BounceMapPhoton>();
+            bytemuck::pod_collect_to_vec(&bytes[..records])
+        };
+        let mut bounce_map = vec![BounceMapPhoton::default(); plan.texels];
+        let trace_span = (!self.batches.is_empty()).then(|| timing::span("cpu_trace"));
+        let mut kept = Vec::with_capacity(lights);
+        for light in 0..lights {
+            let views = plan.light_views(light);
+            let texels = plan.texel_range(views.clone());
+            let name = &self.scene.lights[light].name;
+            if views.is_empty() {
+                kept.push(LightPhotons::default()); // no photons this frame
+                continue;
+            }
+            if !self.retrace[light] {
+                // Kept: the same views at the same places as when it was traced.
+                if let Some(old) = self.last_bounce_map.get(texels.clone()) {
+                    bounce_map[texels].copy_from_slice(old);
+                }
+                stats.lights_reused.push(ReusedLight {
+                    light,
+                    name: name.clone(),
+                    reason: format!("light {light} ({name}) unchanged: its photons reused"),
+                });
+                kept.push(self.traced.take(light));
+                continue;
+            }
+            bounce_map[texels.clone()].copy_from_slice(&fresh[texels]);
+            let starts = plan.photon_starts_in(&bounce_map, views);
+            let map = trace_photons(&self.scene, &self.bvh, &starts, &self.trace);
+            // Origin-relative positions, subtracted in f64 (see DESIGN: precision far from the
+            // world's origin); the photon volumes add the eye's offset (module docs).
+            let relative = map
+                .photons
+                .iter()
+                .map(|p| Photon {
+                    position: (p.position.as_dvec3() - plan.origin).as_vec3(),
+                    ..*p
+                })
+                .collect();
+            stats.lights_retraced.push(light);
+            stats.traced_bounce_map_photons += starts.len();
+            kept.push(LightPhotons {
+                photons: relative,
+                starts: starts.len(),
+                attrition: map.attrition,
+            });
+        }
+        if let Some(span) = trace_span {
+            stats.cpu_trace_ms = span.finish();
+        } else {
+            let reason = "every light's photons reused: no light's views changed";
+            stats.passes_skipped = ["light_gbuffers", "bounce_map", "readback", "cpu_trace"]
+                .iter()
+                .map(|name| SkippedPass {
+                    name: (*name).to_string(),
+                    reason: reason.to_string(),
+                })
+                .collect();
+        }
+        for l in &kept {
+            stats.bounce_map_photons += l.starts;
+            add_attrition(&mut stats.attrition, &l.attrition);
+        }
+        // In light order: the order a fresh trace of every light stores them in.
+        let relative: Vec<Photon> = kept
             .iter()
-            .map(|p| Photon {
-                position: (p.position.as_dvec3() - plan.origin).as_vec3(),
-                ..*p
-            })
+            .flat_map(|l| l.photons.iter().copied())
             .collect();
+        stats.stored_photons = relative.len();
+        self.traced.keep(plan, kept);
         if relative.len() * size_of::<Photon>() > self.photons.size as usize {
             // The old buffers go to the graveyard, destroyed once the frames using them finish.
             let (staging, photons) = photon_buffers(&self.gpu, relative.len().next_power_of_two())?;
@@ -501,7 +635,7 @@ impl PhotonFrame {
             );
             self.photons_on_graphics = true;
         }
-        if self.plan.texels > 0 {
+        if !self.batches.is_empty() {
             // Back from the readback, for the next frame's bounce map.
             cmd.acquire_buffer(
                 &self.bounce_map,
@@ -603,6 +737,15 @@ impl PhotonFrame {
                 ..*p
             })
             .collect()
+    }
+
+    /// Light `light`'s share of the last photon map: its photons (positions relative to the
+    /// plan's origin, as stored), and the bounce-map photons they were traced from.
+    pub fn light_photons(&self, light: usize) -> (&[Photon], usize) {
+        self.traced
+            .lights
+            .get(light)
+            .map_or((&[], 0), |l| (l.photons.as_slice(), l.starts))
     }
 
     /// The kernel radius clamp the photon volumes use.

@@ -69,6 +69,9 @@ pub fn frame_json(
         "passes_skipped": s.passes_skipped,
         "variants_skipped": s.variants_skipped,
         "light_plan": s.light_plan,
+        "lights_retraced": s.lights_retraced,
+        "lights_reused": s.lights_reused,
+        "traced_bounce_map_photons": s.traced_bounce_map_photons,
         "validation_messages": validation_messages,
     })
 }

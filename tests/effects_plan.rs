@@ -14,8 +14,6 @@ use ispm::plan::{Effects, EffectsPlan};
 use ispm::reference::scenes::{cornell, grey_box, point_light};
 use ispm::scene::{Camera, Light, Scene};
 
-const SIZE: u32 = 64;
-
 /// The photon passes (GPU scopes, and the host trace).
 const PHOTON_PASSES: &[&str] = &[
     "light_gbuffers",
@@ -28,15 +26,7 @@ const PHOTON_PASSES: &[&str] = &[
 ];
 
 fn settings(effects: Effects) -> RenderSettings {
-    RenderSettings {
-        method: Method::Ispm,
-        photons: 8_000,
-        width: SIZE,
-        height: SIZE,
-        shadow_resolution: 128,
-        effects,
-        ..Default::default()
-    }
+    common::small_ispm_settings(effects)
 }
 
 struct Rendered {

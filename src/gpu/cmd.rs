@@ -12,6 +12,7 @@ use super::pipeline::{DescriptorSet, Pipeline};
 use super::resources::{aspect_of, Buffer, Image};
 use super::timestamps::Timestamps;
 use ash::vk;
+use std::ops::Range;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Arc;
 
@@ -604,6 +605,32 @@ impl<'a> Cmd<'a> {
         unsafe {
             self.device()
                 .cmd_copy_buffer(self.raw, src.raw, dst.raw, &[region])
+        };
+    }
+
+    /// Copies the byte ranges `ranges` of `src` to the same offsets in `dst` (empty ranges and
+    /// the parts past either buffer's end are left out).
+    pub fn copy_buffer_ranges(&self, src: &Buffer, dst: &Buffer, ranges: &[Range<u64>]) {
+        let end = src.size.min(dst.size);
+        let regions: Vec<vk::BufferCopy> = ranges
+            .iter()
+            .map(|r| r.start.min(end)..r.end.min(end))
+            .filter(|r| r.end > r.start)
+            .map(|r| vk::BufferCopy {
+                src_offset: r.start,
+                dst_offset: r.start,
+                size: r.end - r.start,
+            })
+            .collect();
+        if regions.is_empty() {
+            return;
+        }
+        self.transition_buffer(src, Access::TransferSrc);
+        self.transition_buffer(dst, Access::TransferDst);
+        // SAFETY: recording state; both buffers are live and every region lies in both.
+        unsafe {
+            self.device()
+                .cmd_copy_buffer(self.raw, src.raw, dst.raw, &regions)
         };
     }
 

@@ -12,7 +12,18 @@ use std::sync::Arc;
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct Push {
     seed: u32,
-    pad: [u32; 3],
+    /// The first view of the dispatch (`gl_GlobalInvocationID.z` counts from it).
+    first_view: u32,
+    pad: [u32; 2],
+}
+
+/// Consecutive views the bounce map is made for in one dispatch: views
+/// `first..first + count`, of up to `extent` = (width, height) texels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ViewBatch {
+    pub first: u32,
+    pub count: u32,
+    pub extent: (u32, u32),
 }
 
 pub struct BounceMapPass {
@@ -70,16 +81,26 @@ impl BounceMapPass {
         })
     }
 
-    /// Runs the first bounce over `views` views of up to `extent` = (width, height) texels.
-    pub fn record(&self, cmd: &Cmd, io: &BounceMapIo, extent: (u32, u32), views: u32, seed: u32) {
+    /// Runs the first bounce over the views of `batches` (the others' records are left as
+    /// they are: a frame that re-traces some lights only writes theirs).
+    pub fn record(&self, cmd: &Cmd, io: &BounceMapIo, batches: &[ViewBatch], seed: u32) {
         let _scope = cmd.scope("bounce_map");
         let g = io.light_gbuffer;
         for image in [&g.position, &g.normal, &g.albedo, &g.material] {
             cmd.transition(image, Access::ComputeSampledRead);
         }
-        cmd.transition_buffer(io.bounce_map, Access::ComputeStorageWrite);
-        let groups = [super::groups(extent.0), super::groups(extent.1), views];
-        self.kernel
-            .dispatch_with(cmd, &Push { seed, pad: [0; 3] }, groups);
+        for batch in batches.iter().filter(|b| b.count > 0) {
+            // Each dispatch writes its own views' records only, but binds the whole map: the
+            // barrier orders the writes for synchronization validation.
+            cmd.transition_buffer(io.bounce_map, Access::ComputeStorageWrite);
+            let (w, h) = batch.extent;
+            let push = Push {
+                seed,
+                first_view: batch.first,
+                pad: [0; 2],
+            };
+            let groups = [super::groups(w), super::groups(h), batch.count];
+            self.kernel.dispatch_with(cmd, &push, groups);
+        }
     }
 }

@@ -6,7 +6,9 @@ pub mod animated;
 pub mod cli;
 pub mod golden;
 
+use ispm::frame::{Method, RenderSettings};
 use ispm::gpu::{Gpu, GpuOptions};
+use ispm::plan::Effects;
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -47,4 +49,17 @@ pub fn image_dir(test: &str) -> PathBuf {
         .join(test);
     std::fs::create_dir_all(&dir).expect("create test image dir");
     dir
+}
+
+/// The effects tests' frame: ISPM at 64×64, 8 000 photons, 128² shadow maps.
+pub fn small_ispm_settings(effects: Effects) -> RenderSettings {
+    RenderSettings {
+        method: Method::Ispm,
+        photons: 8_000,
+        width: 64,
+        height: 64,
+        shadow_resolution: 128,
+        effects,
+        ..Default::default()
+    }
 }

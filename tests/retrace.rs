@@ -1,0 +1,258 @@
+//! Per-light photon reuse (issue #9), on lavapipe with validation (synchronization validation
+//! included) on: moving one light re-traces that light's photons only, keeps the others' bit for
+//! bit, and renders the image a fresh renderer renders for the moved light; moving geometry or
+//! changing a light's power re-traces every light whose photons it changes.
+
+mod common;
+
+use glam::{Mat4, Vec3};
+use ispm::frame::{FrameImage, RenderSettings, Renderer};
+use ispm::photon::types::Photon;
+use ispm::plan::Effects;
+use ispm::reference::scenes::{cornell, point_light};
+use ispm::scene::{Light, Scene};
+
+fn settings(effects: Effects) -> RenderSettings {
+    common::small_ispm_settings(effects)
+}
+
+/// The Cornell box with a second, dimmer point light low in the left front corner.
+fn two_lights() -> Scene {
+    let mut scene = cornell(1);
+    let mut second = point_light(Vec3::new(-0.5, 0.2, 0.4), Vec3::splat(1.0));
+    second.name = "corner".into();
+    scene.lights[0].name = "ceiling".into();
+    scene.lights.push(second);
+    scene
+}
+
+fn bits(frame: &FrameImage) -> &[u8] {
+    bytemuck::cast_slice(&frame.hdr)
+}
+
+fn photon_bits(photons: &[Photon]) -> Vec<u8> {
+    bytemuck::cast_slice(photons).to_vec()
+}
+
+/// Light `light`'s photons in `r`'s last photon map (bit patterns) and its bounce-map photons.
+fn light_photons(r: &Renderer, light: usize) -> (Vec<u8>, usize) {
+    let (photons, starts) = r.photons().expect("photon part").light_photons(light);
+    (photon_bits(photons), starts)
+}
+
+fn reused(frame: &FrameImage) -> Vec<usize> {
+    frame.stats.lights_reused.iter().map(|l| l.light).collect()
+}
+
+/// A fresh renderer's first frame of `scene`, and its per-light photons.
+fn fresh(scene: &Scene) -> (FrameImage, Vec<(Vec<u8>, usize)>) {
+    let gpu = common::gpu();
+    let mut r = Renderer::new(&gpu, scene, settings(Effects::Auto)).expect("renderer");
+    let frame = r.render().expect("render");
+    let lights = (0..scene.lights.len())
+        .map(|l| light_photons(&r, l))
+        .collect();
+    drop(r);
+    common::assert_validation_clean(&gpu);
+    (frame, lights)
+}
+
+fn moved(lights: &[Light], light: usize, by: Vec3) -> Vec<Light> {
+    let mut moved = lights.to_vec();
+    moved[light].position += by;
+    moved
+}
+
+#[test]
+fn moving_one_light_retraces_only_that_light() {
+    let scene = two_lights();
+    let gpu = common::gpu();
+    let mut r = Renderer::new(&gpu, &scene, settings(Effects::Auto)).expect("renderer");
+    let first = r.render().expect("frame 0");
+    assert_eq!(first.stats.lights_retraced, vec![0, 1]);
+    assert!(first.stats.lights_reused.is_empty());
+    assert_eq!(
+        first.stats.traced_bounce_map_photons,
+        first.stats.bounce_map_photons
+    );
+    let (light0, starts0) = light_photons(&r, 0);
+    let (light1, _) = light_photons(&r, 1);
+
+    let lights = moved(&scene.lights, 1, Vec3::new(0.25, -0.05, -0.2));
+    r.set_lights(&lights).expect("move light 1");
+    let second = r.render().expect("frame 1");
+    let s = &second.stats;
+    assert_eq!(s.lights_retraced, vec![1], "{:?}", s.lights_reused);
+    assert_eq!(reused(&second), vec![0]);
+    let reason = &s.lights_reused[0].reason;
+    assert!(
+        reason.contains("light 0 (ceiling) unchanged"),
+        "reason: {reason}"
+    );
+    // The moved light's views ran on the GPU, and the CPU traced its bounce-map photons only.
+    for pass in ["light_gbuffers", "bounce_map", "readback", "upload"] {
+        assert!(s.passes_run.iter().any(|p| p == pass), "{pass} did not run");
+    }
+    assert!(s.cpu_trace_ms > 0.0);
+    let (light0_now, starts0_now) = light_photons(&r, 0);
+    let (light1_now, starts1_now) = light_photons(&r, 1);
+    assert_eq!(s.traced_bounce_map_photons, starts1_now);
+    assert_eq!(s.bounce_map_photons, starts0 + starts1_now);
+    assert!(
+        s.traced_bounce_map_photons < s.bounce_map_photons && starts0 > 0,
+        "{} of {} traced",
+        s.traced_bounce_map_photons,
+        s.bounce_map_photons
+    );
+    assert!(light0_now == light0 && starts0_now == starts0);
+    assert!(light1_now != light1, "light 1 moved, its photons did not");
+    drop(r);
+    common::assert_validation_clean(&gpu);
+
+    // What a fresh renderer makes for the moved light, bit for bit: the bounce map, each
+    // light's photons, the image.
+    let mut moved_scene = scene.clone();
+    moved_scene.lights = lights;
+    let (expected, expected_lights) = fresh(&moved_scene);
+    assert!(expected_lights[0] == (light0_now, starts0_now), "light 0");
+    assert!(expected_lights[1] == (light1_now, starts1_now), "light 1");
+    assert!(
+        bits(&second) == bits(&expected),
+        "image differs from a fresh renderer's"
+    );
+    assert!(
+        bits(&second) != bits(&first),
+        "moving light 1 changed nothing"
+    );
+}
+
+#[test]
+fn the_unmoved_lights_photons_are_kept_bit_for_bit_after_the_moved_ones() {
+    // The first light moves: the second's photons are kept, and follow the first's new ones in
+    // the photon map (light order).
+    let scene = two_lights();
+    let gpu = common::gpu();
+    let mut r = Renderer::new(&gpu, &scene, settings(Effects::Auto)).expect("renderer");
+    r.render().expect("frame 0");
+    let before = r.photons().expect("photon part").photon_map();
+    let (_, starts1) = light_photons(&r, 1);
+    let n0 = r.photons().expect("photon part").light_photons(0).0.len();
+    let light1 = photon_bits(&before[n0..]);
+    let bounce_map = r.photons().expect("photon part").bounce_map().to_vec();
+    let texels1 = {
+        let plan = r.photons().expect("photon part").plan();
+        plan.texel_range(plan.light_views(1))
+    };
+
+    r.set_lights(&moved(&scene.lights, 0, Vec3::new(-0.2, -0.1, 0.15)))
+        .expect("move light 0");
+    let second = r.render().expect("frame 1");
+    assert_eq!(second.stats.lights_retraced, vec![0]);
+    assert_eq!(reused(&second), vec![1]);
+    let photons = r.photons().expect("photon part");
+    let after = photons.photon_map();
+    let n0_now = photons.light_photons(0).0.len();
+    assert_eq!(after.len(), n0_now + light1.len() / size_of::<Photon>());
+    assert!(
+        photon_bits(&after[n0_now..]) == light1,
+        "light 1's photons changed"
+    );
+    assert!(
+        photon_bits(&after[..n0_now]) != photon_bits(&before[..n0]),
+        "light 0 moved, its photons did not"
+    );
+    assert_eq!(
+        second.stats.traced_bounce_map_photons,
+        photons.light_photons(0).1
+    );
+    assert_eq!(photons.light_photons(1).1, starts1);
+    // Its bounce-map records too, in the same place.
+    let now = photons.bounce_map();
+    assert!(
+        bytemuck::cast_slice::<_, u8>(&now[texels1.clone()])
+            == bytemuck::cast_slice::<_, u8>(&bounce_map[texels1])
+    );
+    drop(r);
+    common::assert_validation_clean(&gpu);
+}
+
+#[test]
+fn moving_an_instance_retraces_every_light() {
+    let scene = two_lights();
+    let gpu = common::gpu();
+    let mut r = Renderer::new(&gpu, &scene, settings(Effects::Auto)).expect("renderer");
+    let first = r.render().expect("frame 0");
+    let mut transforms = r.instance_transforms();
+    let sphere = transforms.len() - 1;
+    transforms[sphere] = Mat4::from_translation(Vec3::new(-0.3, 0.0, 0.1)) * transforms[sphere];
+    r.set_instance_transforms(&transforms)
+        .expect("move the sphere");
+    let second = r.render().expect("frame 1");
+    assert_eq!(second.stats.lights_retraced, vec![0, 1]);
+    assert!(second.stats.lights_reused.is_empty());
+    assert_eq!(
+        second.stats.traced_bounce_map_photons,
+        second.stats.bounce_map_photons
+    );
+    assert!(
+        bits(&second) != bits(&first),
+        "moving the sphere changed nothing"
+    );
+    // And the next frame reuses every light's photons again.
+    let third = r.render().expect("frame 2");
+    assert!(third.stats.lights_retraced.is_empty());
+    assert_eq!(reused(&third), vec![0, 1]);
+    assert!(bits(&third) == bits(&second));
+    drop(r);
+    common::assert_validation_clean(&gpu);
+}
+
+#[test]
+fn changing_a_lights_power_retraces_every_light_whose_budget_shifts() {
+    // The budget is split by power (N_L = N·Φ_L/Φ_total): doubling light 1 gives it more
+    // photons and light 0 fewer, so both lights' views change size and both are re-traced.
+    let scene = two_lights();
+    let gpu = common::gpu();
+    let mut r = Renderer::new(&gpu, &scene, settings(Effects::Auto)).expect("renderer");
+    r.render().expect("frame 0");
+    let extents0 = {
+        let plan = r.photons().expect("photon part").plan();
+        plan.extents[plan.light_views(0)].to_vec()
+    };
+    let mut lights = scene.lights.clone();
+    lights[1].intensity *= 2.0;
+    r.set_lights(&lights).expect("brighter light 1");
+    let second = r.render().expect("frame 1");
+    let plan = r.photons().expect("photon part").plan();
+    assert_ne!(
+        plan.extents[plan.light_views(0)],
+        extents0[..],
+        "light 0's budget"
+    );
+    assert_eq!(second.stats.lights_retraced, vec![0, 1]);
+    assert!(second.stats.lights_reused.is_empty());
+    drop(r);
+    common::assert_validation_clean(&gpu);
+    let mut brighter = scene.clone();
+    brighter.lights = lights;
+    let (expected, _) = fresh(&brighter);
+    assert!(
+        bits(&second) == bits(&expected),
+        "image differs from a fresh renderer's"
+    );
+}
+
+#[test]
+fn effects_all_retraces_every_light_when_one_moves() {
+    let scene = two_lights();
+    let gpu = common::gpu();
+    let mut r = Renderer::new(&gpu, &scene, settings(Effects::All)).expect("renderer");
+    r.render().expect("frame 0");
+    r.set_lights(&moved(&scene.lights, 1, Vec3::new(0.1, 0.0, 0.0)))
+        .expect("move light 1");
+    let second = r.render().expect("frame 1");
+    assert_eq!(second.stats.lights_retraced, vec![0, 1]);
+    assert!(second.stats.lights_reused.is_empty());
+    drop(r);
+    common::assert_validation_clean(&gpu);
+}
