@@ -4,9 +4,10 @@
 //! renderer picks: set `VK_DRIVER_FILES` for lavapipe); results in `docs/performance.md`.
 //!
 //! Scene: the Cornell box of `reference::scenes::cornell` with a second point light of half
-//! the first's power (`tests/retrace.rs`' scene), 128×128, 40 000 photons. Each iteration moves
-//! the light(s) between two positions and renders one frame, waiting for it: every iteration
-//! traces the moved lights again.
+//! the first's power (`tests/retrace.rs`' scene), 128×128, 100 000 photons, 256² shadow maps.
+//! Each iteration moves the light(s) between two positions and renders one frame, waiting for
+//! it: every iteration traces the moved lights again. After each benchmark the medians of the
+//! photon stages it re-ran (host trace, GPU light G-buffers, bounce map, readback) are printed.
 
 use divan::Bencher;
 use glam::Vec3;
@@ -31,9 +32,10 @@ fn scene() -> Scene {
 fn renderer(gpu: &Arc<Gpu>, scene: &Scene) -> Renderer {
     let settings = RenderSettings {
         method: Method::Ispm,
-        photons: 40_000,
+        photons: 100_000,
         width: 128,
         height: 128,
+        shadow_resolution: 256,
         ..Default::default()
     };
     Renderer::new(gpu, scene, settings).expect("renderer")
@@ -51,13 +53,42 @@ fn frames(bencher: Bencher, moving: &[usize]) {
         other[l].position += Vec3::new(0.1, 0.0, 0.0);
     }
     let mut flip = false;
+    let mut stages: Vec<[f64; 4]> = Vec::new();
     bencher.bench_local(|| {
         flip = !flip;
         let lights = if flip { &other } else { &scene.lights };
         r.set_lights(lights).expect("move");
         let frame = r.render().expect("frame");
         assert_eq!(frame.stats.lights_retraced, moving);
+        let gpu_ms = |name: &str| -> f64 {
+            frame
+                .gpu_spans
+                .iter()
+                .filter(|s| s.name == name)
+                .map(ispm::gpu::Span::ms)
+                .sum()
+        };
+        stages.push([
+            frame.stats.cpu_trace_ms,
+            gpu_ms("light_gbuffers"),
+            gpu_ms("bounce_map"),
+            gpu_ms("readback"),
+        ]);
     });
+    let median = |k: usize| {
+        let mut v: Vec<f64> = stages.iter().map(|s| s[k]).collect();
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied().unwrap_or(0.0)
+    };
+    println!(
+        "lights {moving:?} moving: median cpu_trace {:.2} ms, light_gbuffers {:.2} ms, \
+         bounce_map {:.2} ms, readback {:.2} ms ({} frames)",
+        median(0),
+        median(1),
+        median(2),
+        median(3),
+        stages.len()
+    );
 }
 
 #[divan::bench(sample_count = 20, sample_size = 1)]
