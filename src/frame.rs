@@ -262,6 +262,9 @@ pub struct Renderer {
     /// An intermediate buffer shown instead of the frame, and the pass that shows it (made
     /// when first recorded, again when its inputs change).
     debug_view: Option<(DebugView, Option<DebugViewPass>)>,
+    /// The closed surfaces of the instances that do not move, welded the first time animated
+    /// instances move (`frame/motion.rs`).
+    static_enclosures: Option<crate::plan::StaticEnclosures>,
 }
 
 /// What one frame in flight keeps until it is retired.
@@ -488,6 +491,7 @@ impl Renderer {
             last_upload: None,
             last_retired: None,
             debug_view: None,
+            static_enclosures: None,
         })
     }
 

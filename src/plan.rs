@@ -25,7 +25,7 @@ mod reach;
 #[cfg(test)]
 mod tests;
 
-pub use enclosure::{Enclosures, Probe};
+pub use enclosure::{Enclosures, Probe, StaticEnclosures};
 
 use crate::frame::{Method, RenderSettings, SkippedPass};
 use crate::photon::bsdf::{bounce_albedo, BsdfVariant, MaterialLobes};
@@ -292,6 +292,25 @@ pub struct SceneAnalysis {
 impl SceneAnalysis {
     /// Analyses the geometry and materials of `scene` for frames made with `settings`.
     pub fn new(scene: &Scene, settings: &RenderSettings) -> Self {
+        Self::analyse(scene, settings, None)
+    }
+
+    /// [`Self::new`], the closed surfaces of the instances that do not move taken from
+    /// `statics` (made for this scene, none of its static instances moved since): for frames
+    /// in which instances moved, the static geometry is not welded again.
+    pub fn with_static(
+        scene: &Scene,
+        settings: &RenderSettings,
+        statics: &StaticEnclosures,
+    ) -> Self {
+        Self::analyse(scene, settings, Some(statics))
+    }
+
+    fn analyse(
+        scene: &Scene,
+        settings: &RenderSettings,
+        statics: Option<&StaticEnclosures>,
+    ) -> Self {
         let used = used_materials(scene);
         let bounds = scene.bounds();
         let subsample = crate::photon_frame::subsample_factor(settings);
@@ -365,7 +384,10 @@ impl SceneAnalysis {
             }
         }
         let enclosures = if planned && !scene.lights.is_empty() {
-            Enclosures::new(scene)
+            match statics {
+                Some(statics) => Enclosures::with_static(statics, scene),
+                None => Enclosures::new(scene),
+            }
         } else {
             Enclosures::default()
         };

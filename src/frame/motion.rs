@@ -4,18 +4,19 @@
 //!  set_pose(scene.pose_at(t))
 //!    ├─ set_instance_transforms: moved instances only
 //!    │    ├─ GpuScene: their transform and bounding sphere (host; draws push their matrices)
-//!    │    ├─ effects plan made again (geometry changed)
+//!    │    ├─ effects plan made again (geometry changed; the static instances' closed
+//!    │    │  surfaces welded once, the moving ones each time: StaticEnclosures)
 //!    │    ├─ PhotonFrame: light views planned again (caustic windows follow moving glass),
 //!    │    │  SceneBvh::set_instance_transform + update: moving level only, static BVH kept
 //!    │    ├─ TranslucentFrame: cube map centre follows the delta instances, cube redrawn
-//!    │    └─ photon map invalid: the next frame traces again
+//!    │    └─ photon map invalid: the next frame traces every light again
 //!    └─ set_lights (when a light moved): as before
 //! ```
 //!
 //! A frame after which nothing moved and no light changed reuses the photon map (`frame.rs`).
 
 use super::Renderer;
-use crate::plan::{EffectsPlan, SceneAnalysis};
+use crate::plan::{EffectsPlan, SceneAnalysis, StaticEnclosures};
 use crate::scene::Pose;
 use glam::Mat4;
 
@@ -95,7 +96,7 @@ impl Renderer {
         &mut self,
         moved: &[(usize, Mat4)],
     ) -> anyhow::Result<(SceneAnalysis, EffectsPlan)> {
-        let analysis = SceneAnalysis::new(&self.source, &self.settings);
+        let analysis = self.analyse_moved(moved);
         let plan = analysis.plan(&self.source, &self.camera);
         anyhow::ensure!(
             !plan.indirect.needed || self.photons.is_some(),
@@ -108,6 +109,31 @@ impl Renderer {
             photons.move_instances(moved, &self.lights, &plan.photon_mask())?;
         }
         Ok((analysis, plan))
+    }
+
+    /// The scene's analysis with `moved` applied to `source`. While only the instances the
+    /// scene animates move, the static geometry's closed surfaces are welded once (the first
+    /// time) and reused (`plan/enclosure.rs`); another instance moving makes it welded again.
+    fn analyse_moved(&mut self, moved: &[(usize, Mat4)]) -> SceneAnalysis {
+        let moving = &self.plan.motion.instances;
+        let valid = self
+            .static_enclosures
+            .as_ref()
+            .is_some_and(|s| s.covers(moved.iter().map(|&(i, _)| i)));
+        let declared = moved.iter().all(|(i, _)| moving.contains(i));
+        if !valid {
+            self.static_enclosures = None;
+            let welds = self.settings.effects == crate::plan::Effects::Auto
+                && !self.source.lights.is_empty();
+            if declared && welds {
+                // The static part has not moved since the renderer was made.
+                self.static_enclosures = Some(StaticEnclosures::new(&self.source, moving));
+            }
+        }
+        match &self.static_enclosures {
+            Some(statics) => SceneAnalysis::with_static(&self.source, &self.settings, statics),
+            None => SceneAnalysis::new(&self.source, &self.settings),
+        }
     }
 
     /// Moves the scene to `pose` (from `Scene::pose_at` of the scene this renderer was made

@@ -11,12 +11,20 @@
 //! may both count) is discarded. The side is *unknown* unless at least two rays remain and
 //! agree, or when the point lies within its clearance of the surface: unknown never
 //! separates, so every doubt keeps the light on.
+//!
+//! **Moving instances.** Welding is the costly part (a hash of every world vertex: 4–10 ms on
+//! `cornell-box`, 0.5 s at 330k triangles), and a frame in which instances move would redo it
+//! for the whole scene. [`StaticEnclosures`] welds the instances that do not move once;
+//! [`Enclosures::with_static`] then welds the moving ones alone and adds their surfaces, which
+//! is exact while no moving vertex lands exactly on a static one (a surface would then span
+//! both): then, and only then, it welds everything again.
 
 use crate::photon::bsdf::MaterialLobes;
 use crate::photon::triangle::WatertightRay;
 use crate::scene::{Aabb, Material, Scene};
 use glam::Vec3;
 use std::collections::HashMap;
+use std::sync::Arc;
 
 /// A point to classify, and how far from every surface it must be for its side to count (the
 /// near-plane reach of a camera, say).
@@ -36,7 +44,42 @@ struct Surface {
 /// The closed opaque surfaces of a scene.
 #[derive(Default)]
 pub struct Enclosures {
-    surfaces: Vec<Surface>,
+    /// Sorted by name (shared with [`StaticEnclosures`]).
+    surfaces: Vec<Arc<Surface>>,
+}
+
+/// The welded static part of a scene whose instances `moving` move: its closed opaque surfaces
+/// and its welded vertex positions.
+pub struct StaticEnclosures {
+    moving: Vec<bool>,
+    keys: HashMap<[u32; 3], usize>,
+    surfaces: Vec<Arc<Surface>>,
+}
+
+impl StaticEnclosures {
+    /// Welds the instances of `scene` not in `moving` (indices into `Scene::instances`).
+    pub fn new(scene: &Scene, moving: &[usize]) -> Self {
+        let mut flags = vec![false; scene.instances.len()];
+        for &i in moving {
+            if let Some(f) = flags.get_mut(i) {
+                *f = true;
+            }
+        }
+        let (surfaces, keys) = Enclosures::weld(scene, |i| !flags[i]);
+        Self {
+            moving: flags,
+            keys,
+            surfaces,
+        }
+    }
+
+    /// Whether the instances `moved` are all among the moving ones (the static part is then
+    /// still valid).
+    pub fn covers(&self, moved: impl IntoIterator<Item = usize>) -> bool {
+        moved
+            .into_iter()
+            .all(|i| self.moving.get(i).copied().unwrap_or(false))
+    }
 }
 
 /// Ray directions of the parity test: unit, no zero component, not in any axis plane.
@@ -66,12 +109,40 @@ fn distance_to_box(p: Vec3, min: Vec3, max: Vec3) -> f32 {
 
 impl Enclosures {
     pub fn new(scene: &Scene) -> Self {
+        Self {
+            surfaces: Self::weld(scene, |_| true).0,
+        }
+    }
+
+    /// [`Self::new`] of `scene`, its static part taken from `statics` (made for the same
+    /// scene's instances, none of the static ones moved since): only the moving instances are
+    /// welded, unless one of their vertices meets a static one.
+    pub fn with_static(statics: &StaticEnclosures, scene: &Scene) -> Self {
+        let (moving, keys) = Self::weld(scene, |i| statics.moving.get(i) == Some(&true));
+        if keys.keys().any(|k| statics.keys.contains_key(k)) {
+            return Self::new(scene);
+        }
+        let mut surfaces: Vec<Arc<Surface>> =
+            statics.surfaces.iter().cloned().chain(moving).collect();
+        surfaces.sort_by(|a, b| a.name.cmp(&b.name));
+        Self { surfaces }
+    }
+
+    /// The closed opaque surfaces of the instances `include` selects, sorted by name, and
+    /// their welded vertices.
+    fn weld(
+        scene: &Scene,
+        include: impl Fn(usize) -> bool,
+    ) -> (Vec<Arc<Surface>>, HashMap<[u32; 3], usize>) {
         let fallback = Material::default();
         let mut keys: HashMap<[u32; 3], usize> = HashMap::new();
         let mut positions: Vec<Vec3> = Vec::new();
         // Welded triangles: vertex ids, world corners, instance, opaque.
         let mut triangles: Vec<([usize; 3], [Vec3; 3], usize, bool)> = Vec::new();
         for (i, inst) in scene.instances.iter().enumerate() {
+            if !include(i) {
+                continue;
+            }
             let mesh = &scene.meshes[inst.mesh];
             let material = scene.materials.get(mesh.material).unwrap_or(&fallback);
             let opaque = !MaterialLobes::of(material).refraction;
@@ -122,13 +193,13 @@ impl Enclosures {
             }
             surface.triangles.push(*p);
         }
-        let mut surfaces: Vec<Surface> = components
+        let mut surfaces: Vec<Arc<Surface>> = components
             .into_values()
             .filter(|(ok, _)| *ok)
-            .map(|(_, s)| s)
+            .map(|(_, s)| Arc::new(s))
             .collect();
         surfaces.sort_by(|a, b| a.name.cmp(&b.name));
-        Self { surfaces }
+        (surfaces, keys)
     }
 
     /// Number of closed opaque surfaces found.

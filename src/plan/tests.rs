@@ -580,3 +580,81 @@ fn the_visible_box_follows_the_view() {
     assert!(reach::visible_box(&short, 1.0, &bounds).is_empty());
     assert!(reach::visible_box(&Camera::default(), 1.0, &Aabb::EMPTY).is_empty());
 }
+
+#[test]
+fn welding_the_static_part_once_finds_the_surfaces_a_full_weld_finds() {
+    // The lamp's box moves (its six walls are the moving instances), a second closed box
+    // stands still far away.
+    let mut scene = lamp_in_a_box();
+    let far = grey_box(0.5, 1.0);
+    for inst in &far.instances {
+        let mut inst = inst.clone();
+        inst.transform = Mat4::from_translation(Vec3::new(-6.0, 0.0, 0.0)) * inst.transform;
+        inst.name = format!("far {}", inst.name);
+        scene.instances.push(inst);
+    }
+    let moving: Vec<usize> = (0..6).collect();
+    let statics = StaticEnclosures::new(&scene, &moving);
+    let shifted = |by: Vec3| {
+        let mut s = scene.clone();
+        for i in &moving {
+            s.instances[*i].transform = Mat4::from_translation(by) * s.instances[*i].transform;
+        }
+        s
+    };
+    let probes: Vec<Probe> = [
+        Vec3::ZERO,
+        Vec3::new(0.2, 0.1, 0.3),
+        Vec3::new(-6.0, 0.1, 0.2),
+        Vec3::new(3.0, 3.0, 3.0),
+        Vec3::new(5.1, 0.0, 0.2),
+    ]
+    .map(|position| Probe {
+        position,
+        clearance: 0.01,
+    })
+    .to_vec();
+    for by in [
+        Vec3::ZERO,
+        Vec3::new(0.2, 0.0, 0.0),
+        Vec3::new(5.0, 0.0, 0.0),
+    ] {
+        let moved = shifted(by);
+        let (full, fast) = (
+            Enclosures::new(&moved),
+            Enclosures::with_static(&statics, &moved),
+        );
+        assert_eq!(full.len(), 2, "{by}");
+        assert_eq!(fast.len(), full.len(), "{by}");
+        for a in &probes {
+            for b in &probes {
+                assert_eq!(
+                    fast.separating(a, b),
+                    full.separating(a, b),
+                    "{by}: {a:?} {b:?}"
+                );
+            }
+        }
+        let analysis = SceneAnalysis::with_static(&moved, &settings(), &statics);
+        assert_eq!(
+            analysis.plan(&moved, &moved.camera),
+            EffectsPlan::analyse(&moved, &settings(), &moved.camera),
+            "{by}"
+        );
+    }
+    // Moved 5 m, the box no longer holds the lamp: the plan follows.
+    let away = shifted(Vec3::new(5.0, 0.0, 0.0));
+    let analysis = SceneAnalysis::with_static(&away, &settings(), &statics);
+    assert!(analysis.plan(&away, &away.camera).lights[0].active());
+    assert!(!plan(&scene).lights[0].active());
+    // A moving wall that meets the static box exactly: welded again, whole.
+    let mut touching = scene.clone();
+    touching.instances[0].transform = scene.instances[6].transform;
+    let fast = Enclosures::with_static(&statics, &touching);
+    let full = Enclosures::new(&touching);
+    // The doubled wall opens the far box, and the moved wall the lamp's: nothing is closed
+    // (without the fallback the far box would still count).
+    assert_eq!(full.len(), 0);
+    assert_eq!(fast.len(), full.len());
+    assert!(statics.covers([0, 5]) && !statics.covers([6]));
+}
