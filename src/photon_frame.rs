@@ -13,7 +13,7 @@
 //!                                                                 ▲ set_view: the eye, yfov
 //! ```
 
-use crate::frame::{FrameStats, RenderSettings, ReusedLight, SkippedPass};
+use crate::frame::{FrameStats, RenderSettings};
 use crate::gpu::{vk, Access, Buffer, Cmd, Gpu, Image, MemoryLocation, QueueRole, ViewKind};
 use crate::gpu_scene::GpuScene;
 use crate::ispm::{BouncePlan, Capacity};
@@ -26,12 +26,12 @@ use crate::passes::photon_volumes::{self, PhotonVolumeInputs, PhotonVolumesPass}
 use crate::passes::upsample::{self, UpsampleInputs, UpsamplePass};
 use crate::photon::bvh::SceneBvh;
 use crate::photon::kernel::KernelSettings;
-use crate::photon::trace::{trace_photons, TraceSettings};
+use crate::photon::trace::TraceSettings;
 use crate::photon::types::{BounceMapPhoton, Photon};
 use crate::plan::{Effects, EffectsPlan};
 use crate::scene::Scene;
 use crate::timing;
-use retrace::{add_attrition, LightPhotons, Traced};
+use retrace::Traced;
 use std::ops::Range;
 use std::sync::Arc;
 
@@ -498,15 +498,10 @@ impl PhotonFrame {
             self.traced.invalidate();
             return Ok(stats);
         }
-        let lights = self.scene.lights.len();
-        if self.retrace.len() != lights {
-            // No emission recorded for these lights: nothing can be kept or read.
-            self.retrace = vec![false; lights];
-            anyhow::ensure!(
-                self.batches.is_empty(),
-                "the photon trace ran without its emission"
-            );
-        }
+        anyhow::ensure!(
+            self.retrace.len() == self.scene.lights.len(),
+            "the photon trace ran without its emission"
+        );
         let fresh: Vec<BounceMapPhoton> = if self.batches.is_empty() {
             Vec::new()
         } else {
@@ -514,74 +509,18 @@ impl PhotonFrame {
             let records = plan.texels * size_of::<BounceMapPhoton>();
             bytemuck::pod_collect_to_vec(&bytes[..records])
         };
-        let mut bounce_map = vec![BounceMapPhoton::default(); plan.texels];
-        let trace_span = (!self.batches.is_empty()).then(|| timing::span("cpu_trace"));
-        let mut kept = Vec::with_capacity(lights);
-        for light in 0..lights {
-            let views = plan.light_views(light);
-            let texels = plan.texel_range(views.clone());
-            let name = &self.scene.lights[light].name;
-            if views.is_empty() {
-                kept.push(LightPhotons::default()); // no photons this frame
-                continue;
-            }
-            if !self.retrace[light] {
-                // Kept: the same views at the same places as when it was traced.
-                if let Some(old) = self.last_bounce_map.get(texels.clone()) {
-                    bounce_map[texels].copy_from_slice(old);
-                }
-                stats.lights_reused.push(ReusedLight {
-                    light,
-                    name: name.clone(),
-                    reason: format!("light {light} ({name}) unchanged: its photons reused"),
-                });
-                kept.push(self.traced.take(light));
-                continue;
-            }
-            bounce_map[texels.clone()].copy_from_slice(&fresh[texels]);
-            let starts = plan.photon_starts_in(&bounce_map, views);
-            let map = trace_photons(&self.scene, &self.bvh, &starts, &self.trace);
-            // Origin-relative positions, subtracted in f64 (see DESIGN: precision far from the
-            // world's origin); the photon volumes add the eye's offset (module docs).
-            let relative = map
-                .photons
-                .iter()
-                .map(|p| Photon {
-                    position: (p.position.as_dvec3() - plan.origin).as_vec3(),
-                    ..*p
-                })
-                .collect();
-            stats.lights_retraced.push(light);
-            stats.traced_bounce_map_photons += starts.len();
-            kept.push(LightPhotons {
-                photons: relative,
-                starts: starts.len(),
-                attrition: map.attrition,
-            });
-        }
-        if let Some(span) = trace_span {
-            stats.cpu_trace_ms = span.finish();
-        } else {
-            let reason = "every light's photons reused: no light's views changed";
-            stats.passes_skipped = ["light_gbuffers", "bounce_map", "readback", "cpu_trace"]
-                .iter()
-                .map(|name| SkippedPass {
-                    name: (*name).to_string(),
-                    reason: reason.to_string(),
-                })
-                .collect();
-        }
-        for l in &kept {
-            stats.bounce_map_photons += l.starts;
-            add_attrition(&mut stats.attrition, &l.attrition);
-        }
-        // In light order: the order a fresh trace of every light stores them in.
-        let relative: Vec<Photon> = kept
-            .iter()
-            .flat_map(|l| l.photons.iter().copied())
-            .collect();
-        stats.stored_photons = relative.len();
-        self.traced.keep(plan, kept);
+        let (bounce_map, relative) = self.traced.update(
+            &retrace::Frame {
+                plan,
+                scene: &self.scene,
+                bvh: &self.bvh,
+                trace: &self.trace,
+                retrace: &self.retrace,
+                fresh: &fresh,
+                last: &self.last_bounce_map,
+            },
+            &mut stats,
+        );
         if relative.len() * size_of::<Photon>() > self.photons.size as usize {
             // The old buffers go to the graveyard, destroyed once the frames using them finish.
             let (staging, photons) = photon_buffers(&self.gpu, relative.len().next_power_of_two())?;

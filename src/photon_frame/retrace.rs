@@ -20,8 +20,13 @@
 //! view ([`BouncePlan::same_light_views`]), never taken from the caller. So a kept light's
 //! records and photons are bit for bit those a fresh trace would make, and so is the image.
 
+use crate::frame::{FrameStats, ReusedLight, SkippedPass};
 use crate::ispm::BouncePlan;
-use crate::photon::types::Photon;
+use crate::photon::bvh::SceneBvh;
+use crate::photon::trace::{trace_photons, TraceSettings};
+use crate::photon::types::{BounceMapPhoton, Photon};
+use crate::scene::Scene;
+use crate::timing;
 
 /// One light's share of the photon map.
 #[derive(Clone, Debug, Default)]
@@ -32,6 +37,20 @@ pub(super) struct LightPhotons {
     pub starts: usize,
     /// Its paths alive after each bounce (`PhotonMap::attrition`).
     pub attrition: Vec<u64>,
+}
+
+/// What one frame's photon map is made from.
+pub(super) struct Frame<'a> {
+    pub plan: &'a BouncePlan,
+    pub scene: &'a Scene,
+    pub bvh: &'a SceneBvh,
+    pub trace: &'a TraceSettings,
+    /// Per light: whether its photons are traced again ([`Traced::changed`]).
+    pub retrace: &'a [bool],
+    /// The bounce map read back this frame: the re-traced lights' records (empty if none).
+    pub fresh: &'a [BounceMapPhoton],
+    /// The last frame's bounce map: the kept lights' records, at the same places.
+    pub last: &'a [BounceMapPhoton],
 }
 
 /// The last traced photon map, per light, and the plan it was traced with.
@@ -50,7 +69,7 @@ impl Traced {
     }
 
     /// Keeps `lights` (one per scene light) as traced with `plan`.
-    pub fn keep(&mut self, plan: &BouncePlan, lights: Vec<LightPhotons>) {
+    fn keep(&mut self, plan: &BouncePlan, lights: Vec<LightPhotons>) {
         self.plan = Some(plan.clone());
         self.lights = lights;
     }
@@ -68,7 +87,7 @@ impl Traced {
 
     /// The light kept for `light`, taken out (the caller puts the new map back with
     /// [`Self::keep`]).
-    pub fn take(&mut self, light: usize) -> LightPhotons {
+    fn take(&mut self, light: usize) -> LightPhotons {
         self.lights
             .get_mut(light)
             .map(std::mem::take)
@@ -76,8 +95,91 @@ impl Traced {
     }
 }
 
+impl Traced {
+    /// Traces the re-traced lights of `frame` on every core and keeps the others' photons:
+    /// returns the frame's bounce map and its photon map (origin-relative, light after light:
+    /// the order a fresh trace of every light stores them in), and fills `stats`' photon
+    /// counts, attrition, CPU trace time and per-light lists.
+    pub fn update(
+        &mut self,
+        frame: &Frame,
+        stats: &mut FrameStats,
+    ) -> (Vec<BounceMapPhoton>, Vec<Photon>) {
+        let plan = frame.plan;
+        let traces = frame.retrace.iter().any(|&r| r);
+        let mut bounce_map = vec![BounceMapPhoton::default(); plan.texels];
+        let trace_span = traces.then(|| timing::span("cpu_trace"));
+        let mut lights = Vec::with_capacity(frame.retrace.len());
+        for (light, &retrace) in frame.retrace.iter().enumerate() {
+            let views = plan.light_views(light);
+            let texels = plan.texel_range(views.clone());
+            let name = &frame.scene.lights[light].name;
+            if views.is_empty() {
+                lights.push(LightPhotons::default()); // no photons this frame
+                continue;
+            }
+            if !retrace {
+                // Kept: the same views at the same places as when it was traced.
+                if let Some(old) = frame.last.get(texels.clone()) {
+                    bounce_map[texels].copy_from_slice(old);
+                }
+                stats.lights_reused.push(ReusedLight {
+                    light,
+                    name: name.clone(),
+                    reason: format!("light {light} ({name}) unchanged: its photons reused"),
+                });
+                lights.push(self.take(light));
+                continue;
+            }
+            bounce_map[texels.clone()].copy_from_slice(&frame.fresh[texels]);
+            let starts = plan.photon_starts_in(&bounce_map, views);
+            let map = trace_photons(frame.scene, frame.bvh, &starts, frame.trace);
+            // Origin-relative positions, subtracted in f64 (see DESIGN: precision far from the
+            // world's origin); the photon volumes add the eye's offset (`photon_frame.rs`).
+            let photons = map
+                .photons
+                .iter()
+                .map(|p| Photon {
+                    position: (p.position.as_dvec3() - plan.origin).as_vec3(),
+                    ..*p
+                })
+                .collect();
+            stats.lights_retraced.push(light);
+            stats.traced_bounce_map_photons += starts.len();
+            lights.push(LightPhotons {
+                photons,
+                starts: starts.len(),
+                attrition: map.attrition,
+            });
+        }
+        if let Some(span) = trace_span {
+            stats.cpu_trace_ms = span.finish();
+        } else {
+            let reason = "every light's photons reused: no light's views changed";
+            stats.passes_skipped = ["light_gbuffers", "bounce_map", "readback", "cpu_trace"]
+                .iter()
+                .map(|name| SkippedPass {
+                    name: (*name).to_string(),
+                    reason: reason.to_string(),
+                })
+                .collect();
+        }
+        for l in &lights {
+            stats.bounce_map_photons += l.starts;
+            add_attrition(&mut stats.attrition, &l.attrition);
+        }
+        let photons: Vec<Photon> = lights
+            .iter()
+            .flat_map(|l| l.photons.iter().copied())
+            .collect();
+        stats.stored_photons = photons.len();
+        self.keep(plan, lights);
+        (bounce_map, photons)
+    }
+}
+
 /// Elementwise sum of attrition counts of different lengths.
-pub(super) fn add_attrition(total: &mut Vec<u64>, more: &[u64]) {
+fn add_attrition(total: &mut Vec<u64>, more: &[u64]) {
     if total.len() < more.len() {
         total.resize(more.len(), 0);
     }
