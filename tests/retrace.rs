@@ -105,6 +105,10 @@ fn moving_one_light_retraces_only_that_light() {
         s.bounce_map_photons
     );
     assert!(light0_now == light0 && starts0_now == starts0);
+    let json = ispm::stats::frame_json(&scene, &second, r.triangles(), 8, 0);
+    assert_eq!(json["lights_retraced"], serde_json::json!([1]), "{json}");
+    assert_eq!(json["lights_reused"][0]["light"], 0, "{json}");
+    assert_eq!(json["traced_bounce_map_photons"], starts1_now, "{json}");
     assert!(light1_now != light1, "light 1 moved, its photons did not");
     drop(r);
     common::assert_validation_clean(&gpu);
@@ -253,6 +257,47 @@ fn effects_all_retraces_every_light_when_one_moves() {
     let second = r.render().expect("frame 1");
     assert_eq!(second.stats.lights_retraced, vec![0, 1]);
     assert!(second.stats.lights_reused.is_empty());
+    drop(r);
+    common::assert_validation_clean(&gpu);
+}
+
+#[test]
+fn a_change_that_moves_no_lights_views_retraces_nothing_and_uploads_the_kept_map() {
+    // A new name changes the lights (the photon map is not reused whole) but no light's
+    // views: every light's photons are kept, nothing is drawn, read back or traced.
+    let scene = two_lights();
+    let gpu = common::gpu();
+    let mut r = Renderer::new(&gpu, &scene, settings(Effects::Auto)).expect("renderer");
+    let first = r.render().expect("frame 0");
+    let mut renamed = scene.lights.clone();
+    renamed[0].name = "lamp".into();
+    r.set_lights(&renamed).expect("rename");
+    let second = r.render().expect("frame 1");
+    let s = &second.stats;
+    assert!(s.lights_retraced.is_empty(), "{:?}", s.lights_retraced);
+    assert_eq!(reused(&second), vec![0, 1]);
+    assert!(s.lights_reused[0]
+        .reason
+        .contains("light 0 (lamp) unchanged"));
+    for pass in ["light_gbuffers", "bounce_map", "readback", "cpu_trace"] {
+        assert!(!s.passes_run.iter().any(|p| p == pass), "{pass} ran");
+        assert!(
+            s.passes_skipped.iter().any(|p| p.name == pass),
+            "{pass} not listed as skipped: {:?}",
+            s.passes_skipped
+        );
+    }
+    assert!(s.passes_run.iter().any(|p| p == "upload"));
+    assert_eq!(s.stored_photons, first.stats.stored_photons);
+    assert!(
+        bits(&second) == bits(&first),
+        "the kept photon map changed the image"
+    );
+    // Then a light moves again: traced from the kept records.
+    r.set_lights(&moved(&renamed, 1, Vec3::new(0.1, 0.0, 0.0)))
+        .expect("move light 1");
+    let third = r.render().expect("frame 2");
+    assert_eq!(third.stats.lights_retraced, vec![1]);
     drop(r);
     common::assert_validation_clean(&gpu);
 }
