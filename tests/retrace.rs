@@ -10,7 +10,8 @@ use ispm::frame::{FrameImage, RenderSettings, Renderer};
 use ispm::photon::types::Photon;
 use ispm::plan::Effects;
 use ispm::reference::scenes::{cornell, point_light};
-use ispm::scene::{Light, Scene};
+use ispm::scene::{Light, Material, Scene};
+use ispm::shared_constants::BOUNCE_VIEW_CAUSTIC;
 
 fn settings(effects: Effects) -> RenderSettings {
     common::small_ispm_settings(effects)
@@ -300,4 +301,51 @@ fn a_change_that_moves_no_lights_views_retraces_nothing_and_uploads_the_kept_map
     assert_eq!(third.stats.lights_retraced, vec![1]);
     drop(r);
     common::assert_validation_clean(&gpu);
+}
+
+#[test]
+fn with_a_mirror_ball_moving_one_light_retraces_its_main_and_caustic_views_only() {
+    // The sphere is a mirror: both lights get caustic views around it (nested in their main
+    // views, the parents' indices in the bounce map's views). Light 1 moves, its caustic window
+    // with it; light 0's views, before light 1's, keep their places.
+    let mut scene = two_lights();
+    scene.materials.push(Material {
+        name: "mirror".into(),
+        lambertian: Vec3::ZERO,
+        glossy: Vec3::ONE,
+        exponent: f32::INFINITY,
+        ..Material::default()
+    });
+    let sphere = scene.meshes.len() - 1;
+    scene.meshes[sphere].material = scene.materials.len() - 1;
+    let gpu = common::gpu();
+    let mut r = Renderer::new(&gpu, &scene, settings(Effects::Auto)).expect("renderer");
+    r.render().expect("frame 0");
+    let lights = moved(&scene.lights, 1, Vec3::new(0.2, -0.1, -0.1));
+    r.set_lights(&lights).expect("move light 1");
+    let second = r.render().expect("frame 1");
+    let plan = r.photons().expect("photon part").plan().clone();
+    for light in [0, 1] {
+        assert!(
+            plan.views[plan.light_views(light)]
+                .iter()
+                .any(|v| v.kind.y == BOUNCE_VIEW_CAUSTIC),
+            "light {light} has no caustic view"
+        );
+    }
+    assert_eq!(second.stats.lights_retraced, vec![1]);
+    assert_eq!(reused(&second), vec![0]);
+    let kept = light_photons(&r, 0);
+    let traced = light_photons(&r, 1);
+    drop(r);
+    common::assert_validation_clean(&gpu);
+    let mut moved_scene = scene.clone();
+    moved_scene.lights = lights;
+    let (expected, expected_lights) = fresh(&moved_scene);
+    assert!(expected_lights[0] == kept, "light 0");
+    assert!(expected_lights[1] == traced, "light 1");
+    assert!(
+        bits(&second) == bits(&expected),
+        "image differs from a fresh renderer's"
+    );
 }
