@@ -126,7 +126,8 @@ impl Renderer {
             let welds = self.settings.effects == crate::plan::Effects::Auto
                 && !self.source.lights.is_empty();
             if declared && welds {
-                // The static part has not moved since the renderer was made.
+                // Welded from the scene as it is now; valid until an instance outside
+                // `moving` moves (then `covers` fails and it is dropped).
                 self.static_enclosures = Some(StaticEnclosures::new(&self.source, moving));
             }
         }
