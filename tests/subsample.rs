@@ -4,6 +4,7 @@
 mod common;
 
 use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
+use ispm::metrics::rel_mse_masked;
 use ispm::scene::Scene;
 
 const SIZE: u32 = 128;
@@ -72,27 +73,6 @@ fn render(scene: &Scene, settings: RenderSettings) -> Rendered {
 
 fn cornell() -> Scene {
     ispm::scene::bundled::resolve(Some("cornell-box")).expect("scene")
-}
-
-/// Relative MSE of the RGB of `test` against `reference` over the pixels `keep` selects:
-/// mean of (x − r)² / (r² + 0.01), the 0.01 keeping dark pixels from dominating.
-fn rel_mse(test: &[f32], reference: &[f32], keep: impl Fn(usize) -> bool) -> f64 {
-    let (mut sum, mut n) = (0.0, 0usize);
-    for (i, (t, r)) in test
-        .chunks_exact(4)
-        .zip(reference.chunks_exact(4))
-        .enumerate()
-    {
-        if !keep(i) {
-            continue;
-        }
-        for c in 0..3 {
-            let (t, r) = (f64::from(t[c]), f64::from(r[c]));
-            sum += (t - r).powi(2) / (r * r + 0.01);
-        }
-        n += 3;
-    }
-    sum / n.max(1) as f64
 }
 
 /// Pixels with geometry whose neighbourhood of radius `r` crosses a normal or depth
@@ -186,10 +166,10 @@ fn subsampled_indirect_light_stays_close_to_full_resolution() {
         let sub = render(&scene, settings(SIZE, n));
         assert!(sub.frame.stats.passes_run.iter().any(|p| p == "upsample"));
         assert_eq!(sub.frame.stats.subsample, n);
-        let hdr = rel_mse(&sub.frame.hdr, &full.frame.hdr, geometry);
-        let indirect = rel_mse(&sub.indirect, &full.indirect, geometry);
-        let at_edges = rel_mse(&sub.indirect, &full.indirect, |i| edges[i]);
-        let inside = rel_mse(&sub.indirect, &full.indirect, |i| geometry(i) && !edges[i]);
+        let hdr = rel_mse_masked(&sub.frame.hdr, &full.frame.hdr, geometry);
+        let indirect = rel_mse_masked(&sub.indirect, &full.indirect, geometry);
+        let at_edges = rel_mse_masked(&sub.indirect, &full.indirect, |i| edges[i]);
+        let inside = rel_mse_masked(&sub.indirect, &full.indirect, |i| geometry(i) && !edges[i]);
         println!(
             "subsample {n}: relMSE hdr {hdr:.4}, indirect {indirect:.4} \
              (edges {at_edges:.4}, elsewhere {inside:.4})"
