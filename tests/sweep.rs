@@ -107,21 +107,36 @@ fn tiny_sweep_writes_csv_json_and_plots_and_a_second_run_redoes_nothing() {
 }
 
 #[test]
-fn sweep_rejects_a_bad_grid_in_one_line() {
+fn sweep_rejects_bad_input_in_one_line() {
     let dir = tempfile::tempdir().expect("temp dir");
     let out = dir.path().join("sweep");
-    let run = ispm(&[
-        "sweep",
-        "--out",
-        out.to_str().unwrap(),
-        "--grid",
+    let one_line = |run: &std::process::Output, needle: &str| {
+        assert!(!run.status.success(), "{needle}: succeeded");
+        let text = stderr(run);
+        assert_eq!(text.trim().lines().count(), 1, "{text}");
+        assert!(
+            text.starts_with("ispm: ") && text.contains(needle),
+            "{text}"
+        );
+        assert!(!text.contains("panicked"), "{text}");
+    };
+    let out_arg = out.to_str().unwrap();
+    one_line(
+        &ispm(&["sweep", "--out", out_arg, "--grid", "photons=lots"]),
         "photons=lots",
-    ]);
-    assert!(!run.status.success());
-    let text = stderr(&run);
-    assert_eq!(text.trim().lines().count(), 1, "{text}");
-    assert!(text.contains("photons=lots"), "{text}");
+    );
     assert!(!out.exists(), "the output folder was created");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(out.join("results.json"), "{not json").unwrap();
+    one_line(
+        &ispm(&["sweep", "diffuse-box", "--out", out_arg, "--size", "8x8"]),
+        "results.json: not an `ispm sweep` result",
+    );
+    assert_eq!(
+        std::fs::read_to_string(out.join("results.json")).unwrap(),
+        "{not json",
+        "the bad results were overwritten"
+    );
 }
 
 /// Photon counts of the monotonicity test, ×4 each step.
