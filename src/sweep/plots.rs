@@ -14,6 +14,7 @@ use super::results::Record;
 use crate::output::write_atomically;
 use anyhow::{anyhow, Context, Result};
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::io::Write;
 use std::path::Path;
 
@@ -176,21 +177,22 @@ pub fn stages(title: &str, records: &[&Record]) -> Result<String> {
             .y_label_area_size(250)
             .build_cartesian_2d(0.0..longest * 1.05, 0.0..n as f64)
             .map_err(plot_err)?;
+        // The configuration names are drawn beside their bars (an axis's labels sit at
+        // positions plotters chooses, not at the bars' centres).
         chart
             .configure_mesh()
             .disable_y_mesh()
-            .y_labels(n)
-            .y_label_formatter(&|y| {
-                let i = (*y - 0.5).round();
-                if (*y - 0.5 - i).abs() < 1e-6 && i >= 0.0 {
-                    labels.get(i as usize).cloned().unwrap_or_default()
-                } else {
-                    String::new()
-                }
-            })
+            .y_label_formatter(&|_| String::new())
             .x_desc("ms")
             .draw()
             .map_err(plot_err)?;
+        let label_style = TextStyle::from(("sans-serif", 11).into_font())
+            .pos(Pos::new(HPos::Right, VPos::Center));
+        for (i, label) in labels.iter().enumerate() {
+            let (x, y) = chart.backend_coord(&(0.0, i as f64 + 0.5));
+            root.draw(&Text::new(label.clone(), (x - 6, y), label_style.clone()))
+                .map_err(plot_err)?;
+        }
         for (k, name) in names.iter().enumerate() {
             let colour = PALETTE[k % PALETTE.len()];
             let bars: Vec<Rectangle<(f64, f64)>> = records
