@@ -125,8 +125,8 @@ pub fn run(
     results.mark_pareto();
     results.write(out)?;
     let records: Vec<Record> = results.of(&scene_hash, width, height).cloned().collect();
-    let refs_of: Vec<&Record> = records.iter().collect();
-    plots::write_all(out, &format!("{scene_name} {width}x{height}"), &refs_of)?;
+    let shown: Vec<&Record> = records.iter().collect();
+    plots::write_all(out, &format!("{scene_name} {width}x{height}"), &shown)?;
     Ok(SweepReport {
         measured: todo.len(),
         skipped: configs.len() - todo.len(),

@@ -14,7 +14,7 @@
 //!   `$XDG_CACHE_HOME/ispm/references`, else `~/.cache/ispm/references`. Files are written
 //!   atomically, so an interrupted render leaves no cache entry.
 
-use super::hash::{fnv1a, hex};
+use super::hash::{fnv1a, fnv1a_debug, hex};
 use crate::metrics::rgba;
 use crate::reference::{self, Method, RefSettings};
 use crate::scene::Scene;
@@ -69,7 +69,7 @@ pub fn method_for(scene: &Scene) -> Method {
 
 /// The hash of what a scene renders as (module docs).
 pub fn scene_hash(scene: &Scene) -> u64 {
-    fnv1a(format!("{scene:?}").as_bytes())
+    fnv1a_debug(scene)
 }
 
 /// The default cache folder (module docs).
