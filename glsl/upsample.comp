@@ -6,7 +6,9 @@
 // interpolated from the 2×2 nearest low-resolution samples with weights
 //   bilinear × max(0, n·n_s)^NORMAL_POWER × exp(−|n·(p_s − p)| / (DEPTH_SIGMA · |p|)),
 // normalised. When every weight vanishes, the sample most similar in geometry is used alone
-// (the bilinear-nearest among equals; nothing when all four are background).
+// (the bilinear-nearest among equals; nothing when all four are background). With
+// push.joint == 0 the geometric weights are 1: a plain bilinear upsample (ispm sweep's
+// "upsampling off").
 #include "shared.glsl"
 #include "material.glsl"
 
@@ -27,7 +29,7 @@ layout(push_constant) uniform Push {
     uint subsample;
     float normal_power;
     float depth_sigma;
-    uint pad;
+    uint joint;  // 0: plain bilinear (the geometric weights are 1)
 } push;
 
 // The full-resolution pixel a low-resolution sample shaded (photon_volumes_subsampled.frag).
@@ -73,7 +75,7 @@ void main() {
             float normal_w = pow(max(dot(n, n_s), 0.0), push.normal_power);
             float plane = abs(dot(n, pos_s.xyz - pos.xyz));
             float depth_w = exp(-plane / (push.depth_sigma * dist));
-            float geometry = normal_w * depth_w;
+            float geometry = push.joint != 0u ? normal_w * depth_w : 1.0;
             float bilinear = (i == 0 ? 1.0 - t.x : t.x) * (j == 0 ? 1.0 - t.y : t.y);
             float w = bilinear * geometry;
             irradiance += w * texelFetch(low_irradiance, low, 0);

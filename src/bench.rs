@@ -134,11 +134,11 @@ pub fn quantile(values: &[f64], q: f64) -> f64 {
     v[lo] + (v[hi] - v[lo]) * (pos - lo as f64)
 }
 
-/// Per-frame totals of each stage: `gpu.NAME` sums a frame's top-level GPU passes of that name,
-/// `cpu.NAME` its CPU spans of that name.
-fn per_frame(spans: &[Span]) -> BTreeMap<String, Vec<f64>> {
+/// Per-frame totals of each stage: `gpu.NAME` sums a frame's GPU passes of that name,
+/// `cpu.NAME` its CPU spans of that name, over the spans `keep` selects.
+fn per_frame(spans: &[Span], keep: impl Fn(&Span) -> bool) -> BTreeMap<String, Vec<f64>> {
     let mut totals: BTreeMap<(String, u64), f64> = BTreeMap::new();
-    for s in spans {
+    for s in spans.iter().filter(|s| keep(s)) {
         let Some(frame) = s.frame else { continue };
         let key = if s.is_gpu() {
             format!("gpu.{}", s.name)
@@ -154,9 +154,26 @@ fn per_frame(spans: &[Span]) -> BTreeMap<String, Vec<f64>> {
     out
 }
 
+/// Median and spread over frames of every stage of `spans` that `keep` selects (keys as
+/// [`ConfigResult::stages`]).
+pub fn stage_times(spans: &[Span], keep: impl Fn(&Span) -> bool) -> BTreeMap<String, StageTime> {
+    per_frame(spans, keep)
+        .into_iter()
+        .map(|(name, v)| {
+            let t = StageTime {
+                median: quantile(&v, 0.5),
+                p10: quantile(&v, 0.1),
+                p90: quantile(&v, 0.9),
+                frames: v.len(),
+            };
+            (name, t)
+        })
+        .collect()
+}
+
 /// The GPU stage per frame: the busiest queue's sum of outermost passes (queues run side by
 /// side, so their times do not add up).
-fn gpu_per_frame(spans: &[Span]) -> Vec<f64> {
+pub fn gpu_per_frame(spans: &[Span]) -> Vec<f64> {
     let mut totals: BTreeMap<(u64, String), f64> = BTreeMap::new();
     for s in spans.iter().filter(|s| s.is_gpu() && s.depth == 0) {
         if let (Some(f), crate::timing::Track::Gpu { queue, .. }) = (s.frame, &s.track) {
@@ -172,18 +189,7 @@ fn gpu_per_frame(spans: &[Span]) -> Vec<f64> {
 }
 
 fn result(config: &Config) -> ConfigResult {
-    let stages = per_frame(&config.spans)
-        .into_iter()
-        .map(|(name, v)| {
-            let t = StageTime {
-                median: quantile(&v, 0.5),
-                p10: quantile(&v, 0.1),
-                p90: quantile(&v, 0.9),
-                frames: v.len(),
-            };
-            (name, t)
-        })
-        .collect::<BTreeMap<_, _>>();
+    let stages = stage_times(&config.spans, |_| true);
     let cpu_ms = stages.get("cpu.cpu_trace").map_or(0.0, |t| t.median);
     ConfigResult {
         name: config.name.to_string(),
@@ -204,23 +210,37 @@ fn result(config: &Config) -> ConfigResult {
 /// when it is animated); returns the wall time per frame and the spans (frame indices made
 /// unique across chunks by the renderer's own counter), and keeps the last frame's stats.
 fn chunk(config: &mut Config, scene: &Scene, frames: u32) -> anyhow::Result<(f64, Vec<Span>)> {
+    let (ms, spans, stats) = timed_frames(&mut config.renderer, scene, config.frames, frames)?;
+    config.frames += u64::from(frames);
+    config.last_stats = stats;
+    Ok((ms, spans))
+}
+
+/// Runs `frames` frames of `renderer` in one timing capture and waits for the last; an
+/// animated `scene` is posed before each frame at its clock (`first` + k frames). Returns the
+/// wall time per frame (the frame period), the captured spans and the last frame's stats.
+pub fn timed_frames(
+    renderer: &mut Renderer,
+    scene: &Scene,
+    first: u64,
+    frames: u32,
+) -> anyhow::Result<(f64, Vec<Span>, crate::frame::FrameStats)> {
     timing::start_capture();
     let start = timing::now_ns();
     let run = (|| {
-        for _ in 0..frames {
+        for k in 0..u64::from(frames) {
             if scene.is_animated() {
-                let t = config.frames as f32 * FRAME_STEP_SECONDS;
-                config.renderer.set_pose(&scene.pose_at(t))?;
+                let t = (first + k) as f32 * FRAME_STEP_SECONDS;
+                renderer.set_pose(&scene.pose_at(t))?;
             }
-            config.renderer.submit_frame()?;
-            config.frames += 1;
+            renderer.submit_frame()?;
         }
-        config.renderer.drain()
+        renderer.drain()
     })();
     let wall = timing::now_ns().saturating_sub(start) as f64 * 1e-6;
     let capture = timing::finish_capture();
-    config.last_stats = run?.1;
-    Ok((wall / f64::from(frames.max(1)), capture.spans))
+    let stats = run?.1;
+    Ok((wall / f64::from(frames.max(1)), capture.spans, stats))
 }
 
 /// Runs the benchmark (module docs).

@@ -105,6 +105,8 @@ pub struct RenderSettings {
     pub exposure_ev: f32,
     /// Photon volumes at 1/N resolution, upsampled (1: full resolution, no upsampling).
     pub subsample: u32,
+    /// How a subsampled estimate is upsampled (joint bilateral, or plain bilinear).
+    pub upsample: crate::passes::upsample::Upsample,
     pub schedule: Schedule,
     /// `Auto`: the effects plan (`plan::EffectsPlan`) may skip what the scene does not need;
     /// `All`: every pass and shader variant runs (`--effects all`, for comparison).
@@ -131,6 +133,7 @@ impl Default for RenderSettings {
             tonemap: Tonemap::default(),
             exposure_ev: 0.0,
             subsample: 1,
+            upsample: Default::default(),
             schedule: Schedule::Overlapped,
             effects: Effects::Auto,
             bsdf_variant: BsdfVariant::ALL,

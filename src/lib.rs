@@ -9,6 +9,8 @@
 //! - [`passes`]: one explicit GPU pass per file.
 //! - [`plan`]: scene analysis → which effects, passes, lights and shader variants a frame
 //!   needs; no Vulkan.
+//! - [`metrics`]: relMSE, FLIP and the error–time Pareto front; no Vulkan.
+//! - [`sweep`]: `ispm sweep`, accuracy against time over a grid of settings.
 //! - [`timing`]: CPU and GPU spans on one host clock, Chrome trace JSON.
 //! - [`camera_control`]: the viewer's fly camera and scripted camera path; no window.
 //! - [`viewer`], [`overlay`]: `ispm view`'s window, keys and egui overlay (drawn by
@@ -22,15 +24,18 @@ pub mod gpu_scene;
 pub mod ispm;
 pub mod layout;
 pub mod lighting;
+pub mod metrics;
 pub mod output;
 pub mod overlay;
 pub mod passes;
 pub mod photon;
 pub mod photon_frame;
 pub mod plan;
+pub mod quality;
 pub mod reference;
 pub mod scene;
 pub mod stats;
+pub mod sweep;
 pub mod timing;
 pub mod translucent_frame;
 pub mod viewer;

@@ -56,6 +56,46 @@ enum Command {
     /// alone: `ispm render --camera-path-frame N` renders the pose of the last frame.
     #[command(verbatim_doc_comment)]
     View(ViewArgs),
+    /// Measure accuracy against time: render the scene over a grid of settings, time every
+    /// stage and compare with a cached CPU reference; write results.csv, results.json and SVG
+    /// plots (the error–time Pareto front) into --out. Resumable.
+    Sweep(SweepArgs),
+}
+
+#[derive(clap::Args)]
+struct SweepArgs {
+    /// A .gltf/.glb file or a bundled scene name (default: the bundled cornell-box).
+    scene: Option<String>,
+    /// Folder for results.csv, results.json and the plots (configurations already in its
+    /// results.json are not measured again).
+    #[arg(long)]
+    out: PathBuf,
+    /// Knobs and their values, `KNOB=V,V;KNOB=V` (photons, bounces, radius, subsample,
+    /// caustic-share, upsample, method), e.g. `photons=10k,40k;subsample=1,2`; knobs not named
+    /// keep their defaults (docs/accuracy.md §5).
+    #[arg(long, default_value = "")]
+    grid: String,
+    /// Image size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "160x120", value_parser = parse_size)]
+    size: (u32, u32),
+    /// Timed frames per configuration (after one warm-up frame).
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
+    frames: u32,
+    /// Reference: path-tracer samples per pixel, or progressive photon mapping iterations.
+    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..))]
+    reference_passes: u32,
+    /// Reference: photons per progressive photon mapping iteration.
+    #[arg(long, default_value_t = 100_000)]
+    reference_photons: usize,
+    /// Reference: most bounces of a light path.
+    #[arg(long, default_value_t = 16)]
+    reference_bounces: u32,
+    /// Where references are cached (default: $XDG_CACHE_HOME/ispm/references).
+    #[arg(long, value_name = "DIR")]
+    reference_cache: Option<PathBuf>,
+    /// Render from the file's camera N (0-based, in node order; default: the first).
+    #[arg(long, value_name = "N")]
+    camera: Option<usize>,
 }
 
 #[derive(clap::Args)]
@@ -65,12 +105,8 @@ struct ViewArgs {
     /// Window (and render) size, WIDTHxHEIGHT.
     #[arg(long, default_value = "960x540", value_parser = parse_size)]
     size: (u32, u32),
-    /// Photons emitted per frame.
-    #[arg(long, default_value_t = 100_000)]
-    photons: usize,
-    /// Estimate indirect light at 1/N resolution.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
-    subsample: u32,
+    #[command(flatten)]
+    quality: QualityArgs,
     /// Render N frames along the scripted camera path, write --screenshot of the last and
     /// exit (the viewer's smoke test).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
@@ -144,12 +180,8 @@ struct BenchArgs {
     /// Chunks the frames are split into, alternating the configurations.
     #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
     chunks: u32,
-    /// Photons emitted per frame.
-    #[arg(long, default_value_t = 100_000)]
-    photons: usize,
-    /// Estimate indirect light at 1/N resolution.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
-    subsample: u32,
+    #[command(flatten)]
+    quality: QualityArgs,
     /// Shadow-map resolution per light view.
     #[arg(long, default_value_t = 1024)]
     shadow_resolution: u32,
@@ -172,6 +204,59 @@ struct BenchArgs {
     #[arg(long, value_name = "SECONDS_PER_TURN", num_args = 0..=1, default_missing_value = "10",
           value_parser = parse_seconds_per_turn)]
     orbit_lights: Option<f32>,
+}
+
+/// `--quality` and the knobs it sets, shared by `render`, `view` and `bench` (src/quality.rs).
+#[derive(clap::Args)]
+struct QualityArgs {
+    /// Set photons, bounces, kernel radius and subsampling to a point measured on the
+    /// error–time Pareto fronts of the bundled scenes (docs/accuracy.md §5); explicit flags
+    /// override its values.
+    #[arg(long, value_enum)]
+    quality: Option<ispm::quality::Quality>,
+    /// Photons emitted per frame, split over the lights by power (default 100000, or the
+    /// --quality preset's).
+    #[arg(long)]
+    photons: Option<usize>,
+    /// Estimate indirect light at 1/N resolution and upsample it (--upsample; N is clamped to
+    /// the image size; 1: full resolution). Default 1, or the --quality preset's.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    subsample: Option<u32>,
+    /// Most scattering events per photon, and per path for the references (default 8, or the
+    /// --quality preset's).
+    #[arg(long)]
+    bounces: Option<u32>,
+    /// Largest photon kernel radius in metres (default: from the scene size and photon count,
+    /// scaled by the --quality preset's factor).
+    #[arg(long)]
+    radius: Option<f32>,
+    /// At --subsample N > 1: `joint` bilateral upsampling against the full-resolution G-buffer,
+    /// or plain `bilinear` (default joint).
+    #[arg(long, value_enum)]
+    upsample: Option<ispm::passes::upsample::Upsample>,
+}
+
+impl QualityArgs {
+    /// The knobs for `scene`: explicit flags, else the preset, else the defaults.
+    fn resolve(&self, scene: &ispm::scene::Scene) -> anyhow::Result<ispm::quality::Knobs> {
+        if let Some(r) = self.radius {
+            anyhow::ensure!(
+                r.is_finite() && r > 0.0,
+                "--radius {r} must be a positive length"
+            );
+        }
+        Ok(ispm::quality::resolve(
+            self.quality,
+            ispm::quality::Explicit {
+                photons: self.photons,
+                bounces: self.bounces,
+                radius: self.radius,
+                subsample: self.subsample,
+                upsample: self.upsample,
+            },
+            &scene.bounds(),
+        ))
+    }
 }
 
 #[derive(clap::Args)]
@@ -231,15 +316,8 @@ struct RenderArgs {
     size: (u32, u32),
     #[arg(long, value_enum, default_value = "ispm")]
     method: Method,
-    /// Photons emitted per frame, split over the lights by power.
-    #[arg(long, default_value_t = 100_000)]
-    photons: usize,
-    /// Most scattering events per photon (and per path for the references).
-    #[arg(long, default_value_t = 8)]
-    bounces: u32,
-    /// Largest photon kernel radius in metres (default: from the scene size and photon count).
-    #[arg(long)]
-    radius: Option<f32>,
+    #[command(flatten)]
+    quality: QualityArgs,
     /// Eye samples per pixel (CPU references).
     #[arg(long, default_value_t = 16)]
     spp: u32,
@@ -274,10 +352,6 @@ struct RenderArgs {
     /// Shadow-map resolution per light view.
     #[arg(long, default_value_t = 1024)]
     shadow_resolution: u32,
-    /// Estimate indirect light at 1/N resolution and upsample it with a joint bilateral filter
-    /// (N is clamped to the image size; 1: full resolution).
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
-    subsample: u32,
     /// Smallest share (0 to 0.95) of each light's photons spent on its caustic views: windows
     /// of its views around the mirrors and glass it lights, at a higher texel density (0: none).
     #[arg(long, default_value_t = ispm::ispm::CAUSTIC_SHARE, value_parser = parse_share)]
@@ -415,13 +489,17 @@ fn view(args: ViewArgs, device: Option<usize>) -> anyhow::Result<()> {
         );
     }
     let scene = load_scene_from(args.scene.as_deref(), args.camera, args.orbit_lights)?;
+    let knobs = args.quality.resolve(&scene)?;
     let (width, height) = args.size;
     let settings = ispm::viewer::ViewSettings {
         render: RenderSettings {
-            photons: args.photons,
+            photons: knobs.photons,
+            bounces: knobs.bounces,
+            radius: knobs.radius,
             width,
             height,
-            subsample: args.subsample,
+            subsample: knobs.subsample,
+            upsample: knobs.upsample,
             ..Default::default()
         },
         device_index: device,
@@ -459,14 +537,18 @@ fn bench(args: BenchArgs, device: Option<usize>) -> anyhow::Result<()> {
     }
     let scene = load_scene_from(args.scene.as_deref(), args.camera, args.orbit_lights)?;
     let scene_name = args.scene.as_deref().unwrap_or("cornell-box");
+    let knobs = args.quality.resolve(&scene)?;
     let gpu = gpu(device)?;
     let (width, height) = args.size;
     let settings = ispm::bench::BenchSettings {
         render: RenderSettings {
-            photons: args.photons,
+            photons: knobs.photons,
+            bounces: knobs.bounces,
+            radius: knobs.radius,
             width,
             height,
-            subsample: args.subsample,
+            subsample: knobs.subsample,
+            upsample: knobs.upsample,
             shadow_resolution: args.shadow_resolution.clamp(16, 8192),
             ..Default::default()
         },
@@ -498,6 +580,46 @@ fn bench(args: BenchArgs, device: Option<usize>) -> anyhow::Result<()> {
     Ok(())
 }
 
+fn sweep(args: SweepArgs, device: Option<usize>) -> anyhow::Result<()> {
+    let grid = ispm::sweep::Grid::parse(&args.grid)?;
+    anyhow::ensure!(
+        !args.out.is_file(),
+        "--out {}: a file, not a folder",
+        args.out.display()
+    );
+    let scene = load_scene_from(args.scene.as_deref(), args.camera, None)?;
+    let scene_name = args.scene.as_deref().unwrap_or("cornell-box");
+    let gpu = gpu(device)?;
+    let settings = ispm::sweep::SweepSettings {
+        grid,
+        width: args.size.0,
+        height: args.size.1,
+        frames: args.frames,
+        reference: ispm::sweep::ReferenceSpec {
+            passes: args.reference_passes,
+            photons: args.reference_photons,
+            bounces: args.reference_bounces,
+        },
+        reference_cache: args.reference_cache,
+    };
+    let report = ispm::sweep::run(&gpu, &scene, scene_name, &settings, &args.out)?;
+    check_validation(&gpu)?;
+    print!("{}", report.table());
+    eprintln!(
+        "{} configuration(s) measured, {} already in {}; reference {} ({})",
+        report.measured,
+        report.skipped,
+        args.out.join("results.json").display(),
+        report.reference_path.display(),
+        if report.reference_rendered {
+            "rendered"
+        } else {
+            "cached"
+        }
+    );
+    Ok(())
+}
+
 fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
     let format = OutputFormat::from_path(&args.output)?;
     // Outputs that cannot be written fail before any work, so none is left half done.
@@ -507,13 +629,14 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
     {
         ispm::output::check_writable(path)?;
     }
-    if let Some(r) = args.radius {
+    if let Some(r) = args.quality.radius {
         anyhow::ensure!(
             r.is_finite() && r > 0.0,
             "--radius {r} must be a positive length"
         );
     }
     let scene = load_scene_from(args.scene.as_deref(), args.camera, args.orbit_lights)?;
+    let knobs = args.quality.resolve(&scene)?;
     // The viewer's scripted path starts from the scene as loaded.
     let path_pose = args
         .camera_path_frame
@@ -540,7 +663,7 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
                 trace.display()
             );
         }
-        return render_reference(&args, &scene, method, format);
+        return render_reference(&args, &knobs, &scene, method, format);
     }
     if let Some(view) = args.debug_view {
         anyhow::ensure!(
@@ -556,16 +679,17 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
         } else {
             ispm::frame::Method::Ispm
         },
-        photons: args.photons,
-        bounces: args.bounces,
-        radius: args.radius,
+        photons: knobs.photons,
+        bounces: knobs.bounces,
+        radius: knobs.radius,
         seed: args.seed,
         width,
         height,
         shadow_resolution: args.shadow_resolution.clamp(16, 8192),
         tonemap: args.tonemap,
         exposure_ev: args.exposure,
-        subsample: args.subsample,
+        subsample: knobs.subsample,
+        upsample: knobs.upsample,
         schedule: args.schedule,
         effects: args.effects,
         caustic_share: args.caustic_share,
@@ -595,7 +719,7 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
             &scene,
             &frame,
             triangles,
-            args.bounces,
+            knobs.bounces,
             gpu.validation_message_count(),
         );
         ispm::output::write_atomically(path, |f| {
@@ -623,6 +747,7 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
 
 fn render_reference(
     args: &RenderArgs,
+    knobs: &ispm::quality::Knobs,
     scene: &ispm::scene::Scene,
     method: ispm::reference::Method,
     format: OutputFormat,
@@ -636,10 +761,10 @@ fn render_reference(
         width: args.size.0,
         height: args.size.1,
         spp: args.spp.max(1),
-        photons: args.photons,
-        bounces: args.bounces,
+        photons: knobs.photons,
+        bounces: knobs.bounces,
         iterations: args.frames.unwrap_or(16),
-        radius: args.radius,
+        radius: knobs.radius,
         seed: args.seed,
         ..Default::default()
     };
@@ -753,6 +878,7 @@ fn main() -> ExitCode {
         Command::Plan(args) => plan(args),
         Command::Bench(args) => bench(args, cli.device),
         Command::View(args) => view(args, cli.device),
+        Command::Sweep(args) => sweep(args, cli.device),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

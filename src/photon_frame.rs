@@ -239,8 +239,14 @@ impl PhotonFrame {
                 gbuffer,
                 low: &low,
             };
-            let upsample =
-                UpsamplePass::new(gpu, &inputs, &indirect, subsample, settings.bsdf_variant)?;
+            let upsample = UpsamplePass::new(
+                gpu,
+                &inputs,
+                &indirect,
+                subsample,
+                settings.upsample,
+                settings.bsdf_variant,
+            )?;
             (indirect, Some(Subsampled { low, upsample }))
         };
         let composite = CompositePass::new(gpu, &indirect, radiance)?;

@@ -28,6 +28,7 @@ fn settings() -> RefSettings {
         width: 32,
         height: 32,
         spp: 4,
+        jitter: true,
         photons: 40_000,
         bounces: 32,
         iterations: 4,

@@ -15,6 +15,7 @@ fn small(spp: u32, photons: usize) -> RefSettings {
         width: 24,
         height: 24,
         spp,
+        jitter: true,
         photons,
         bounces: 16,
         iterations: 2,

@@ -26,6 +26,10 @@
 //! outside a volume, which is exact but shades the occluded fragments the depth test would
 //! have rejected. At `--subsample 1` none of this runs.
 //!
+//! [`Upsample::Bilinear`] (`ispm sweep`'s "upsampling off") drops the geometric terms: the
+//! weights are bilinear alone (background samples still excluded), so what the joint filter
+//! buys at edges and glancing surfaces can be measured against a plain upsample.
+//!
 //! Reads: materials, eye G-buffer, the two low-resolution images (`ComputeSampledRead`).
 //! Writes: `indirect` (`ComputeStorageWrite`).
 
@@ -43,6 +47,27 @@ pub const NORMAL_POWER: f32 = 8.0;
 /// weight falls to 1/e.
 pub const DEPTH_SIGMA: f32 = 0.02;
 
+/// How the low-resolution estimate is brought to full resolution (`--upsample`).
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    clap::ValueEnum,
+    serde::Serialize,
+    serde::Deserialize,
+)]
+#[serde(rename_all = "kebab-case")]
+pub enum Upsample {
+    /// Joint bilateral: bilinear × normal similarity × tangent-plane distance.
+    #[default]
+    Joint,
+    /// Plain bilinear of the (non-background) low-resolution samples.
+    Bilinear,
+}
+
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct Push {
@@ -51,7 +76,8 @@ struct Push {
     subsample: u32,
     normal_power: f32,
     depth_sigma: f32,
-    pad: u32,
+    /// 1: joint bilateral weights; 0: bilinear only.
+    joint: u32,
 }
 
 /// Low-resolution size of a `width`×`height` image at subsample `n` (at least 1×1).
@@ -90,6 +116,7 @@ pub struct UpsamplePass {
     kernel: ComputeKernel,
     _sampler: Sampler,
     subsample: u32,
+    mode: Upsample,
 }
 
 impl UpsamplePass {
@@ -98,6 +125,7 @@ impl UpsamplePass {
         inputs: &UpsampleInputs,
         indirect: &Image,
         subsample: u32,
+        mode: Upsample,
         variant: BsdfVariant,
     ) -> anyhow::Result<Self> {
         let kinds = [
@@ -138,6 +166,7 @@ impl UpsamplePass {
             kernel,
             _sampler: sampler,
             subsample,
+            mode,
         })
     }
 
@@ -159,7 +188,7 @@ impl UpsamplePass {
                 subsample: self.subsample,
                 normal_power: NORMAL_POWER,
                 depth_sigma: DEPTH_SIGMA,
-                pad: 0,
+                joint: u32::from(self.mode == Upsample::Joint),
             },
             super::image_groups(indirect.width, indirect.height),
         );

@@ -48,9 +48,13 @@ pub enum Method {
 pub struct RefSettings {
     pub width: u32,
     pub height: u32,
-    /// Eye samples per pixel (jittered when > 1; pixel centres when 1). For `progressive`,
-    /// eye samples per iteration.
+    /// Eye samples per pixel (jittered when > 1 and `jitter`; pixel centres otherwise). For
+    /// `progressive`, eye samples per iteration.
     pub spp: u32,
+    /// Jitter the eye samples over the pixel when `spp > 1` (antialiasing). Off: every sample
+    /// goes through the pixel centre, as the rasteriser samples, so a reference matches a GPU
+    /// render's edges (`ispm sweep`).
+    pub jitter: bool,
     /// Photons emitted per photon map (per iteration for `progressive`).
     pub photons: usize,
     /// Most bounces of a light path (photon scattering events; path-trace depth − 1).
@@ -71,6 +75,7 @@ impl Default for RefSettings {
             width: 256,
             height: 256,
             spp: 16,
+            jitter: true,
             photons: 200_000,
             bounces: 16,
             iterations: 16,
@@ -210,7 +215,7 @@ impl Ctx<'_> {
     /// The camera ray through pixel (x, y): its centre when `spp == 1`, jittered otherwise.
     pub fn camera_ray(&self, x: u32, y: u32, rng: &mut Rng) -> Ray {
         let s = self.settings;
-        let (jx, jy) = if s.spp <= 1 {
+        let (jx, jy) = if s.spp <= 1 || !s.jitter {
             (0.5, 0.5)
         } else {
             (rng.next_f32(), rng.next_f32())

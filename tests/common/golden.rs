@@ -2,30 +2,14 @@
 //! `tests/goldens/<name>.exr` by relative mean squared error.
 //!
 //! - `relMSE(a, r) = mean over pixels and RGB channels of (a − r)² / (r² + ε)`, `ε = 10⁻²`
-//!   ([`rel_mse`]; the same definition as `docs/accuracy.md`).
+//!   ([`rel_mse`], `ispm::metrics`; the same definition as `docs/accuracy.md`).
 //! - On failure, `actual.exr/png`, `expected.exr/png` and `difference.png` (|a − r| / (|r| + 0.1),
 //!   false colour) are written under `target/tmp/test-images/<name>/` and their paths printed.
 //! - `ISPM_BLESS=1` (re)writes the golden from the actual image and passes.
 
 use std::path::{Path, PathBuf};
 
-/// ε of [`rel_mse`]: keeps black pixels from dominating (radiances here are ~0.01…10).
-pub const REL_MSE_EPSILON: f64 = 1e-2;
-
-/// relMSE of `actual` against `reference` (both RGBA f32; alpha ignored).
-pub fn rel_mse(actual: &[f32], reference: &[f32]) -> f64 {
-    assert_eq!(actual.len(), reference.len(), "image sizes differ");
-    let mut sum = 0.0f64;
-    let mut n = 0usize;
-    for (a, r) in actual.chunks_exact(4).zip(reference.chunks_exact(4)) {
-        for c in 0..3 {
-            let (a, r) = (f64::from(a[c]), f64::from(r[c]));
-            sum += (a - r).powi(2) / (r * r + REL_MSE_EPSILON);
-            n += 1;
-        }
-    }
-    sum / n.max(1) as f64
-}
+pub use ispm::metrics::rel_mse;
 
 /// Where the checked-in goldens live.
 pub fn golden_path(name: &str) -> PathBuf {

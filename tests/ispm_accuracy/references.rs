@@ -1,7 +1,6 @@
 //! The CPU references of `tests/ispm_accuracy.rs` (docs/accuracy.md §2–3): the path tracer's and
 //! progressive photon mapping's indirect light at pixel centres, and image means.
 
-use crate::common;
 use ispm::scene::Scene;
 
 /// Image side of the convergence tests.
@@ -75,7 +74,7 @@ pub fn path_traced(scene: &Scene, passes: u32) -> Reference {
             let mean = s[c] / k;
             total.push(mean as f32 + direct[i][c]);
             let variance_of_mean = (q[c] / k - mean * mean).max(0.0) / (k - 1.0);
-            floor += variance_of_mean / (mean * mean + common::golden::REL_MSE_EPSILON);
+            floor += variance_of_mean / (mean * mean + ispm::metrics::REL_MSE_EPSILON);
             image.push(mean as f32);
         }
         image.push(1.0);

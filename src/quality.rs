@@ -1,0 +1,191 @@
+//! Quality presets (`--quality draft|interactive|high|reference` of `render`, `view` and
+//! `bench`): each sets the knobs `ispm sweep` varies to one point of the measured error–time
+//! Pareto fronts of the bundled scenes (docs/accuracy.md §5, which records the fronts and the
+//! points chosen). A flag given explicitly (`--photons`, `--bounces`, `--radius`,
+//! `--subsample`, `--upsample`) overrides the preset's value for that knob; without
+//! `--quality` the defaults are the flags' own.
+//!
+//! The radius is a scale of the scene-relative kernel (`KernelSettings::scene_relative`), as
+//! the sweep's `radius` knob, so a preset means the same on a scene of any size.
+
+use crate::passes::upsample::Upsample;
+use crate::photon::kernel::KernelSettings;
+use crate::scene::Aabb;
+
+/// A point on the measured fronts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Quality {
+    /// The fastest point of the front: 10k photons, 4× subsampled.
+    Draft,
+    /// 40k photons, twice the default kernel, 4× subsampled.
+    Interactive,
+    /// 160k photons, twice the default kernel, 2× subsampled.
+    High,
+    /// The most accurate point the sweep measured: 160k photons, full resolution.
+    Reference,
+}
+
+/// The knobs a preset sets.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Preset {
+    pub photons: usize,
+    pub bounces: u32,
+    /// Multiple of the scene-relative kernel `r_max`.
+    pub radius_scale: f32,
+    pub subsample: u32,
+    pub upsample: Upsample,
+}
+
+impl Quality {
+    /// The preset's knobs: points of the front of the four bundled scenes' sweeps taken
+    /// together (docs/accuracy.md §5.3: geometric means over the scenes of the frame time and
+    /// of the relMSE over each scene's best, 160×120, lavapipe). Bounces stay 8: fewer bounces
+    /// measured worse and not measurably faster.
+    pub fn preset(self) -> Preset {
+        let (photons, radius_scale, subsample) = match self {
+            // The fastest point of the front (61.9 ms, 1.97× the best error).
+            Quality::Draft => (10_000, 1.0, 4),
+            // 276.7 ms, 1.43×.
+            Quality::Interactive => (40_000, 2.0, 4),
+            // 966.2 ms, 1.21×.
+            Quality::High => (160_000, 2.0, 2),
+            // The most accurate point measured: 1319.4 ms, 1.16×.
+            Quality::Reference => (160_000, 2.0, 1),
+        };
+        Preset {
+            photons,
+            bounces: DEFAULT_BOUNCES,
+            radius_scale,
+            subsample,
+            upsample: Upsample::Joint,
+        }
+    }
+}
+
+/// The knobs as a command resolves them: explicit flags, else the preset, else the defaults.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Knobs {
+    pub photons: usize,
+    pub bounces: u32,
+    /// Kernel `r_max` in metres (`None`: scene-relative default).
+    pub radius: Option<f32>,
+    pub subsample: u32,
+    pub upsample: Upsample,
+}
+
+/// The flags a user may give (each `None` when not given).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Explicit {
+    pub photons: Option<usize>,
+    pub bounces: Option<u32>,
+    pub radius: Option<f32>,
+    pub subsample: Option<u32>,
+    pub upsample: Option<Upsample>,
+}
+
+/// The flags' own defaults (no `--quality`).
+pub const DEFAULT_PHOTONS: usize = 100_000;
+pub const DEFAULT_BOUNCES: u32 = 8;
+
+/// Resolves the knobs for a scene with `bounds` (module docs).
+pub fn resolve(quality: Option<Quality>, explicit: Explicit, bounds: &Aabb) -> Knobs {
+    let preset = quality.map(Quality::preset);
+    let photons = explicit
+        .photons
+        .or(preset.map(|p| p.photons))
+        .unwrap_or(DEFAULT_PHOTONS);
+    let radius = explicit.radius.or_else(|| {
+        preset.map(|p| p.radius_scale * KernelSettings::scene_relative(bounds, photons, None).r_max)
+    });
+    Knobs {
+        photons,
+        bounces: explicit
+            .bounces
+            .or(preset.map(|p| p.bounces))
+            .unwrap_or(DEFAULT_BOUNCES),
+        radius,
+        subsample: explicit
+            .subsample
+            .or(preset.map(|p| p.subsample))
+            .unwrap_or(1),
+        upsample: explicit
+            .upsample
+            .or(preset.map(|p| p.upsample))
+            .unwrap_or_default(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    fn unit_box() -> Aabb {
+        Aabb {
+            min: Vec3::ZERO,
+            max: Vec3::ONE,
+        }
+    }
+
+    #[test]
+    fn presets_are_ordered_by_cost() {
+        let order = [
+            Quality::Draft,
+            Quality::Interactive,
+            Quality::High,
+            Quality::Reference,
+        ]
+        .map(Quality::preset);
+        for w in order.windows(2) {
+            assert!(w[0].photons <= w[1].photons, "{w:?}");
+            assert!(w[0].subsample >= w[1].subsample, "{w:?}");
+            assert!(w[0].bounces <= w[1].bounces, "{w:?}");
+            assert!(w[0] != w[1], "two presets are the same point: {w:?}");
+        }
+    }
+
+    #[test]
+    fn explicit_flags_override_the_preset_and_the_rest_come_from_it() {
+        let bounds = unit_box();
+        let knobs = resolve(
+            Some(Quality::Draft),
+            Explicit {
+                photons: Some(1234),
+                subsample: Some(1),
+                ..Default::default()
+            },
+            &bounds,
+        );
+        let draft = Quality::Draft.preset();
+        assert_eq!(knobs.photons, 1234);
+        assert_eq!(knobs.subsample, 1);
+        assert_eq!(knobs.bounces, draft.bounces);
+        let r = KernelSettings::scene_relative(&bounds, 1234, None).r_max;
+        assert_eq!(knobs.radius, Some(draft.radius_scale * r));
+        let explicit_radius = resolve(
+            Some(Quality::Draft),
+            Explicit {
+                radius: Some(0.05),
+                ..Default::default()
+            },
+            &bounds,
+        );
+        assert_eq!(explicit_radius.radius, Some(0.05));
+    }
+
+    #[test]
+    fn no_quality_keeps_the_flags_defaults() {
+        let knobs = resolve(None, Explicit::default(), &unit_box());
+        assert_eq!(
+            knobs,
+            Knobs {
+                photons: DEFAULT_PHOTONS,
+                bounces: DEFAULT_BOUNCES,
+                radius: None,
+                subsample: 1,
+                upsample: Upsample::Joint,
+            }
+        );
+    }
+}
