@@ -707,9 +707,20 @@ impl BouncePlan {
     /// hit point its texel ray and depth describe (in world space), and pushed along its
     /// direction by the hit point's error bound.
     pub fn photon_starts(&self, bounce_map: &[BounceMapPhoton]) -> Vec<PhotonState> {
+        self.starts(bounce_map, self.origin)
+    }
+
+    /// [`Self::photon_starts`] relative to the plan's origin (the renderer's CPU trace, whose
+    /// BVH is built relative to it: `photon_frame.rs`).
+    pub fn photon_starts_from_origin(&self, bounce_map: &[BounceMapPhoton]) -> Vec<PhotonState> {
+        self.starts(bounce_map, DVec3::ZERO)
+    }
+
+    /// The photon starts, placed in the frame whose origin is `origin` in the plan's.
+    fn starts(&self, bounce_map: &[BounceMapPhoton], origin: DVec3) -> Vec<PhotonState> {
         // The error of a hit point: 10⁻⁴ of its depth and origin-relative size (the light
-        // G-buffer's interpolated position and f32 depth, generously), plus 4ε of its world
-        // coordinates (their rounding to f32, and the world-space triangles': a few ulps).
+        // G-buffer's interpolated position and f32 depth, generously), plus 4ε of its
+        // coordinates (their rounding to f32, and the triangles': a few ulps).
         // Scale and position case: no absolute term, so a millimetre scene is not left 0.1 mm
         // off its surfaces, and a scene 10⁵ m from the origin not 10 m (which had every photon
         // leave a 2 m box).
@@ -739,7 +750,7 @@ impl BouncePlan {
                     let near = unproject(&inverse, ndc, 0.0);
                     let dir = (unproject(&inverse, ndc, 1.0) - near).normalize();
                     let relative = near + dir * f64::from(p.depth);
-                    let hit = relative + self.origin;
+                    let hit = relative + origin;
                     // The path is keyed by its texel, as the bounce map's own generator is, not
                     // by where it starts.
                     let key = hash2(self.texel_key(v, x, y), CPU_PATH_STREAM);

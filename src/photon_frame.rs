@@ -2,8 +2,9 @@
 //! upload → photon volumes (→ upsample at `--subsample N > 1`) → composite. Owns the buffers
 //! and passes those steps use; `frame.rs` calls its three steps in order.
 //!
-//! The photon map does not depend on the camera: light G-buffers, bounce map and photon
-//! positions are relative to the scene's centre (`BouncePlan::origin`), and the photon volumes
+//! The photon map does not depend on the camera: light G-buffers, bounce map, the CPU trace (its
+//! BVH built from the instances moved by −centre in f64) and photon positions are relative to
+//! the scene's centre (`BouncePlan::origin`), and the photon volumes
 //! add `origin − eye` (f64, rounded once to f32) to each position when they are drawn, so a
 //! camera move ([`PhotonFrame::set_view`]) changes push constants, not photons:
 //!
@@ -90,6 +91,22 @@ pub struct PhotonTargets<'a> {
     pub frame: &'a Buffer,
     pub gbuffer: &'a GBuffer,
     pub radiance: &'a Image,
+}
+
+/// `transform` followed by a move of `-origin`, composed in f64.
+fn relative_to(origin: glam::DVec3, transform: glam::Mat4) -> glam::Mat4 {
+    let mut m = transform.as_dmat4();
+    m.w_axis -= origin.extend(0.0);
+    m.as_mat4()
+}
+
+/// `scene` with every instance moved by `-origin` (what the CPU trace's BVH is built from).
+fn relative_scene(scene: &Scene, origin: glam::DVec3) -> Scene {
+    let mut relative = scene.clone();
+    for instance in &mut relative.instances {
+        instance.transform = relative_to(origin, instance.transform);
+    }
+    relative
 }
 
 pub fn subsample_factor(settings: &RenderSettings) -> u32 {
@@ -241,8 +258,13 @@ impl PhotonFrame {
             gpu: gpu.clone(),
             scene: scene.clone(),
             // The instances the scene animates get a BVH level of their own, moved by transform
-            // (`move_instances`); the static geometry's is built here, once.
-            bvh: SceneBvh::with_moving_instances(scene, &effects.motion.instances),
+            // (`move_instances`); the static geometry's is built here, once. Relative to the
+            // origin, as the photons are traced (position case: f32 world coordinates are 8 mm
+            // apart 10⁵ m from the origin).
+            bvh: SceneBvh::with_moving_instances(
+                &relative_scene(scene, origin),
+                &effects.motion.instances,
+            ),
             trace: TraceSettings {
                 max_bounces: effects.max_bounces,
                 seed: settings.seed,
@@ -352,7 +374,8 @@ impl PhotonFrame {
             return Err(e);
         }
         for &(i, m) in moved {
-            self.bvh.set_instance_transform(i, m);
+            self.bvh
+                .set_instance_transform(i, relative_to(self.plan.origin, m));
         }
         self.bvh.update();
         Ok(())
@@ -435,23 +458,17 @@ impl PhotonFrame {
         let records = plan.texels * size_of::<BounceMapPhoton>();
         let bounce_map: Vec<BounceMapPhoton> = bytemuck::pod_collect_to_vec(&bytes[..records]);
         let trace_span = timing::span("cpu_trace");
-        let starts = plan.photon_starts(&bounce_map);
+        // Traced relative to the origin (the BVH is), so the photons come out relative.
+        let starts = plan.photon_starts_from_origin(&bounce_map);
         let map = trace_photons(&self.scene, &self.bvh, &starts, &self.trace);
         stats.cpu_trace_ms = trace_span.finish();
         stats.bounce_map_photons = starts.len();
         stats.stored_photons = map.photons.len();
         stats.attrition = map.attrition;
 
-        // Origin-relative positions, subtracted in f64 (see DESIGN: precision far from the
-        // world's origin); the photon volumes add the eye's offset (module docs).
-        let relative: Vec<Photon> = map
-            .photons
-            .iter()
-            .map(|p| Photon {
-                position: (p.position.as_dvec3() - plan.origin).as_vec3(),
-                ..*p
-            })
-            .collect();
+        // Origin-relative positions (see DESIGN: precision far from the world's origin); the
+        // photon volumes add the eye's offset (module docs).
+        let relative = map.photons;
         if relative.len() * size_of::<Photon>() > self.photons.size as usize {
             // The old buffers go to the graveyard, destroyed once the frames using them finish.
             let (staging, photons) = photon_buffers(&self.gpu, relative.len().next_power_of_two())?;

@@ -26,10 +26,10 @@ const DIRECT_TOLERANCE: f64 = 0.01;
 /// Indirect light over 8×8-pixel tiles, Σ|Δ|/Σ, and its mean's ratio: the same photons, so
 /// only rounding differs (seed to seed the tiles differ by about 0.07).
 const INDIRECT_TOLERANCE: (f64, f64) = (0.01, 0.01);
-/// The same, 10⁵ m from the origin, where the CPU photon trace still works in f32 world
-/// coordinates (8 mm apart there): paths that bounce often, through the glass ball most,
-/// lose light (measured: tiles 0.081, mean ratio 0.92; docs/stability.md).
-const MOVED_INDIRECT_TOLERANCE: (f64, f64) = (0.15, 0.12);
+/// The same, 10⁵ m from the origin: the file's f32 node translations put the geometry on a grid
+/// 8 mm apart there (the renderer traces and draws relative to the scene's centre, so that is
+/// all that differs; measured: tiles 0.012, mean ratio 0.998).
+const MOVED_INDIRECT_TOLERANCE: (f64, f64) = (0.03, 0.01);
 
 /// The direct image (`--method direct`: shadow-mapped light and the glass, deterministic) and
 /// the indirect image averaged over [`SEEDS`] seeds.
