@@ -82,6 +82,8 @@ pub struct ConfigResult {
     /// The lights whose photons the last measured frame traced, and those it kept.
     pub lights_retraced: Vec<usize>,
     pub lights_reused: Vec<ReusedLight>,
+    /// The last measured frame's count of bad values (`--check-values` only).
+    pub value_check: Option<crate::frame::ValueCheck>,
 }
 
 /// The whole benchmark.
@@ -203,6 +205,7 @@ fn result(config: &Config) -> ConfigResult {
         variants_skipped: config.last_stats.variants_skipped.clone(),
         lights_retraced: config.last_stats.lights_retraced.clone(),
         lights_reused: config.last_stats.lights_reused.clone(),
+        value_check: config.last_stats.value_check.clone(),
     }
 }
 
@@ -367,6 +370,19 @@ impl BenchReport {
             "overlap = frame ÷ max(CPU, GPU) = {:.3}; serial ÷ overlapped = {:.3}\n",
             self.overlap, self.speedup
         );
+        let configs = [&self.overlapped, &self.serial, &self.direct_only]
+            .into_iter()
+            .chain(&self.planned);
+        for c in configs {
+            if let Some(check) = &c.value_check {
+                let values: u64 = check.per_buffer.iter().map(|b| b.values).sum();
+                out += &format!(
+                    "value check ({}): {} bad of {values} values in the last frame\n",
+                    c.name,
+                    check.total_bad()
+                );
+            }
+        }
         if let (Some(planned), Some(speedup)) = (&self.planned, self.effects_speedup) {
             out += &format!(
                 "\neffects: planned {:.2} ms against all {:.2} ms (overlapped); all ÷ planned = \

@@ -3,8 +3,9 @@
 //! and passes those steps use; `frame.rs` calls its three steps in order. The first four run
 //! for the lights whose photons changed only; the others' are kept (`retrace.rs`).
 //!
-//! The photon map does not depend on the camera: light G-buffers, bounce map and photon
-//! positions are relative to the scene's centre (`BouncePlan::origin`), and the photon volumes
+//! The photon map does not depend on the camera: light G-buffers, bounce map, the CPU trace (its
+//! BVH built from the instances moved by −centre in f64) and photon positions are relative to
+//! the scene's centre (`BouncePlan::origin`), and the photon volumes
 //! add `origin − eye` (f64, rounded once to f32) to each position when they are drawn, so a
 //! camera move ([`PhotonFrame::set_view`]) changes push constants, not photons:
 //!
@@ -24,6 +25,7 @@ use crate::passes::eye_gbuffer::GBuffer;
 use crate::passes::light_gbuffer::LightGBufferPass;
 use crate::passes::photon_volumes::{self, PhotonVolumeInputs, PhotonVolumesPass};
 use crate::passes::upsample::{self, UpsampleInputs, UpsamplePass};
+use crate::passes::value_check::{Checked, Records, ValueCheckPass};
 use crate::photon::bvh::SceneBvh;
 use crate::photon::kernel::KernelSettings;
 use crate::photon::trace::TraceSettings;
@@ -103,6 +105,22 @@ pub struct PhotonTargets<'a> {
     pub frame: &'a Buffer,
     pub gbuffer: &'a GBuffer,
     pub radiance: &'a Image,
+}
+
+/// `transform` followed by a move of `-origin`, composed in f64.
+fn relative_to(origin: glam::DVec3, transform: glam::Mat4) -> glam::Mat4 {
+    let mut m = transform.as_dmat4();
+    m.w_axis -= origin.extend(0.0);
+    m.as_mat4()
+}
+
+/// `scene` with every instance moved by `-origin` (what the CPU trace's BVH is built from).
+fn relative_scene(scene: &Scene, origin: glam::DVec3) -> Scene {
+    let mut relative = scene.clone();
+    for instance in &mut relative.instances {
+        instance.transform = relative_to(origin, instance.transform);
+    }
+    relative
 }
 
 pub fn subsample_factor(settings: &RenderSettings) -> u32 {
@@ -190,11 +208,14 @@ impl PhotonFrame {
             vk::BufferUsageFlags::STORAGE_BUFFER,
         )?;
         let bounce_bytes = (texels * size_of::<BounceMapPhoton>()) as u64;
+        // TRANSFER_DST: the value check's test seam writes into it (`passes/value_check.rs`).
         let bounce_map = Buffer::new(
             gpu,
             "bounce_map",
             bounce_bytes,
-            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_SRC
+                | vk::BufferUsageFlags::TRANSFER_DST,
             MemoryLocation::GpuOnly,
         )?;
         let readback = Buffer::new(
@@ -257,8 +278,13 @@ impl PhotonFrame {
             gpu: gpu.clone(),
             scene: scene.clone(),
             // The instances the scene animates get a BVH level of their own, moved by transform
-            // (`move_instances`); the static geometry's is built here, once.
-            bvh: SceneBvh::with_moving_instances(scene, &effects.motion.instances),
+            // (`move_instances`); the static geometry's is built here, once. Relative to the
+            // origin, as the photons are traced (position case: f32 world coordinates are 8 mm
+            // apart 10⁵ m from the origin).
+            bvh: SceneBvh::with_moving_instances(
+                &relative_scene(scene, origin),
+                &effects.motion.instances,
+            ),
             trace: TraceSettings {
                 max_bounces: effects.max_bounces,
                 seed: settings.seed,
@@ -372,7 +398,8 @@ impl PhotonFrame {
             return Err(e);
         }
         for &(i, m) in moved {
-            self.bvh.set_instance_transform(i, m);
+            self.bvh
+                .set_instance_transform(i, relative_to(self.plan.origin, m));
         }
         self.bvh.update();
         // Every light's photons depend on the geometry.
@@ -564,13 +591,16 @@ impl PhotonFrame {
     /// `--subsample N > 1`), then radiance += indirect. Takes the photon buffer over from the
     /// transfer queue after an upload (a no-op in a frame that reuses the photon map) and keeps
     /// it until the next [`Self::record_emission`]. Without `composite` (the direct-only debug
-    /// view) the estimate is made but not added.
+    /// view) the estimate is made but not added. With `check` (`--check-values`), the bounce
+    /// map and photon map are checked before the photon volumes draw, the low-resolution
+    /// targets before the upsample reads them, the indirect image before the composite
+    /// (`passes/value_check.rs`).
     pub fn record_estimate(
         &mut self,
         cmd: &Cmd,
         (frame, materials, gbuffer): (&Buffer, &Buffer, &GBuffer),
         radiance: &mut Image,
-        composite: bool,
+        (composite, mut check): (bool, Option<&mut ValueCheckPass>),
     ) {
         if self.count > 0 {
             cmd.acquire_buffer(
@@ -587,6 +617,9 @@ impl PhotonFrame {
                 QueueRole::Transfer,
                 Access::ComputeStorageWrite,
             );
+        }
+        if let Some(check) = check.as_deref_mut() {
+            self.check_photon_records(cmd, check);
         }
         let inputs = PhotonVolumeInputs {
             frame,
@@ -608,6 +641,10 @@ impl PhotonFrame {
             ),
             Some(sub) => {
                 self.photon_pass.record(cmd, &inputs, volumes, &mut sub.low);
+                if let Some(check) = check.as_deref_mut() {
+                    check.image(cmd, Checked::IndirectLowIrradiance, &sub.low[0]);
+                    check.image(cmd, Checked::IndirectLowGlossy, &sub.low[1]);
+                }
                 let inputs = UpsampleInputs {
                     materials,
                     gbuffer,
@@ -616,9 +653,32 @@ impl PhotonFrame {
                 sub.upsample.record(cmd, &inputs, &mut self.indirect);
             }
         }
+        if let Some(check) = check {
+            check.image(cmd, Checked::Indirect, &self.indirect);
+        }
         if composite {
             self.composite.record(cmd, &self.indirect, radiance);
         }
+    }
+
+    /// The value check of the bounce map (the records the plan's texels filled, once it is
+    /// back on this queue) and of the photon map (the photons drawn).
+    fn check_photon_records(&self, cmd: &Cmd, check: &mut ValueCheckPass) {
+        const FLOAT: usize = size_of::<f32>();
+        if self.plan.texels > 0 {
+            let records = Records {
+                count: self.plan.texels as u32,
+                stride: (size_of::<BounceMapPhoton>() / FLOAT) as u32,
+                power_offset: (std::mem::offset_of!(BounceMapPhoton, power) / FLOAT) as u32,
+            };
+            check.records(cmd, Checked::BounceMap, &self.bounce_map, records);
+        }
+        let records = Records {
+            count: self.count,
+            stride: (size_of::<Photon>() / FLOAT) as u32,
+            power_offset: (std::mem::offset_of!(Photon, power) / FLOAT) as u32,
+        };
+        check.records(cmd, Checked::PhotonMap, &self.photons, records);
     }
 
     /// What the debug views read of the photon part of the frame (`passes/debug_view.rs`).

@@ -72,6 +72,11 @@ pub fn frame_json(
         "lights_retraced": s.lights_retraced,
         "lights_reused": s.lights_reused,
         "traced_bounce_map_photons": s.traced_bounce_map_photons,
+        // `--check-values`: per buffer, the NaN/±Inf and negative values counted on the GPU.
+        "value_check": s.value_check.as_ref().map(|c| json!({
+            "per_buffer": c.per_buffer,
+            "total_bad": c.total_bad(),
+        })),
         "validation_messages": validation_messages,
     })
 }

@@ -61,7 +61,7 @@ struct BounceView {
                          // of texel (0, 0) (the parent view's plane, for caustic views)
     uvec4 texels;        // x: width; y: height; z: first bounce-map index; w: light seed
     uvec4 kind;          // x: light kind (LIGHT_*); y: role (BOUNCE_VIEW_*); z: parent view
-                         // (caustic views); w: unused
+                         // (caustic views); w: which of the light's views (random-number key)
 };
 
 // Per-draw push constants of the raster passes (128 bytes: the guaranteed minimum).
@@ -71,6 +71,14 @@ struct DrawPush {
     vec4 normal1;     // w of the three: the instance's bounding-sphere centre relative to the
     vec4 normal2;     // origin the draws were made for (the camera)
     uvec4 material;   // x: material index; y: bounding-sphere radius (float bits)
+};
+
+// What one value check counted in one buffer (storage buffer, std430; src/passes/value_check.rs).
+struct ValueCounters {
+    uint non_finite;  // NaN or +-Inf
+    uint negative;    // finite and below zero (not -0.0), where a negative value is wrong
+    uint values;      // values read
+    uint unused;
 };
 
 const uint MATERIAL_FRESNEL = 1u;

@@ -52,7 +52,8 @@ struct Push {
     count: u32,
     subsample: u32,
     footprint: f32,
-    _pad: [f32; 3],
+    footprint_max: f32,
+    _pad: [f32; 2],
     /// Added to every stored photon position to make it eye-relative (xyz; w unused): the
     /// photon map's origin minus the eye (`photon_frame.rs`).
     offset: [f32; 4],
@@ -71,9 +72,11 @@ pub fn target(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<Image> 
             width,
             height,
             layers: 1,
+            // TRANSFER_DST: the value check's test seam (`value_check.rs`).
             usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
                 | vk::ImageUsageFlags::SAMPLED
-                | vk::ImageUsageFlags::TRANSFER_SRC,
+                | vk::ImageUsageFlags::TRANSFER_SRC
+                | vk::ImageUsageFlags::TRANSFER_DST,
             view: ViewKind::D2,
         },
     )?)
@@ -90,7 +93,10 @@ pub fn low_targets(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<[I
                 width,
                 height,
                 layers: 1,
-                usage: vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
+                // TRANSFER_DST: the value check's test seam (`value_check.rs`).
+                usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
+                    | vk::ImageUsageFlags::SAMPLED
+                    | vk::ImageUsageFlags::TRANSFER_DST,
                 view: ViewKind::D2,
             },
         )
@@ -276,7 +282,8 @@ impl PhotonVolumesPass {
                     count,
                     subsample: self.subsample,
                     footprint: kernel.footprint,
-                    _pad: [0.0; 3],
+                    footprint_max: kernel.footprint_max,
+                    _pad: [0.0; 2],
                     offset: offset.extend(0.0).to_array(),
                 },
             );

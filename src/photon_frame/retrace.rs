@@ -132,18 +132,11 @@ impl Traced {
                 continue;
             }
             bounce_map[texels.clone()].copy_from_slice(&frame.fresh[texels]);
-            let starts = plan.photon_starts_in(&bounce_map, views);
+            let starts = plan.photon_starts_from_origin(&bounce_map, views);
             let map = trace_photons(frame.scene, frame.bvh, &starts, frame.trace);
-            // Origin-relative positions, subtracted in f64 (see DESIGN: precision far from the
-            // world's origin); the photon volumes add the eye's offset (`photon_frame.rs`).
-            let photons = map
-                .photons
-                .iter()
-                .map(|p| Photon {
-                    position: (p.position.as_dvec3() - plan.origin).as_vec3(),
-                    ..*p
-                })
-                .collect();
+            // Traced relative to the origin (the BVH is), so the photons come out relative;
+            // the photon volumes add the eye's offset (`photon_frame.rs`).
+            let photons = map.photons;
             stats.lights_retraced.push(light);
             stats.traced_bounce_map_photons += starts.len();
             lights.push(LightPhotons {

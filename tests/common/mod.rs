@@ -5,6 +5,7 @@
 pub mod animated;
 pub mod cli;
 pub mod golden;
+pub mod hard;
 
 use ispm::frame::{Method, RenderSettings};
 use ispm::gpu::{Gpu, GpuOptions};
