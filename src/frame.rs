@@ -113,6 +113,10 @@ pub struct RenderSettings {
     /// Smallest share of each light's photons spent on its caustic views, the windows around
     /// the mirrors and glass it lights (`ispm::CAUSTIC_SHARE`; 0: no caustic views).
     pub caustic_share: f32,
+    /// Most photons one photon buffer holds (`None`: as many as one storage-buffer descriptor
+    /// reaches, the device's `maxStorageBufferRange`); a larger photon map is split over
+    /// several buffers and draws. Tests lower it to exercise the split at small sizes.
+    pub photons_per_buffer: Option<usize>,
 }
 
 impl Default for RenderSettings {
@@ -133,6 +137,7 @@ impl Default for RenderSettings {
             effects: Effects::Auto,
             bsdf_variant: BsdfVariant::ALL,
             caustic_share: crate::ispm::CAUSTIC_SHARE,
+            photons_per_buffer: None,
         }
     }
 }
@@ -178,6 +183,9 @@ pub struct FrameStats {
     pub light_plan: Vec<crate::plan::LightPlan>,
     /// The subsample factor the frame used (after clamping to the image size).
     pub subsample: u32,
+    /// Photon buffers the photon map was split over (0 without photons; more than 1 past
+    /// `RenderSettings::photons_per_buffer`).
+    pub photon_buffers: usize,
 }
 
 /// A pass a frame did not run, and why.
@@ -754,7 +762,7 @@ impl Renderer {
         // Box D (graphics): photon volumes, upsampling, composite, glass, tonemap.
         self.prepare_debug_view()?;
         let d = gpu.record(QueueRole::Graphics, "box D", Some(timestamps.clone()))?;
-        self.record_estimate_and_finish(&d.cmd(), &frame);
+        self.record_estimate_and_finish(&d.cmd(), &frame)?;
         // The upload (which itself follows the readback); the readback too, for frames whose
         // trace stored nothing: box D takes the bounce map back from the transfer queue.
         let waits: Vec<Wait> = upload_done
@@ -975,7 +983,7 @@ impl Renderer {
     }
 
     /// Box D: photon volumes (+ upsampling and composite), glass and mirrors, tonemapping.
-    fn record_estimate_and_finish(&mut self, cmd: &Cmd, frame: &FrameSetup) {
+    fn record_estimate_and_finish(&mut self, cmd: &Cmd, frame: &FrameSetup) -> anyhow::Result<()> {
         let composite = !matches!(self.debug_view, Some((DebugView::DirectOnly, _)));
         if let Some(photons) = &mut self.photons {
             photons.record_estimate(
@@ -983,7 +991,7 @@ impl Renderer {
                 (&self.frame_uniforms, &self.scene.materials, &self.gbuffer),
                 &mut self.radiance,
                 composite,
-            );
+            )?;
         }
         if let Some(translucent) = &mut self.translucent {
             translucent.record(
@@ -1012,6 +1020,7 @@ impl Renderer {
             };
             pass.record(cmd, &inputs, &mut self.display);
         }
+        Ok(())
     }
 
     /// What the debug views read.

@@ -54,9 +54,9 @@ pub struct PhotonFrame {
     bounce_map: Buffer,
     readback: Buffer,
     bounce_pass: BounceMapPass,
-    staging: Buffer,
-    photons: Buffer,
-    count: u32,
+    /// The photon map: staging and device buffers of at most `per_buffer` photons each, and
+    /// the photons in each ([`PhotonBuffers`]).
+    buffers: PhotonBuffers,
     rebind: bool,
     /// The photon buffer was last used by the graphics queue (the photon volumes), which must
     /// hand it to the transfer queue before the next upload.
@@ -97,23 +97,94 @@ pub fn subsample_factor(settings: &RenderSettings) -> u32 {
         .clamp(1, settings.width.max(settings.height).max(1))
 }
 
-fn photon_buffers(gpu: &Arc<Gpu>, capacity: usize) -> anyhow::Result<(Buffer, Buffer)> {
-    let bytes = (capacity.max(1) * size_of::<Photon>()) as u64;
-    let staging = Buffer::new(
-        gpu,
-        "photon_map.staging",
-        bytes,
-        vk::BufferUsageFlags::TRANSFER_SRC,
-        MemoryLocation::CpuToGpu,
-    )?;
-    let device = Buffer::new(
-        gpu,
-        "photon_map",
-        bytes,
-        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
-        MemoryLocation::GpuOnly,
-    )?;
-    Ok((staging, device))
+/// The photon map on the GPU, split over buffers of at most `per_buffer` photons (hard case
+/// "more photons than fit in one buffer": a storage buffer is read through one descriptor,
+/// which reaches `maxStorageBufferRange` bytes at most).
+struct PhotonBuffers {
+    staging: Vec<Buffer>,
+    device: Vec<Buffer>,
+    /// Photons in each buffer this frame (0 for the buffers past the photon map's end).
+    counts: Vec<u32>,
+    /// Photons each buffer holds.
+    capacity: usize,
+    per_buffer: usize,
+}
+
+impl PhotonBuffers {
+    /// Buffers for `photons` photons, each holding `capacity` (≤ `per_buffer`).
+    fn new(
+        gpu: &Arc<Gpu>,
+        photons: usize,
+        capacity: usize,
+        per_buffer: usize,
+    ) -> anyhow::Result<Self> {
+        let capacity = capacity.clamp(1, per_buffer);
+        let buffers = photons.div_ceil(capacity).max(1);
+        anyhow::ensure!(
+            buffers <= photon_volumes::MAX_PHOTON_BUFFERS,
+            "{photons} photons need {buffers} photon buffers of {capacity}, more than the {} \
+             the photon volumes draw from",
+            photon_volumes::MAX_PHOTON_BUFFERS
+        );
+        let bytes = (capacity * size_of::<Photon>()) as u64;
+        let (mut staging, mut device) = (Vec::new(), Vec::new());
+        for i in 0..buffers {
+            staging.push(Buffer::new(
+                gpu,
+                &format!("photon_map[{i}].staging"),
+                bytes,
+                vk::BufferUsageFlags::TRANSFER_SRC,
+                MemoryLocation::CpuToGpu,
+            )?);
+            device.push(Buffer::new(
+                gpu,
+                &format!("photon_map[{i}]"),
+                bytes,
+                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+                MemoryLocation::GpuOnly,
+            )?);
+        }
+        Ok(Self {
+            staging,
+            device,
+            counts: vec![0; buffers],
+            capacity,
+            per_buffer,
+        })
+    }
+
+    fn holds(&self, photons: usize) -> bool {
+        photons <= self.capacity * self.device.len()
+    }
+
+    /// Writes `photons` into the staging buffers, `capacity` a buffer.
+    fn write(&mut self, photons: &[Photon]) -> anyhow::Result<()> {
+        self.counts.fill(0);
+        for (i, chunk) in photons.chunks(self.capacity).enumerate() {
+            self.staging[i].write(0, bytemuck::cast_slice(chunk))?;
+            self.counts[i] = chunk.len() as u32;
+        }
+        Ok(())
+    }
+
+    /// The buffers with photons this frame.
+    fn used(&self) -> impl Iterator<Item = (&Buffer, &Buffer)> {
+        self.staging
+            .iter()
+            .zip(&self.device)
+            .zip(&self.counts)
+            .filter(|(_, &n)| n > 0)
+            .map(|(pair, _)| pair)
+    }
+}
+
+/// The most photons one photon buffer holds: what one storage-buffer descriptor reaches on the
+/// device, or fewer where `RenderSettings::photons_per_buffer` says so.
+fn photons_per_buffer(gpu: &Gpu, settings: &RenderSettings) -> usize {
+    let device = (gpu.properties.max_storage_buffer_range as usize / size_of::<Photon>()).max(1);
+    settings
+        .photons_per_buffer
+        .map_or(device, |n| n.clamp(1, device))
 }
 
 impl PhotonFrame {
@@ -176,6 +247,15 @@ impl PhotonFrame {
             vk::BufferUsageFlags::STORAGE_BUFFER,
         )?;
         let bounce_bytes = (texels * size_of::<BounceMapPhoton>()) as u64;
+        // Hard case "more photons than fit in one buffer": the bounce map is one storage
+        // buffer, read through one descriptor; past its reach, a clear error, not a device fault.
+        let reach = u64::from(gpu.properties.max_storage_buffer_range);
+        anyhow::ensure!(
+            bounce_bytes <= reach,
+            "{} photons need a bounce map of {texels} texels ({bounce_bytes} bytes), more than \
+             one storage buffer reaches on this device ({reach} bytes): ask for fewer photons",
+            settings.photons
+        );
         let bounce_map = Buffer::new(
             gpu,
             "bounce_map",
@@ -200,13 +280,13 @@ impl PhotonFrame {
             },
             settings.bsdf_variant,
         )?;
-        let (staging, photons) = photon_buffers(gpu, 1)?;
+        let buffers = PhotonBuffers::new(gpu, 1, 1, photons_per_buffer(gpu, settings))?;
         let subsample = subsample_factor(settings);
         let photon_pass = PhotonVolumesPass::new(
             gpu,
             &PhotonVolumeInputs {
                 frame,
-                photons: &photons,
+                photons: &buffers.device,
                 materials: &gpu_scene.materials,
                 gbuffer,
             },
@@ -258,9 +338,7 @@ impl PhotonFrame {
             bounce_map,
             readback,
             bounce_pass,
-            staging,
-            photons,
-            count: 0,
+            buffers,
             rebind: false,
             photons_on_graphics: false,
             photon_pass,
@@ -368,11 +446,13 @@ impl PhotonFrame {
         if plan.texels == 0 {
             // No photons this frame (the lights went dark): nothing to upload or draw, so the
             // photon buffer's hand-offs stay paired.
-            self.count = 0;
+            self.buffers.counts.fill(0);
             return;
         }
         if self.photons_on_graphics {
-            cmd.release_buffer(&self.photons, QueueRole::Transfer);
+            for (_, photons) in self.buffers.used() {
+                cmd.release_buffer(photons, QueueRole::Transfer);
+            }
             self.photons_on_graphics = false;
         }
         self.light_pass.update(cmd, &plan.uniforms);
@@ -424,7 +504,7 @@ impl PhotonFrame {
             ..Default::default()
         };
         if plan.texels == 0 {
-            self.count = 0;
+            self.buffers.counts.fill(0);
             return Ok(stats);
         }
         let bytes = self.readback.read()?;
@@ -448,17 +528,17 @@ impl PhotonFrame {
                 ..*p
             })
             .collect();
-        if relative.len() * size_of::<Photon>() > self.photons.size as usize {
+        if !self.buffers.holds(relative.len()) {
             // The old buffers go to the graveyard, destroyed once the frames using them finish.
-            let (staging, photons) = photon_buffers(&self.gpu, relative.len().next_power_of_two())?;
-            self.staging = staging;
-            self.photons = photons;
+            // The photons that were on the graphics queue were released in `record_emission`
+            // (they have none now: the new buffers start out owned by nobody).
+            let per_buffer = self.buffers.per_buffer;
+            let capacity = relative.len().next_power_of_two();
+            self.buffers = PhotonBuffers::new(&self.gpu, relative.len(), capacity, per_buffer)?;
             self.rebind = true;
         }
-        timing::timed("upload write", || {
-            self.staging.write(0, bytemuck::cast_slice(&relative))
-        })?;
-        self.count = relative.len() as u32;
+        timing::timed("upload write", || self.buffers.write(&relative))?;
+        stats.photon_buffers = self.buffers.counts.iter().filter(|&&n| n > 0).count();
         self.last_bounce_map = bounce_map;
         self.last_photons = relative;
         Ok(stats)
@@ -466,19 +546,26 @@ impl PhotonFrame {
 
     /// Whether [`Self::trace`] left photons to upload and draw.
     pub fn has_photons(&self) -> bool {
-        self.count > 0
+        self.count() > 0
+    }
+
+    /// Photons in the photon map this frame.
+    fn count(&self) -> u32 {
+        self.buffers.counts.iter().sum()
     }
 
     /// The CPU→GPU copy of the photon map (on the transfer queue), handing it to the graphics
     /// queue for [`Self::record_estimate`].
     pub fn record_upload(&self, cmd: &Cmd) {
-        if self.count == 0 {
+        if self.count() == 0 {
             return;
         }
         let _scope = cmd.scope("upload");
-        cmd.acquire_buffer(&self.photons, QueueRole::Graphics, Access::TransferDst);
-        cmd.copy_buffer(&self.staging, &self.photons);
-        cmd.release_buffer(&self.photons, QueueRole::Graphics);
+        for (staging, photons) in self.buffers.used() {
+            cmd.acquire_buffer(photons, QueueRole::Graphics, Access::TransferDst);
+            cmd.copy_buffer(staging, photons);
+            cmd.release_buffer(photons, QueueRole::Graphics);
+        }
     }
 
     /// Photon volumes into the indirect buffer (at 1/N resolution and upsampled, at
@@ -492,13 +579,11 @@ impl PhotonFrame {
         (frame, materials, gbuffer): (&Buffer, &Buffer, &GBuffer),
         radiance: &mut Image,
         composite: bool,
-    ) {
-        if self.count > 0 {
-            cmd.acquire_buffer(
-                &self.photons,
-                QueueRole::Transfer,
-                Access::GraphicsStorageRead,
-            );
+    ) -> anyhow::Result<()> {
+        if self.count() > 0 {
+            for (_, photons) in self.buffers.used() {
+                cmd.acquire_buffer(photons, QueueRole::Transfer, Access::GraphicsStorageRead);
+            }
             self.photons_on_graphics = true;
         }
         if self.plan.texels > 0 {
@@ -511,15 +596,15 @@ impl PhotonFrame {
         }
         let inputs = PhotonVolumeInputs {
             frame,
-            photons: &self.photons,
+            photons: &self.buffers.device,
             materials,
             gbuffer,
         };
         if self.rebind {
-            self.photon_pass.rebind(&inputs);
+            self.photon_pass.rebind(&inputs)?;
             self.rebind = false;
         }
-        let volumes = (self.count, &self.kernel, self.eye_offset());
+        let volumes = (&self.buffers.counts[..], &self.kernel, self.eye_offset());
         match &mut self.subsampled {
             None => self.photon_pass.record(
                 cmd,
@@ -540,6 +625,7 @@ impl PhotonFrame {
         if composite {
             self.composite.record(cmd, &self.indirect, radiance);
         }
+        Ok(())
     }
 
     /// What the debug views read of the photon part of the frame (`passes/debug_view.rs`).
@@ -559,7 +645,7 @@ impl PhotonFrame {
         let photon_peak = self
             .last_photons
             .iter()
-            .take(self.count as usize)
+            .take(self.buffers.counts[0] as usize)
             .map(|p| lum(p.power))
             .fold(0.0, f32::max);
         PhotonSources {
@@ -568,8 +654,9 @@ impl PhotonFrame {
             views: &self.views,
             bounce_map: &self.bounce_map,
             bounce_peak,
-            photons: &self.photons,
-            count: self.count,
+            // The debug views show the first photon buffer's photons.
+            photons: &self.buffers.device[0],
+            count: self.buffers.counts[0],
             photon_peak,
             offset: self.eye_offset(),
             indirect: &self.indirect,

@@ -5,6 +5,7 @@
 pub mod animated;
 pub mod cli;
 pub mod golden;
+pub mod hard;
 
 use ispm::gpu::{Gpu, GpuOptions};
 use std::path::PathBuf;
