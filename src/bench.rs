@@ -79,6 +79,8 @@ pub struct ConfigResult {
     pub passes_skipped: Vec<SkippedPass>,
     /// The über-BSDF lobes compiled out of its shaders and CPU trace, with the reasons.
     pub variants_skipped: Vec<SkippedPass>,
+    /// The last measured frame's count of bad values (`--check-values` only).
+    pub value_check: Option<crate::frame::ValueCheck>,
 }
 
 /// The whole benchmark.
@@ -192,6 +194,7 @@ fn result(config: &Config) -> ConfigResult {
         passes_run: config.last_stats.passes_run.clone(),
         passes_skipped: config.last_stats.passes_skipped.clone(),
         variants_skipped: config.last_stats.variants_skipped.clone(),
+        value_check: config.last_stats.value_check.clone(),
     }
 }
 
@@ -342,6 +345,19 @@ impl BenchReport {
             "overlap = frame ÷ max(CPU, GPU) = {:.3}; serial ÷ overlapped = {:.3}\n",
             self.overlap, self.speedup
         );
+        let configs = [&self.overlapped, &self.serial, &self.direct_only]
+            .into_iter()
+            .chain(&self.planned);
+        for c in configs {
+            if let Some(check) = &c.value_check {
+                let values: u64 = check.per_buffer.iter().map(|b| b.values).sum();
+                out += &format!(
+                    "value check ({}): {} bad of {values} values in the last frame\n",
+                    c.name,
+                    check.total_bad()
+                );
+            }
+        }
         if let (Some(planned), Some(speedup)) = (&self.planned, self.effects_speedup) {
             out += &format!(
                 "\neffects: planned {:.2} ms against all {:.2} ms (overlapped); all ÷ planned = \

@@ -42,6 +42,8 @@ use crate::passes::direct::{DirectInputs, DirectPass};
 use crate::passes::eye_gbuffer::{EyeGBufferPass, GBuffer, View};
 use crate::passes::shadow_map::{self, ShadowMapPass};
 use crate::passes::tonemap::{self, Tonemap, TonemapPass};
+use crate::passes::value_check::ValueCheckPass;
+pub use crate::passes::value_check::{BufferCheck, Checked, ValueCheck};
 use crate::photon::bsdf::BsdfVariant;
 use crate::photon_frame::{PhotonFrame, PhotonTargets};
 use crate::plan::{Effects, EffectsPlan, SceneAnalysis};
@@ -117,6 +119,10 @@ pub struct RenderSettings {
     /// reaches, the device's `maxStorageBufferRange`); a larger photon map is split over
     /// several buffers and draws. Tests lower it to exercise the split at small sizes.
     pub photons_per_buffer: Option<usize>,
+    /// Count the NaN, ±Inf and negative values of the frame's HDR buffers on the GPU
+    /// (`--check-values`, `FrameStats::value_check`; `passes/value_check.rs`). Off: the pass
+    /// is neither made nor recorded.
+    pub check_values: bool,
 }
 
 impl Default for RenderSettings {
@@ -138,6 +144,7 @@ impl Default for RenderSettings {
             bsdf_variant: BsdfVariant::ALL,
             caustic_share: crate::ispm::CAUSTIC_SHARE,
             photons_per_buffer: None,
+            check_values: false,
         }
     }
 }
@@ -186,6 +193,9 @@ pub struct FrameStats {
     /// Photon buffers the photon map was split over (0 without photons; more than 1 past
     /// `RenderSettings::photons_per_buffer`).
     pub photon_buffers: usize,
+    /// The NaN, ±Inf and negative values in the frame's buffers, counted on the GPU
+    /// (`RenderSettings::check_values`; `None` when off).
+    pub value_check: Option<ValueCheck>,
 }
 
 /// A pass a frame did not run, and why.
@@ -233,6 +243,8 @@ pub struct Renderer {
     eye_gbuffer: EyeGBufferPass,
     direct: DirectPass,
     tonemap: TonemapPass,
+    /// `RenderSettings::check_values`: the GPU's count of bad values.
+    value_check: Option<ValueCheckPass>,
     photons: Option<PhotonFrame>,
     /// Glass and mirrors (scenes with delta materials only).
     translucent: Option<TranslucentFrame>,
@@ -378,10 +390,12 @@ impl Renderer {
                 layers: 1,
                 // Written by imageStore (direct, composite), then drawn over by the
                 // translucent pass as a colour attachment.
+                // TRANSFER_DST: the value check's test seam (`passes/value_check.rs`).
                 usage: vk::ImageUsageFlags::STORAGE
                     | vk::ImageUsageFlags::COLOR_ATTACHMENT
                     | vk::ImageUsageFlags::SAMPLED
-                    | vk::ImageUsageFlags::TRANSFER_SRC,
+                    | vk::ImageUsageFlags::TRANSFER_SRC
+                    | vk::ImageUsageFlags::TRANSFER_DST,
                 view: ViewKind::D2,
             },
         )?;
@@ -403,6 +417,11 @@ impl Renderer {
             settings.bsdf_variant,
         )?;
         let tonemap = TonemapPass::new(gpu, &radiance, &display)?;
+        let value_check = if settings.check_values {
+            Some(ValueCheckPass::new(gpu, FRAMES_IN_FLIGHT)?)
+        } else {
+            None
+        };
         // Without indirect light (`--method direct`, `--bounces 0`, nothing to store photons on,
         // no light that emits any, ...) there is no photon part of the frame at all.
         let photons = if plan.indirect.needed {
@@ -467,6 +486,7 @@ impl Renderer {
             eye_gbuffer,
             direct,
             tonemap,
+            value_check,
             photons,
             translucent,
             slots,
@@ -628,6 +648,19 @@ impl Renderer {
         Ok(())
     }
 
+    /// Test seam of the value check (`passes/value_check.rs`): the next check of `buffer`
+    /// finds `value` at its float `index` (an image's texel `index / 4`, channel `index % 4`,
+    /// the texel's other channels 0), written just before the check reads it, so a test sees
+    /// the counter catch a bad value in every kind of buffer (and later passes carry it on).
+    /// Fails unless the renderer checks values (`RenderSettings::check_values`).
+    pub fn inject_value(&mut self, buffer: Checked, index: u64, value: f32) -> anyhow::Result<()> {
+        let check = self.value_check.as_mut().ok_or_else(|| {
+            anyhow::anyhow!("inject_value needs a renderer made with check_values")
+        })?;
+        check.inject(buffer, index, value);
+        Ok(())
+    }
+
     /// The camera the next frame renders from.
     pub fn camera(&self) -> &Camera {
         &self.camera
@@ -762,7 +795,7 @@ impl Renderer {
         // Box D (graphics): photon volumes, upsampling, composite, glass, tonemap.
         self.prepare_debug_view()?;
         let d = gpu.record(QueueRole::Graphics, "box D", Some(timestamps.clone()))?;
-        self.record_estimate_and_finish(&d.cmd(), &frame)?;
+        self.record_estimate_and_finish(&d.cmd(), &frame, slot)?;
         // The upload (which itself follows the readback); the readback too, for frames whose
         // trace stored nothing: box D takes the bounce map back from the transfer queue.
         let waits: Vec<Wait> = upload_done
@@ -878,6 +911,9 @@ impl Renderer {
             .max()
             .unwrap_or(pending.start_ns);
         stats.frame_ms = end_ns.saturating_sub(pending.start_ns) as f64 * 1e-6;
+        if let Some(check) = &self.value_check {
+            stats.value_check = Some(check.read(slot)?);
+        }
         Ok(Some((spans, stats)))
     }
 
@@ -982,15 +1018,26 @@ impl Renderer {
         self.direct.record(cmd, &inputs, &mut self.radiance);
     }
 
-    /// Box D: photon volumes (+ upsampling and composite), glass and mirrors, tonemapping.
-    fn record_estimate_and_finish(&mut self, cmd: &Cmd, frame: &FrameSetup) -> anyhow::Result<()> {
+    /// Box D: photon volumes (+ upsampling and composite), glass and mirrors, tonemapping;
+    /// with `check_values`, the value check of every HDR buffer, read back from frame slot
+    /// `slot` when the frame retires.
+    fn record_estimate_and_finish(
+        &mut self,
+        cmd: &Cmd,
+        frame: &FrameSetup,
+        slot: usize,
+    ) -> anyhow::Result<()> {
         let composite = !matches!(self.debug_view, Some((DebugView::DirectOnly, _)));
+        if let Some(check) = &mut self.value_check {
+            check.begin(cmd, slot);
+            check.image(cmd, Checked::Direct, &self.radiance);
+        }
         if let Some(photons) = &mut self.photons {
             photons.record_estimate(
                 cmd,
                 (&self.frame_uniforms, &self.scene.materials, &self.gbuffer),
                 &mut self.radiance,
-                composite,
+                (composite, self.value_check.as_mut()),
             )?;
         }
         if let Some(translucent) = &mut self.translucent {
@@ -1002,6 +1049,10 @@ impl Renderer {
                 &mut self.gbuffer.depth,
                 &mut self.radiance,
             );
+        }
+        if let Some(check) = &mut self.value_check {
+            check.image(cmd, Checked::Final, &self.radiance);
+            check.end(cmd);
         }
         self.tonemap.record(
             cmd,

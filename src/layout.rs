@@ -112,6 +112,24 @@ const _: () = assert!(offset_of!(DrawPush, normal1) == 80);
 const _: () = assert!(offset_of!(DrawPush, normal2) == 96);
 const _: () = assert!(offset_of!(DrawPush, material) == 112);
 
+/// `ValueCounters` (storage buffer, std430): what one value check counted in one buffer of a
+/// frame (`passes/value_check.rs`), summed with atomics.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct ValueCounters {
+    /// NaN or ±Inf values.
+    pub non_finite: u32,
+    /// Finite values below zero where a negative value is wrong (not -0.0).
+    pub negative: u32,
+    /// Values read.
+    pub values: u32,
+    pub unused: u32,
+}
+const _: () = assert!(size_of::<ValueCounters>() == 16);
+const _: () = assert!(offset_of!(ValueCounters, negative) == 4);
+const _: () = assert!(offset_of!(ValueCounters, values) == 8);
+const _: () = assert!(offset_of!(ValueCounters, unused) == 12);
+
 /// The interleaved vertex of every mesh (vertex attributes 0, 1, 2).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
@@ -186,6 +204,12 @@ pub const SHARED_LAYOUTS: &[LayoutDescription] = &[
         centre,
         bounds_min,
         bounds_max
+    }),
+    describe!(ValueCounters {
+        non_finite,
+        negative,
+        values,
+        unused
     }),
     describe!(DrawPush {
         model,

@@ -172,6 +172,10 @@ struct BenchArgs {
     #[arg(long, value_name = "SECONDS_PER_TURN", num_args = 0..=1, default_missing_value = "10",
           value_parser = parse_seconds_per_turn)]
     orbit_lights: Option<f32>,
+    /// Count NaN, ±Inf and negative values in every HDR buffer on the GPU, every frame (the
+    /// times then include the check); the last frames' counts are printed and in --json.
+    #[arg(long)]
+    check_values: bool,
 }
 
 #[derive(clap::Args)]
@@ -301,6 +305,11 @@ struct RenderArgs {
     /// viewer's debug views; PNG output).
     #[arg(long, value_enum)]
     debug_view: Option<ispm::passes::debug_view::DebugView>,
+    /// GPU methods: count NaN, ±Inf and negative values in every HDR buffer (direct, bounce
+    /// map, photon map, indirect, final) on the GPU; the counts go to --stats, and a frame
+    /// with any is reported on stderr.
+    #[arg(long)]
+    check_values: bool,
 }
 
 fn parse_share(s: &str) -> Result<f32, String> {
@@ -468,6 +477,7 @@ fn bench(args: BenchArgs, device: Option<usize>) -> anyhow::Result<()> {
             height,
             subsample: args.subsample,
             shadow_resolution: args.shadow_resolution.clamp(16, 8192),
+            check_values: args.check_values,
             ..Default::default()
         },
         frames: args.frames,
@@ -569,6 +579,7 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
         schedule: args.schedule,
         effects: args.effects,
         caustic_share: args.caustic_share,
+        check_values: args.check_values,
         ..Default::default()
     };
     if args.trace.is_some() {
@@ -608,6 +619,18 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
     }
     for s in &frame.gpu_spans {
         log::info!("{:>16}: {:.3} ms", s.name, s.ms());
+    }
+    if let Some(check) = &frame.stats.value_check {
+        for b in check
+            .per_buffer
+            .iter()
+            .filter(|b| b.non_finite + b.negative > 0)
+        {
+            eprintln!(
+                "value check: {}: {} non-finite and {} negative of {} values",
+                b.name, b.non_finite, b.negative, b.values
+            );
+        }
     }
     eprintln!(
         "wrote {} ({}x{}, {} triangles, {} lights, {} photons stored)",

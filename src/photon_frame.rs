@@ -23,6 +23,7 @@ use crate::passes::eye_gbuffer::GBuffer;
 use crate::passes::light_gbuffer::LightGBufferPass;
 use crate::passes::photon_volumes::{self, PhotonVolumeInputs, PhotonVolumesPass};
 use crate::passes::upsample::{self, UpsampleInputs, UpsamplePass};
+use crate::passes::value_check::{Checked, Records, ValueCheckPass};
 use crate::photon::bvh::SceneBvh;
 use crate::photon::kernel::KernelSettings;
 use crate::photon::trace::{trace_photons, TraceSettings};
@@ -256,11 +257,14 @@ impl PhotonFrame {
              one storage buffer reaches on this device ({reach} bytes): ask for fewer photons",
             settings.photons
         );
+        // TRANSFER_DST: the value check's test seam writes into it (`passes/value_check.rs`).
         let bounce_map = Buffer::new(
             gpu,
             "bounce_map",
             bounce_bytes,
-            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_SRC
+                | vk::BufferUsageFlags::TRANSFER_DST,
             MemoryLocation::GpuOnly,
         )?;
         let readback = Buffer::new(
@@ -572,13 +576,16 @@ impl PhotonFrame {
     /// `--subsample N > 1`), then radiance += indirect. Takes the photon buffer over from the
     /// transfer queue after an upload (a no-op in a frame that reuses the photon map) and keeps
     /// it until the next [`Self::record_emission`]. Without `composite` (the direct-only debug
-    /// view) the estimate is made but not added.
+    /// view) the estimate is made but not added. With `check` (`--check-values`), the bounce
+    /// map and photon map are checked before the photon volumes draw, the low-resolution
+    /// targets before the upsample reads them, the indirect image before the composite
+    /// (`passes/value_check.rs`).
     pub fn record_estimate(
         &mut self,
         cmd: &Cmd,
         (frame, materials, gbuffer): (&Buffer, &Buffer, &GBuffer),
         radiance: &mut Image,
-        composite: bool,
+        (composite, mut check): (bool, Option<&mut ValueCheckPass>),
     ) -> anyhow::Result<()> {
         if self.count() > 0 {
             for (_, photons) in self.buffers.used() {
@@ -593,6 +600,9 @@ impl PhotonFrame {
                 QueueRole::Transfer,
                 Access::ComputeStorageWrite,
             );
+        }
+        if let Some(check) = check.as_deref_mut() {
+            self.check_photon_records(cmd, check);
         }
         let inputs = PhotonVolumeInputs {
             frame,
@@ -614,6 +624,10 @@ impl PhotonFrame {
             ),
             Some(sub) => {
                 self.photon_pass.record(cmd, &inputs, volumes, &mut sub.low);
+                if let Some(check) = check.as_deref_mut() {
+                    check.image(cmd, Checked::IndirectLowIrradiance, &sub.low[0]);
+                    check.image(cmd, Checked::IndirectLowGlossy, &sub.low[1]);
+                }
                 let inputs = UpsampleInputs {
                     materials,
                     gbuffer,
@@ -622,10 +636,35 @@ impl PhotonFrame {
                 sub.upsample.record(cmd, &inputs, &mut self.indirect);
             }
         }
+        if let Some(check) = check {
+            check.image(cmd, Checked::Indirect, &self.indirect);
+        }
         if composite {
             self.composite.record(cmd, &self.indirect, radiance);
         }
         Ok(())
+    }
+
+    /// The value check of the bounce map (the records the plan's texels filled, once it is
+    /// back on this queue) and of the photon map (the photons drawn).
+    fn check_photon_records(&self, cmd: &Cmd, check: &mut ValueCheckPass) {
+        const FLOAT: usize = size_of::<f32>();
+        if self.plan.texels > 0 {
+            let records = Records {
+                count: self.plan.texels as u32,
+                stride: (size_of::<BounceMapPhoton>() / FLOAT) as u32,
+                power_offset: (std::mem::offset_of!(BounceMapPhoton, power) / FLOAT) as u32,
+            };
+            check.records(cmd, Checked::BounceMap, &self.bounce_map, records);
+        }
+        // The first photon buffer: the check has one descriptor set per buffer kind, so a
+        // photon map split over several buffers (`PhotonBuffers`) is checked in its first.
+        let records = Records {
+            count: self.buffers.counts[0],
+            stride: (size_of::<Photon>() / FLOAT) as u32,
+            power_offset: (std::mem::offset_of!(Photon, power) / FLOAT) as u32,
+        };
+        check.records(cmd, Checked::PhotonMap, &self.buffers.device[0], records);
     }
 
     /// What the debug views read of the photon part of the frame (`passes/debug_view.rs`).

@@ -69,6 +69,11 @@ pub fn frame_json(
         "passes_skipped": s.passes_skipped,
         "variants_skipped": s.variants_skipped,
         "light_plan": s.light_plan,
+        // `--check-values`: per buffer, the NaN/±Inf and negative values counted on the GPU.
+        "value_check": s.value_check.as_ref().map(|c| json!({
+            "per_buffer": c.per_buffer,
+            "total_bad": c.total_bad(),
+        })),
         "validation_messages": validation_messages,
     })
 }

@@ -73,6 +73,14 @@ struct DrawPush {
     uvec4 material;   // x: material index; y: bounding-sphere radius (float bits)
 };
 
+// What one value check counted in one buffer (storage buffer, std430; src/passes/value_check.rs).
+struct ValueCounters {
+    uint non_finite;  // NaN or +-Inf
+    uint negative;    // finite and below zero (not -0.0), where a negative value is wrong
+    uint values;      // values read
+    uint unused;
+};
+
 const uint MATERIAL_FRESNEL = 1u;
 const uint MATERIAL_TEXTURED = 2u;
 const uint MATERIAL_DOUBLE_SIDED = 4u;

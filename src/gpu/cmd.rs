@@ -564,22 +564,66 @@ impl<'a> Cmd<'a> {
 
     /// Copies `buffer` (tightly packed rows, layer after layer) into every layer of `image`.
     pub fn copy_buffer_to_image(&self, buffer: &Buffer, image: &Image) {
-        self.transition(image, Access::TransferDst);
-        self.transition_buffer(buffer, Access::TransferSrc);
         let region = vk::BufferImageCopy::default()
-            .image_subresource(vk::ImageSubresourceLayers {
-                aspect_mask: aspect_of(image.format),
-                mip_level: 0,
-                base_array_layer: 0,
-                layer_count: image.layers,
-            })
+            .image_subresource(Self::layers(image, image.layers))
             .image_extent(vk::Extent3D {
                 width: image.width,
                 height: image.height,
                 depth: 1,
             });
-        // SAFETY: recording state; the image is in TRANSFER_DST_OPTIMAL; the buffer holds
-        // the whole image (checked by the caller).
+        // The buffer holds the whole image (checked by the caller that sized it).
+        self.copy_to_image(buffer, image, region);
+    }
+
+    /// Copies one texel, at `offset` of `buffer`, into texel (`x`, `y`) of the first layer of
+    /// `image` (the value check's injected bad values, `passes/value_check.rs`).
+    pub fn copy_buffer_to_texel(
+        &self,
+        buffer: &Buffer,
+        offset: u64,
+        image: &Image,
+        (x, y): (u32, u32),
+    ) {
+        assert!(
+            x < image.width && y < image.height && offset < buffer.size,
+            "copy_buffer_to_texel: ({x}, {y}) outside {} ({}x{}) or {offset} outside {}",
+            image.name,
+            image.width,
+            image.height,
+            buffer.name
+        );
+        let region = vk::BufferImageCopy::default()
+            .buffer_offset(offset)
+            .image_subresource(Self::layers(image, 1))
+            .image_offset(vk::Offset3D {
+                x: x as i32,
+                y: y as i32,
+                z: 0,
+            })
+            .image_extent(vk::Extent3D {
+                width: 1,
+                height: 1,
+                depth: 1,
+            });
+        self.copy_to_image(buffer, image, region);
+    }
+
+    /// The first `count` layers of `image`'s only mip level.
+    fn layers(image: &Image, count: u32) -> vk::ImageSubresourceLayers {
+        vk::ImageSubresourceLayers {
+            aspect_mask: aspect_of(image.format),
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: count,
+        }
+    }
+
+    /// Transitions `buffer` and `image` and records the copy of `region` between them.
+    fn copy_to_image(&self, buffer: &Buffer, image: &Image, region: vk::BufferImageCopy) {
+        self.transition(image, Access::TransferDst);
+        self.transition_buffer(buffer, Access::TransferSrc);
+        // SAFETY: recording state; the image is in TRANSFER_DST_OPTIMAL (transitioned above);
+        // the region lies inside the image and the buffer (the public callers' checks).
         unsafe {
             self.device().cmd_copy_buffer_to_image(
                 self.raw,

@@ -17,6 +17,7 @@
 //! | [`environment`] | graphics | scene geometry (opaque), lights, shadow atlas | environment cube map (cached) |
 //! | [`translucent`] | graphics | delta instances, lights, shadow atlas, cube map, eye depth | HDR radiance (over) |
 //! | [`tonemap`] | graphics (compute) | HDR radiance | 8-bit display image |
+//! | [`value_check`] | graphics (compute) | the HDR images, bounce map and photon map (`--check-values`) | value counters (host-visible) |
 //! | [`debug_view`] | graphics (compute) | one intermediate buffer (G-buffers, bounce map, photons, indirect) | 8-bit display image (over) |
 
 pub mod bounce_map;
@@ -31,6 +32,7 @@ pub mod shadow_map;
 pub mod tonemap;
 pub mod translucent;
 pub mod upsample;
+pub mod value_check;
 
 /// The specialisation constants that select `variant`'s lobes in every shader including
 /// `bsdf.glsl`.

@@ -4,6 +4,9 @@
 //! [`render_hard`] renders one frame with `--method ispm` and fails the test when
 //!
 //! - validation or synchronization validation reported anything;
+//! - the GPU value check (`RenderSettings::check_values`, `passes/value_check.rs`) counted a
+//!   NaN, ±Inf or negative value in any buffer it reads (direct, bounce map, photon map,
+//!   indirect, final HDR);
 //! - the linear HDR frame holds a NaN, an infinity or a negative value;
 //! - a photon of the photon map or a record of the bounce map holds one (power, direction,
 //!   position, normal; bounce-map depth and η), or a negative power.
@@ -164,6 +167,7 @@ pub fn render_hard(case: &str, scene: &Scene, settings: RenderSettings) -> HardF
     let gpu = super::gpu();
     let settings = RenderSettings {
         method: Method::Ispm,
+        check_values: true,
         ..settings
     };
     let hard = {
@@ -209,6 +213,11 @@ pub fn render_hard(case: &str, scene: &Scene, settings: RenderSettings) -> HardF
         }
     };
     let mut wrong = problems(&hard.frame, &hard.photons, &hard.bounce_map);
+    match &hard.frame.stats.value_check {
+        Some(check) if check.total_bad() == 0 => {}
+        Some(check) => wrong.push(format!("GPU value check: {check:?}")),
+        None => wrong.push("no GPU value check".into()),
+    }
     wrong.extend(gpu.validation_messages());
     if !wrong.is_empty() {
         save(case, &hard.frame);

@@ -1,0 +1,395 @@
+//! Value check (compute, `RenderSettings::check_values`, `--check-values`): counts the NaN,
+//! ±Inf and negative values in the frame's HDR buffers on the GPU, with atomics, into a small
+//! host-visible buffer read back with the frame ([`ValueCheck`] in `FrameStats`, and the stats
+//! JSON). A frame that does not ask for it records none of this.
+//!
+//! | buffer ([`Checked`]) | when (box D) | values | negative counted in |
+//! |---|---|---|---|
+//! | `direct` | before the composite adds indirect light | 4 per pixel | every channel |
+//! | `bounce_map` | after it is back from the readback | 8 per record | power |
+//! | `photon_map` | before the photon volumes draw it | 12 per photon | power |
+//! | `indirect.low_irradiance`, `indirect.low_glossy` | after the photon volumes, before the upsample (`--subsample N > 1`) | 4 per pixel | every channel |
+//! | `indirect` | before the composite | 4 per pixel | every channel |
+//! | `final` | after the translucent pass, before tonemapping | 4 per pixel | every channel |
+//!
+//! A value is *non-finite* when its exponent bits are all set (NaN, ±Inf: a bit test, which no
+//! compiler folds away), *negative* when finite, below zero and not -0.0; positions and packed
+//! directions of photon records may be negative, so only their power is tested for sign. The
+//! counters are 32-bit: a frame reads far fewer than 2³² values (a 4K image is 33 M).
+//!
+//! Each frame in flight has its own counters (`FRAMES_IN_FLIGHT` × [`SLOTS`] `ValueCounters`)
+//! and descriptor sets, rewritten when its frame is recorded: the frame that used them last,
+//! `FRAMES_IN_FLIGHT` frames earlier, has retired by then (`Renderer::submit_frame`), so a
+//! photon buffer that grew is simply bound the next time.
+//!
+//! **Test seam**: [`ValueCheckPass::inject`] writes a chosen value into a buffer just before
+//! the check reads it (an image texel by a copy, a record's float by `vkCmdUpdateBuffer`), so
+//! the tests prove the counter sees a bad value in every kind of buffer, and that what later
+//! passes make of it is seen too.
+
+use crate::gpu::{
+    vk, Access, Binding, BindingKind, Buffer, Cmd, ComputeDesc, DescriptorLayout, DescriptorSet,
+    Filter, Gpu, Image, MemoryLocation, Pipeline, Sampler, Write,
+};
+use crate::layout::ValueCounters;
+use std::sync::Arc;
+
+/// Counter slots per frame: one per [`Checked`] buffer.
+pub const SLOTS: usize = Checked::ALL.len();
+
+/// Workgroups the record check dispatches at most (each of 256 invocations, grid-stride).
+const MAX_RECORD_GROUPS: u32 = 1024;
+/// Invocations per workgroup of `value_check_records.comp` (`local_size_x`).
+const RECORD_GROUP: u32 = 256;
+/// Bytes of one RGBA f32 texel.
+const TEXEL_BYTES: usize = 16;
+
+/// A buffer of the frame the value check reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Checked {
+    /// The radiance image as the direct pass left it.
+    Direct,
+    BounceMap,
+    PhotonMap,
+    IndirectLowIrradiance,
+    IndirectLowGlossy,
+    /// The indirect radiance (full resolution, upsampled at `--subsample N > 1`).
+    Indirect,
+    /// The radiance image before tonemapping: direct + indirect, glass and mirrors drawn.
+    Final,
+}
+
+impl Checked {
+    pub const ALL: [Checked; 7] = [
+        Checked::Direct,
+        Checked::BounceMap,
+        Checked::PhotonMap,
+        Checked::IndirectLowIrradiance,
+        Checked::IndirectLowGlossy,
+        Checked::Indirect,
+        Checked::Final,
+    ];
+
+    /// The name in [`BufferCheck::name`] and the stats JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            Checked::Direct => "direct",
+            Checked::BounceMap => "bounce_map",
+            Checked::PhotonMap => "photon_map",
+            Checked::IndirectLowIrradiance => "indirect.low_irradiance",
+            Checked::IndirectLowGlossy => "indirect.low_glossy",
+            Checked::Indirect => "indirect",
+            Checked::Final => "final",
+        }
+    }
+
+    fn slot(self) -> usize {
+        self as usize
+    }
+}
+
+/// What the value check counted in one buffer of a frame.
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct BufferCheck {
+    pub name: String,
+    /// NaN or ±Inf values.
+    pub non_finite: u64,
+    /// Finite negative values where a negative is wrong (module docs).
+    pub negative: u64,
+    /// Values read (floats: 4 per pixel, 8 per bounce-map record, 12 per photon).
+    pub values: u64,
+}
+
+/// The value check of one frame: its buffers in the order they were checked.
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct ValueCheck {
+    pub per_buffer: Vec<BufferCheck>,
+}
+
+impl ValueCheck {
+    /// Non-finite plus negative values over every buffer.
+    pub fn total_bad(&self) -> u64 {
+        self.per_buffer
+            .iter()
+            .map(|b| b.non_finite + b.negative)
+            .sum()
+    }
+
+    /// The check of the buffer named `name` ([`Checked::name`]), if the frame had it.
+    pub fn buffer(&self, name: &str) -> Option<&BufferCheck> {
+        self.per_buffer.iter().find(|b| b.name == name)
+    }
+}
+
+/// How a buffer of photon records is laid out, in floats.
+#[derive(Clone, Copy, Debug)]
+pub struct Records {
+    pub count: u32,
+    /// Floats per record.
+    pub stride: u32,
+    /// Float index of the power (RGB) in a record.
+    pub power_offset: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct ImagePush {
+    width: u32,
+    height: u32,
+    counter: u32,
+    unused: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct RecordPush {
+    count: u32,
+    stride: u32,
+    power_offset: u32,
+    counter: u32,
+}
+
+/// A value to write into a buffer before the check reads it (test seam).
+#[derive(Clone, Copy, Debug)]
+struct Injection {
+    buffer: Checked,
+    /// Float index: `(y·width + x)·4 + channel` in an image, `record·stride + field` in records.
+    index: u64,
+    value: f32,
+}
+
+/// A compute pipeline, its descriptor layout and a set per frame in flight and slot.
+struct Kernel {
+    pipeline: Pipeline,
+    layout: DescriptorLayout,
+    /// `[frame][slot]`; written before each use (module docs).
+    sets: Vec<Vec<DescriptorSet>>,
+}
+
+impl Kernel {
+    fn new(
+        gpu: &Arc<Gpu>,
+        name: &str,
+        shader: &crate::gpu::Shader,
+        (source, push_size): (BindingKind, usize),
+        frames: usize,
+    ) -> anyhow::Result<Self> {
+        let bindings = Binding::sequence(
+            &[BindingKind::StorageBuffer, source],
+            vk::ShaderStageFlags::COMPUTE,
+        );
+        let layout = DescriptorLayout::new(gpu, name, &bindings, (frames * SLOTS) as u32)?;
+        let pipeline = Pipeline::compute(
+            gpu,
+            &ComputeDesc {
+                name,
+                shader,
+                set_layouts: &[&layout],
+                push_constant_size: push_size as u32,
+                specialization: &[],
+            },
+        )?;
+        let sets = (0..frames)
+            .map(|_| (0..SLOTS).map(|_| layout.allocate(&[])).collect())
+            .collect::<Result<Vec<Vec<_>>, _>>()?;
+        Ok(Self {
+            pipeline,
+            layout,
+            sets,
+        })
+    }
+
+    /// Points the set of (`frame`, `which`) at `writes` and dispatches `groups` with `push`.
+    fn dispatch<T: bytemuck::Pod>(
+        &self,
+        cmd: &Cmd,
+        (frame, which): (usize, Checked),
+        writes: &[Write],
+        push: &T,
+        groups: [u32; 3],
+    ) {
+        let set = self.sets[frame][which.slot()];
+        self.layout.update(set, writes);
+        cmd.bind_pipeline(&self.pipeline);
+        cmd.bind_sets(&self.pipeline, 0, &[set]);
+        cmd.push_constants(&self.pipeline, push);
+        cmd.dispatch(groups[0], groups[1], groups[2]);
+    }
+}
+
+pub struct ValueCheckPass {
+    images: Kernel,
+    records: Kernel,
+    sampler: Sampler,
+    /// `frames × SLOTS` counters, host-visible.
+    counters: Buffer,
+    /// One texel per slot: the values injected into images are copied from here.
+    poison: Buffer,
+    /// Per frame in flight: the buffers its frame checked, in order.
+    checked: Vec<Vec<Checked>>,
+    /// The frame in flight being recorded.
+    frame: usize,
+    injections: Vec<Injection>,
+}
+
+impl ValueCheckPass {
+    /// The pass for `frames` frames in flight.
+    pub fn new(gpu: &Arc<Gpu>, frames: usize) -> anyhow::Result<Self> {
+        let images = Kernel::new(
+            gpu,
+            "value_check",
+            &crate::gpu::shader_table::VALUE_CHECK_COMP,
+            (BindingKind::SampledImage, size_of::<ImagePush>()),
+            frames,
+        )?;
+        let records = Kernel::new(
+            gpu,
+            "value_check.records",
+            &crate::gpu::shader_table::VALUE_CHECK_RECORDS_COMP,
+            (BindingKind::StorageBuffer, size_of::<RecordPush>()),
+            frames,
+        )?;
+        let counters = Buffer::new(
+            gpu,
+            "value_check.counters",
+            (frames * SLOTS * size_of::<ValueCounters>()) as u64,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+        )?;
+        let poison = Buffer::constants(
+            gpu,
+            "value_check.poison",
+            (SLOTS * TEXEL_BYTES) as u64,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+        )?;
+        Ok(Self {
+            images,
+            records,
+            sampler: Sampler::new(gpu, "value_check.nearest", Filter::Nearest, false)?,
+            counters,
+            poison,
+            checked: vec![Vec::new(); frames],
+            frame: 0,
+            injections: Vec::new(),
+        })
+    }
+
+    /// Starts the checks of the frame in flight `frame`: its counters are zeroed. The frame
+    /// that used them before must have retired (and been [`Self::read`]).
+    pub fn begin(&mut self, cmd: &Cmd, frame: usize) {
+        self.frame = frame;
+        self.checked[frame].clear();
+        let zeros = [ValueCounters::default(); SLOTS];
+        cmd.update_buffer(
+            &self.counters,
+            (frame * SLOTS * size_of::<ValueCounters>()) as u64,
+            bytemuck::cast_slice(&zeros),
+        );
+    }
+
+    /// Counts the bad values of the RGBA float `image`, named `which`.
+    pub fn image(&mut self, cmd: &Cmd, which: Checked, image: &Image) {
+        let _scope = cmd.scope("value_check");
+        for injection in self.take_injections(which) {
+            let texel = injection.index / 4;
+            let width = u64::from(image.width);
+            let at = ((texel % width) as u32, (texel / width) as u32);
+            let mut value = [0.0f32; 4];
+            value[(injection.index % 4) as usize] = injection.value;
+            let offset = (which.slot() * TEXEL_BYTES) as u64;
+            cmd.update_buffer(&self.poison, offset, bytemuck::cast_slice(&value));
+            cmd.copy_buffer_to_texel(&self.poison, offset, image, at);
+        }
+        self.checked[self.frame].push(which);
+        cmd.transition(image, Access::ComputeSampledRead);
+        cmd.transition_buffer(&self.counters, Access::ComputeStorageWrite);
+        let push = ImagePush {
+            width: image.width,
+            height: image.height,
+            counter: self.counter(which),
+            unused: 0,
+        };
+        let writes = [
+            Write::Buffer(&self.counters),
+            Write::Image {
+                image,
+                sampler: &self.sampler,
+            },
+        ];
+        let groups = super::image_groups(image.width, image.height);
+        self.images
+            .dispatch(cmd, (self.frame, which), &writes, &push, groups);
+    }
+
+    /// Counts the bad values of the `records` in `buffer`, named `which`.
+    pub fn records(&mut self, cmd: &Cmd, which: Checked, buffer: &Buffer, records: Records) {
+        self.checked[self.frame].push(which);
+        if records.count == 0 {
+            // Listed with no values: the buffer holds no record this frame (and may belong to
+            // another queue), so injections wait for a frame that has some.
+            return;
+        }
+        let _scope = cmd.scope("value_check");
+        for injection in self.take_injections(which) {
+            cmd.update_buffer(buffer, injection.index * 4, &injection.value.to_le_bytes());
+        }
+        cmd.transition_buffer(buffer, Access::ComputeStorageRead);
+        cmd.transition_buffer(&self.counters, Access::ComputeStorageWrite);
+        let push = RecordPush {
+            count: records.count,
+            stride: records.stride,
+            power_offset: records.power_offset,
+            counter: self.counter(which),
+        };
+        let writes = [Write::Buffer(&self.counters), Write::Buffer(buffer)];
+        let groups = records.count.div_ceil(RECORD_GROUP).min(MAX_RECORD_GROUPS);
+        self.records
+            .dispatch(cmd, (self.frame, which), &writes, &push, [groups, 1, 1]);
+    }
+
+    /// Ends the frame's checks: its counters become readable by the host once it completes.
+    pub fn end(&self, cmd: &Cmd) {
+        cmd.transition_buffer(&self.counters, Access::HostRead);
+    }
+
+    /// The counts of the frame in flight `frame`, which has completed.
+    pub fn read(&self, frame: usize) -> anyhow::Result<ValueCheck> {
+        let bytes = self.counters.read()?;
+        let size = size_of::<ValueCounters>();
+        let per_buffer = self.checked[frame]
+            .iter()
+            .map(|&which| {
+                let at = (frame * SLOTS + which.slot()) * size;
+                let c: ValueCounters = bytemuck::pod_read_unaligned(&bytes[at..at + size]);
+                BufferCheck {
+                    name: which.name().to_string(),
+                    non_finite: c.non_finite.into(),
+                    negative: c.negative.into(),
+                    values: c.values.into(),
+                }
+            })
+            .collect();
+        Ok(ValueCheck { per_buffer })
+    }
+
+    /// Test seam: at the next check of `buffer`, once, writes `value` at float `index` of it
+    /// just before the check reads it (module docs). An image texel gets `value` in channel
+    /// `index % 4` and 0 in the others.
+    pub fn inject(&mut self, buffer: Checked, index: u64, value: f32) {
+        self.injections.push(Injection {
+            buffer,
+            index,
+            value,
+        });
+    }
+
+    fn take_injections(&mut self, which: Checked) -> Vec<Injection> {
+        let (now, later) = self.injections.drain(..).partition(|i| i.buffer == which);
+        self.injections = later;
+        now
+    }
+
+    fn counter(&self, which: Checked) -> u32 {
+        (self.frame * SLOTS + which.slot()) as u32
+    }
+}
