@@ -38,7 +38,7 @@ void main() {
     vec3 wi = unpack_direction(photon.direction, rho_p);
     vec3 n = normalize(texelFetch(g_normal, px, 0).xyz);
     // Front-side test: the photon arrived on the side of the surface the viewer sees.
-    if (dot(wi, n) <= 0.0 || !faces_agree(photon.normal, wi, n)) {
+    if (dot(wi, n) <= 0.0) {
         discard;
     }
     vec3 wo = normalize(-pos.xyz);

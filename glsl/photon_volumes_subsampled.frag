@@ -61,7 +61,7 @@ void main() {
     }
     // Front-side test (the one bsdf_eval applies at full resolution).
     float cos_i = bsdf_reflected_cos(o, wi);
-    if (cos_i <= 0.0 || !faces_agree(photon.normal, wi, n_s)) {
+    if (cos_i <= 0.0) {
         discard;
     }
     vec3 c[4];

@@ -171,12 +171,12 @@ fn back_to_back_thin_walls() {
     assert!(lit_mean > 0.05, "the lit half is dark: {lit_mean}");
     assert_eq!(leaked, 0, "photons stored behind the wall");
     // A photon's kernel reaches across the wall's zero thickness (photon mapping has no
-    // visibility test between photon and shaded point), but only to surfaces facing the way
-    // its own does (`photon::kernel::faces_agree`): no photon on the wall's lit face lights its
-    // dark face. So every lit pixel behind the wall lies within one kernel radius of a photon
-    // stored on the lit side *off the wall* (on the floor, ceiling or back wall near it). The
-    // shadow map's bias lets direct light through only at the wall's foot, within three
-    // shadow-map texels (≈ 1.2 cm), well inside that band.
+    // visibility test between photon and shaded point), but the front-side test and the BSDF
+    // (zero for light from behind) keep the photons of the wall's lit face off its dark face.
+    // So every lit pixel behind the wall lies within one kernel radius of a photon stored on
+    // the lit side *off the wall* (on the floor, ceiling or back wall next to it): light that
+    // leaked any other way (a photon path through the wall, direct light past the shadow
+    // map's bias away from the wall's foot) fails the test.
     let off_wall: Vec<Vec3> = lit_photons(&dark, |p| p.x < -1e-4);
     let (mut reach, mut unexplained) = (0.0f32, 0);
     for (i, p) in dark.positions.iter().enumerate() {

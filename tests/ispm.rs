@@ -7,7 +7,7 @@ mod common;
 use glam::Vec3;
 use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
 use ispm::photon::bsdf::Bsdf;
-use ispm::photon::kernel::{faces_agree, kernel_radius, kernel_weight, KernelSettings};
+use ispm::photon::kernel::{kernel_radius, kernel_weight, KernelSettings};
 use ispm::photon::types::{unpack_direction, Photon};
 use ispm::reference::scenes;
 use ispm::scene::{Camera, Light, LightKind, Scene};
@@ -91,7 +91,7 @@ fn cpu_gather(
             let mut sum = Vec3::ZERO;
             for &(x, np, wi, r_xy, r_z, power) in &unpacked {
                 let kappa = kernel_weight(x, np, r_xy, r_z, s);
-                if kappa > 0.0 && wi.dot(n) > 0.0 && faces_agree(np, wi, n) {
+                if kappa > 0.0 && wi.dot(n) > 0.0 {
                     sum += bsdf.eval(wo, wi, n, n) * power * kappa;
                 }
             }

@@ -29,14 +29,6 @@ float kernel_t(vec3 x, vec3 n, float r_xy, float r_z, vec3 s) {
     return (dist / r_xy) * (1.0 + c * (r_xy - r_z) / r_z);
 }
 
-// Hard case "back-to-back thin walls": a photon never lights a surface facing the opposite way
-// to the one it arrived on (twin of faces_agree in src/photon/kernel.rs).
-bool faces_agree(vec3 photon_normal, vec3 wi, vec3 shaded_normal) {
-    vec3 n = normalize(photon_normal);
-    vec3 arrived_on = dot(n, wi) < 0.0 ? -n : n;
-    return dot(arrived_on, shaded_normal) > -0.5;
-}
-
 // kappa (1/m^2): integrates to 1 over the tangent disk of radius r_xy.
 float kernel_weight(vec3 photon_pos, vec3 photon_normal, float r_xy, float r_z, vec3 s) {
     if (!(r_xy > 0.0 && r_z > 0.0)) {

@@ -131,17 +131,6 @@ pub fn kernel_t(x: Vec3, n: Vec3, r_xy: f32, r_z: f32, s: Vec3) -> f32 {
     (dist / r_xy) * (1.0 + c * (r_xy - r_z) / r_z)
 }
 
-/// Whether a photon that arrived from `wi` on a surface of normal `photon_normal` may light a
-/// surface of normal `shaded_normal`: not when the two face opposite ways (more than 120°
-/// apart, seen from the side the photon arrived on). Hard case "back-to-back thin walls": the
-/// kernel reaches across a wall's zero thickness, and a photon on one face would light the
-/// face behind it. Surfaces meeting at a right angle (a room's corners) are not affected.
-pub fn faces_agree(photon_normal: Vec3, wi: Vec3, shaded_normal: Vec3) -> bool {
-    let n = photon_normal.normalize_or_zero();
-    let arrived_on = if n.dot(wi) < 0.0 { -n } else { n };
-    arrived_on.dot(shaded_normal) > -0.5
-}
-
 /// κ (1/m²) of the photon at `photon_pos` with normal `photon_normal` at the shaded point.
 pub fn kernel_weight(
     photon_pos: Vec3,
@@ -168,25 +157,6 @@ pub fn kernel_weight(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn back_to_back_faces_do_not_share_photons_but_corners_do() {
-        // A photon on a wall's left face (normal −X, arrived from the left) and the face behind.
-        assert!(!faces_agree(
-            Vec3::NEG_X,
-            Vec3::new(-1.0, 0.3, 0.0),
-            Vec3::X
-        ));
-        assert!(faces_agree(
-            Vec3::NEG_X,
-            Vec3::new(-1.0, 0.3, 0.0),
-            Vec3::NEG_X
-        ));
-        // The same wall with its normal stored the other way round: the side it arrived on.
-        assert!(!faces_agree(Vec3::X, Vec3::new(-1.0, 0.3, 0.0), Vec3::X));
-        // A floor photon and a wall meeting it at a right angle.
-        assert!(faces_agree(Vec3::Y, Vec3::new(0.2, 1.0, 0.0), Vec3::X));
-    }
 
     #[test]
     fn kernel_integrates_to_one_over_the_tangent_disk() {

@@ -12,9 +12,7 @@ use super::photon_index::PhotonGrid;
 use super::{direct_light, eye_path, Accumulator, Ctx, HdrImage};
 use crate::photon::bsdf::Bsdf;
 use crate::photon::emit::emit_photons;
-use crate::photon::kernel::{
-    faces_agree, kernel_radius, kernel_weight, KernelSettings, NORMAL_RATIO,
-};
+use crate::photon::kernel::{kernel_radius, kernel_weight, KernelSettings, NORMAL_RATIO};
 use crate::photon::ray::Hit;
 use crate::photon::rng::hash2;
 use crate::photon::trace::{trace_from_lights, PhotonMap, TraceSettings};
@@ -66,8 +64,8 @@ impl GatherMap {
             let p = &self.map.photons[i];
             let (r_xy, r_z) = self.radii[i];
             let kappa = kernel_weight(p.position, p.normal, r_xy, r_z, hit.position);
-            let (wi, _) = unpack_direction(p.direction);
-            if kappa > 0.0 && faces_agree(p.normal, wi, hit.shading_normal) {
+            if kappa > 0.0 {
+                let (wi, _) = unpack_direction(p.direction);
                 let f = bsdf.eval(wo, wi, hit.shading_normal, hit.geometric_normal);
                 sum += f * p.power * kappa;
             }
