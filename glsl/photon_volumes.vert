@@ -18,6 +18,7 @@ layout(push_constant) uniform Push {
     uint count;
     uint subsample;
     float footprint;
+    float footprint_max;
     vec4 offset;  // xyz: photon map origin − eye (the stored positions are origin-relative)
 } push;
 
@@ -31,7 +32,8 @@ void main() {
     unpack_direction(photon.direction, rho_p);
     // Eye-relative position: the eye is at the origin of the frame's space.
     vec3 center = photon.position + push.offset.xyz;
-    vec2 r = kernel_radius(rho_p, push.r_min, push.r_max, push.footprint, length(center));
+    vec2 r = kernel_radius(rho_p, push.r_min, push.r_max, push.footprint, push.footprint_max,
+                           length(center));
     vec3 n = normalize(photon.normal);
     vec3 t;
     vec3 b;

@@ -40,7 +40,9 @@ vec3 environment(vec3 p, vec3 dir) {
     vec3 t_far = max(t_lo, t_hi);
     float t = min(min(t_far.x, t_far.y), t_far.z);
     vec3 from_centre = p + max(t, 0.0) * dir - env.centre.xyz;
-    vec3 lookup = dot(from_centre, from_centre) > 1e-8 ? from_centre : dir;
+    // Scale case: "at the centre" is relative to the scene's size, not 10^-4 m.
+    float at_centre = 1e-4 * length(env.bounds_max.xyz - env.bounds_min.xyz);
+    vec3 lookup = dot(from_centre, from_centre) > at_centre * at_centre ? from_centre : dir;
     return texture(environment_map, lookup).rgb;
 }
 

@@ -669,8 +669,19 @@ impl BouncePlan {
     }
 
     /// The photons to continue on the CPU: every bounce-map record with power, placed at the
-    /// hit point its texel ray and depth describe (in world space).
+    /// hit point its texel ray and depth describe (in world space), and pushed along its
+    /// direction by the hit point's error bound.
     pub fn photon_starts(&self, bounce_map: &[BounceMapPhoton]) -> Vec<PhotonState> {
+        // The error of a hit point: 10⁻⁴ of its depth and origin-relative size (the light
+        // G-buffer's interpolated position and f32 depth, generously), plus 4ε of its world
+        // coordinates (their rounding to f32, and the world-space triangles': a few ulps).
+        // Scale and position case: no absolute term, so a millimetre scene is not left 0.1 mm
+        // off its surfaces, and a scene 10⁵ m from the origin not 10 m (which had every photon
+        // leave a 2 m box).
+        let error = |relative: DVec3, depth: f32, hit: DVec3| {
+            (1e-4 * (relative.abs().max_element() + f64::from(depth))
+                + 4.0 * f64::from(f32::EPSILON) * hit.abs().max_element()) as f32
+        };
         let mut starts = Vec::new();
         for (v, view) in self.views.iter().enumerate() {
             let (width, height) = (view.texels.x, view.texels.y);
@@ -691,8 +702,13 @@ impl BouncePlan {
                     let ndc = texel_ndc(x, y, width, height);
                     let near = unproject(&inverse, ndc, 0.0);
                     let dir = (unproject(&inverse, ndc, 1.0) - near).normalize();
-                    let hit = near + dir * f64::from(p.depth) + self.origin;
-                    if let Some(s) = PhotonState::from_bounce_map(p, hit.as_vec3()) {
+                    let relative = near + dir * f64::from(p.depth);
+                    let hit = relative + self.origin;
+                    if let Some(s) = PhotonState::from_bounce_map(
+                        p,
+                        hit.as_vec3(),
+                        error(relative, p.depth, hit),
+                    ) {
                         starts.push(s);
                     }
                 }

@@ -90,7 +90,8 @@ impl TranslucentFrame {
             uniforms,
             centre: delta.center().as_dvec3(),
             bounds,
-            near: (1e-3 * bounds.extent().length()).max(1e-4),
+            // Scale case: relative only (a 10⁻⁴ m floor clipped the middle of a 2 mm scene).
+            near: (1e-3 * bounds.extent().length()).max(f32::MIN_POSITIVE),
         }))
     }
 

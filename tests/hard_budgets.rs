@@ -13,10 +13,10 @@ use ispm::reference::scenes::{cornell, grey_box};
 fn zero_photons() {
     // No photon at all: the frame is the direct light alone, the same as `--method direct`.
     let scene = cornell(2);
-    let f = render_hard("zero_photons", &scene, hard::settings(0));
+    let f = render_hard("zero_photons", &scene, hard::settings_for(0));
     assert_eq!(f.frame.stats.emitted_photons, 0);
     assert_eq!(f.frame.stats.stored_photons, 0);
-    let direct = hard::render_direct(&scene, hard::settings(0));
+    let direct = hard::render_direct(&scene, hard::settings_for(0));
     hard::assert_same_image("zero_photons", &f.frame, &direct, 1e-6);
 }
 
@@ -25,7 +25,7 @@ fn one_photon() {
     // One photon asked for: each of the point light's six views gets one texel, and the
     // bounce map still carries exactly its flux (walls of albedo 1).
     let scene = grey_box(1.0, 2.0);
-    let f = render_hard("one_photon", &scene, hard::settings(1));
+    let f = render_hard("one_photon", &scene, hard::settings_for(1));
     let flux = f64::from(light_flux(&scene.lights[0], &scene.bounds()).x);
     let power = f.bounce_map_power().x;
     eprintln!(
@@ -42,13 +42,13 @@ fn more_photons_than_fit_in_one_buffer() {
     // The photon map split over buffers of 1000 photons draws the same image as one buffer.
     let scene = cornell(2);
     let case = "more_photons_than_fit_in_one_buffer";
-    let one = render_hard(case, &scene, hard::settings(20_000));
+    let one = render_hard(case, &scene, hard::settings_for(20_000));
     let split = render_hard(
         case,
         &scene,
         RenderSettings {
             photons_per_buffer: Some(1000),
-            ..hard::settings(20_000)
+            ..hard::settings_for(20_000)
         },
     );
     let stored = split.frame.stats.stored_photons;
@@ -68,13 +68,13 @@ fn subsample_larger_than_the_image() {
     // pixel), and the frame keeps its direct light and stays finite.
     let scene = cornell(2);
     let case = "subsample_larger_than_the_image";
-    let full = render_hard(case, &scene, hard::settings(20_000));
+    let full = render_hard(case, &scene, hard::settings_for(20_000));
     let coarse = render_hard(
         case,
         &scene,
         RenderSettings {
             subsample: 1000,
-            ..hard::settings(20_000)
+            ..hard::settings_for(20_000)
         },
     );
     assert_eq!(coarse.frame.stats.subsample, hard::SIZE);

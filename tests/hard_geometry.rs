@@ -55,7 +55,7 @@ fn zero_area_and_sliver_triangles() {
     let reference = render_hard(
         "zero_area_and_sliver_triangles",
         &bare,
-        hard::settings(20_000),
+        hard::settings_for(20_000),
     );
     // Through the loader: the zero-area triangles are dropped, the slivers kept.
     let glb = lit_stage(|w, floor| {
@@ -68,7 +68,7 @@ fn zero_area_and_sliver_triangles() {
     let through_loader = render_hard(
         "zero_area_and_sliver_triangles",
         &loaded,
-        hard::settings(20_000),
+        hard::settings_for(20_000),
     );
     // Built directly, past the loader: the renderer itself meets the zero-area triangles.
     let mut direct = bare.clone();
@@ -80,7 +80,7 @@ fn zero_area_and_sliver_triangles() {
     let past_loader = render_hard(
         "zero_area_and_sliver_triangles",
         &direct,
-        hard::settings(20_000),
+        hard::settings_for(20_000),
     );
     // Slivers 10 µm wide cover almost no pixel and almost no light-G-buffer texel.
     for frame in [&through_loader, &past_loader] {
@@ -103,7 +103,7 @@ fn coplanar_overlapping_surfaces() {
             w.mesh_node("dark", mesh, Vec3::new(0.0, lift, 0.0), Quat::IDENTITY);
         })
     };
-    let settings = hard::settings(20_000);
+    let settings = hard::settings_for(20_000);
     let case = "coplanar_overlapping_surfaces";
     let floor_only = render_hard(
         case,
@@ -162,9 +162,9 @@ fn back_to_back_thin_walls() {
     add_mesh(&mut scene, divider(Vec3::X, Vec3::ZERO), Mat4::IDENTITY);
     let case = "back_to_back_thin_walls";
     scene.camera = camera_looking(Vec3::new(-0.95, 0.3, 0.6), Vec3::new(0.0, -0.2, -0.3), 1.4);
-    let lit = render_hard(case, &scene, hard::settings(20_000));
+    let lit = render_hard(case, &scene, hard::settings_for(20_000));
     scene.camera = camera_looking(Vec3::new(0.95, 0.3, 0.6), Vec3::new(0.0, -0.2, -0.3), 1.4);
-    let dark = render_hard(case, &scene, hard::settings(20_000));
+    let dark = render_hard(case, &scene, hard::settings_for(20_000));
     // No photon is stored in the right half.
     let leaked = dark.photons.iter().filter(|p| p.position.x > 1e-4).count();
     let lit_mean = lit.mean().element_sum() / 3.0;
@@ -223,7 +223,7 @@ fn closed_glass_mesh() {
     w.mesh_node("cube", cube, Vec3::new(0.0, 0.6, 0.0), Quat::IDENTITY);
     w.sun("sun", Vec3::NEG_Y, [1.0; 3], e);
     let scene = load_glb("glass-cube", &w.glb());
-    let f = render_hard("closed_glass_mesh", &scene, hard::settings(20_000));
+    let f = render_hard("closed_glass_mesh", &scene, hard::settings_for(20_000));
     let under = |p: Vec3| p.x.abs() < half - 0.01 && p.z.abs() < half - 0.01;
     let inside = f
         .photons
@@ -269,7 +269,7 @@ type NormalsEdit = fn(&[Vec3]) -> Vec<Vec3>;
 fn missing_flipped_and_zero_length_normals() {
     let case = "missing_flipped_and_zero_length_normals";
     let correct = load_glb("correct", &block_with_normals(<[Vec3]>::to_vec));
-    let reference = render_hard(case, &correct, hard::settings(20_000));
+    let reference = render_hard(case, &correct, hard::settings_for(20_000));
     let block = |s: &ispm::scene::Scene| {
         s.meshes
             .iter()
@@ -299,7 +299,7 @@ fn missing_flipped_and_zero_length_normals() {
             }
         }
         assert_eq!(got.triangles.len(), want.triangles.len(), "{name}");
-        let frame = render_hard(case, &scene, hard::settings(20_000));
+        let frame = render_hard(case, &scene, hard::settings_for(20_000));
         hard::assert_same_image(case, &frame.frame, &reference.frame, 1e-3);
     }
 }
@@ -330,11 +330,11 @@ fn a_million_tiny_triangles() {
         scene
     };
     let case = "a_million_tiny_triangles";
-    let two = render_hard(case, &scene_of(1), hard::settings(20_000));
+    let two = render_hard(case, &scene_of(1), hard::settings_for(20_000));
     let dense = scene_of(708);
     assert!(dense.triangle_count() >= 1_000_000);
     let start = std::time::Instant::now();
-    let million = render_hard(case, &dense, hard::settings(20_000));
+    let million = render_hard(case, &dense, hard::settings_for(20_000));
     let seconds = start.elapsed().as_secs_f64();
     eprintln!(
         "{case}: {} triangles rendered in {seconds:.1} s",

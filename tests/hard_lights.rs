@@ -52,8 +52,8 @@ fn a_light_touching_a_surface() {
     // it: finite everywhere (`render_hard`), and the first bounce within the energy bound.
     let case = "a_light_touching_a_surface";
     let (on_scene, above_scene) = (touching(0.0), touching(1e-4));
-    let on = render_hard(case, &on_scene, hard::settings(20_000));
-    let above = render_hard(case, &above_scene, hard::settings(20_000));
+    let on = render_hard(case, &on_scene, hard::settings_for(20_000));
+    let above = render_hard(case, &above_scene, hard::settings_for(20_000));
     // Energy: the first bounce never carries more than the white surfaces (ρ = 0.75) keep of
     // the flux. (It carries less when touching: a surface closer to the light than its views'
     // near plane, 10⁻⁴ of the scene's diagonal, is not seen by them; docs/stability.md.)
@@ -74,7 +74,7 @@ fn a_light_touching_a_surface() {
 #[test]
 #[ignore = "bug: a point light exactly in a surface's plane gives no direct light at all"]
 fn a_light_touching_a_surface_lights_what_it_faces_directly() {
-    let direct = |h| hard::render_direct(&touching(h), hard::settings(0));
+    let direct = |h| hard::render_direct(&touching(h), hard::settings_for(0));
     hard::assert_same_image(
         "a_light_touching_a_surface_lights_what_it_faces_directly",
         &direct(0.0),
@@ -96,7 +96,7 @@ fn a_light_inside_a_closed_object() {
     let f = render_hard(
         "a_light_inside_a_closed_object",
         &scene,
-        hard::settings(20_000),
+        hard::settings_for(20_000),
     );
     let outside = f
         .photons
@@ -128,7 +128,7 @@ fn grazing_light() {
         e,
     );
     let scene = load_glb("grazing", &w.glb());
-    let f = render_hard("grazing_light", &scene, hard::settings(20_000));
+    let f = render_hard("grazing_light", &scene, hard::settings_for(20_000));
     let expected = e * elevation.sin() * 0.75 / std::f32::consts::PI;
     // The floor's middle (the camera sees the floor in the lower two thirds of the frame).
     let s = hard::SIZE;
@@ -156,7 +156,7 @@ fn spot_with_zero_and_near_180_degree_cones() {
     ] {
         let mut scene = grey_box(1.0, 1.0);
         scene.lights = vec![spot(Vec3::new(0.0, 0.3, 0.0), down, 3.0, cone)];
-        let f = render_hard(case, &scene, hard::settings(20_000));
+        let f = render_hard(case, &scene, hard::settings_for(20_000));
         let flux = total_flux(&scene);
         eprintln!(
             "{case}: {name} cone {cone:?}: flux {flux:.4e}, bounce map {:.4e}, peak {:.3e}",
@@ -184,7 +184,7 @@ fn spot_with_zero_and_near_180_degree_cones() {
 fn zero_power() {
     let case = "zero_power";
     let mut scene = grey_box(0.7, 0.0);
-    let alone = render_hard(case, &scene, hard::settings(20_000));
+    let alone = render_hard(case, &scene, hard::settings_for(20_000));
     assert_eq!(alone.frame.stats.emitted_photons, 0);
     assert_eq!(alone.peak(), 0.0, "a dark light lights the box");
     // Beside a real light it takes none of the budget.
@@ -192,7 +192,7 @@ fn zero_power() {
         .lights
         .push(spot(Vec3::ZERO, Vec3::NEG_Y, 1.0, (0.3, 0.5)));
     assert_eq!(photon_budget(&scene, 20_000), vec![0, 20_000]);
-    let both = render_hard(case, &scene, hard::settings(20_000));
+    let both = render_hard(case, &scene, hard::settings_for(20_000));
     assert!(both.view_texels.iter().all(|&(_, light)| light == 1));
     assert!(both.mean().element_sum() > 0.0);
 }
@@ -204,7 +204,7 @@ fn one_light_a_million_times_brighter_than_another() {
     scene
         .lights
         .push(spot(Vec3::new(0.3, 0.5, 0.2), Vec3::NEG_Y, 1.0, (0.2, 0.4)));
-    let f = render_hard(case, &scene, hard::settings(20_000));
+    let f = render_hard(case, &scene, hard::settings_for(20_000));
     let error = flux_error(&f, &scene);
     eprintln!(
         "{case}: bounce map against flux {error:.2e}, peak {:.3e}",
@@ -252,7 +252,7 @@ fn hundreds_of_lights() {
     );
     let settings = ispm::frame::RenderSettings {
         shadow_resolution: 64,
-        ..hard::settings(photons)
+        ..hard::settings_for(photons)
     };
     let f = render_hard(case, &scene, settings);
     // Every texel inside a cone hits a wall of albedo 1 and keeps its power: the records with

@@ -22,7 +22,7 @@ fn albedo_exactly_one_in_a_closed_sphere() {
     let settings = ispm::frame::RenderSettings {
         bounces: 4,
         radius: Some(0.05),
-        ..hard::settings(40_000)
+        ..hard::settings_for(40_000)
     };
     let f = render_hard("albedo_exactly_one_in_a_closed_sphere", &scene, settings);
     let stats = &f.frame.stats;
@@ -74,7 +74,7 @@ fn glossy_exponent_zero_and_very_large() {
         let f = render_hard(
             "glossy_exponent_zero_and_very_large",
             &scene,
-            hard::settings(20_000),
+            hard::settings_for(20_000),
         );
         let kept = f.bounce_map_power().element_sum() / 3.0 / flux(&scene);
         eprintln!("glossy exponent {exponent}: the first bounce keeps {kept:.4} of the flux");
@@ -139,7 +139,7 @@ fn glass_of_eta_one_is_invisible() {
     // pass shows the environment map, which holds direct light only (docs/overview.md): those
     // pixels are left out, and reported.
     let case = "glass_of_eta_one_is_invisible";
-    let settings = hard::settings(20_000);
+    let settings = hard::settings_for(20_000);
     let without = render_hard(case, &side_lit_ball(None), settings.clone());
     let scene = side_lit_ball(Some(glass("eta-1", 1.0)));
     let with = render_hard(case, &scene, settings);
@@ -220,7 +220,7 @@ fn glass_of_eta_three_and_total_internal_reflection() {
         let f = render_hard(
             "glass_of_eta_three_and_total_internal_reflection",
             &scene,
-            hard::settings(20_000),
+            hard::settings_for(20_000),
         );
         let kept = f.bounce_map_power().element_sum() / 3.0 / flux(&scene);
         let b = f.max_bounces as f64;
@@ -272,7 +272,11 @@ fn a_mirror_facing_a_mirror() {
     );
     let scene = load_glb("mirrors", &w.glb());
     let start = std::time::Instant::now();
-    let f = render_hard("a_mirror_facing_a_mirror", &scene, hard::settings(20_000));
+    let f = render_hard(
+        "a_mirror_facing_a_mirror",
+        &scene,
+        hard::settings_for(20_000),
+    );
     let stats = &f.frame.stats;
     let b = f.max_bounces as usize;
     eprintln!(
@@ -302,7 +306,7 @@ fn glass_of_eta_three_on_the_stage() {
     let f = render_hard(
         "glass_of_eta_three_on_the_stage",
         &stage_with_ball(Some(glass("eta-3", 3.0))),
-        hard::settings(20_000),
+        hard::settings_for(20_000),
     );
     assert!(f.frame.stats.stored_photons > 0);
     assert!(

@@ -7,12 +7,19 @@ const float KERNEL_NORMAL_RATIO = 0.5;
 const float KERNEL_PI = 3.14159265358979;
 
 // (r_xy, r_z) of a photon with path density rho_p at eye_distance metres from the eye; r_min,
-// r_max in metres, footprint: the pixel-footprint floor per metre of distance.
-vec2 kernel_radius(float rho_p, float r_min, float r_max, float footprint, float eye_distance) {
+// r_max in metres, footprint: the pixel-footprint floor per metre of distance, footprint_max:
+// the floor's ceiling in metres.
+vec2 kernel_radius(float rho_p, float r_min, float r_max, float footprint, float footprint_max,
+                   float eye_distance) {
     float r = (rho_p > 0.0 && !isinf(rho_p)) ? clamp(r_min * inversesqrt(rho_p), r_min, r_max)
                                              : r_max;
     // A comparison, not max(): a NaN floor (a photon with a broken position) leaves r alone.
     float floor_r = footprint * eye_distance;
+    // Camera case (1x1 images, fields of view near 180 degrees): a pixel wider than the room
+    // made kernels that spanned its walls; the floor stops at a tenth of the scene.
+    if (floor_r > footprint_max) {
+        floor_r = footprint_max;
+    }
     if (floor_r > r) {
         r = floor_r;
     }

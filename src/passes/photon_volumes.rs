@@ -57,7 +57,8 @@ struct Push {
     count: u32,
     subsample: u32,
     footprint: f32,
-    _pad: [f32; 3],
+    footprint_max: f32,
+    _pad: [f32; 2],
     /// Added to every stored photon position to make it eye-relative (xyz; w unused): the
     /// photon map's origin minus the eye (`photon_frame.rs`).
     offset: [f32; 4],
@@ -319,7 +320,8 @@ impl PhotonVolumesPass {
                     count,
                     subsample: self.subsample,
                     footprint: kernel.footprint,
-                    _pad: [0.0; 3],
+                    footprint_max: kernel.footprint_max,
+                    _pad: [0.0; 2],
                     offset: offset.extend(0.0).to_array(),
                 },
             );

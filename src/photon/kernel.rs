@@ -33,6 +33,9 @@
 //! height of the image the estimate is made at, so `--subsample N` uses its low resolution).
 //! The floor blurs the estimate only at the scale the image can show; it depends on the view,
 //! which is why [`KernelSettings::for_view`] sets it and camera-free gathers leave it 0.
+//! The floor stops at `footprint_max`, a tenth of the scene's diagonal: in a 1×1 image, or at a
+//! field of view near 180°, one pixel spans the whole room, and kernels as wide reached across
+//! its walls (the image at the centre came out 0.5–0.6 of a 40° view's, `tests/hard_camera.rs`).
 //!
 //! # Radius from the photon count: a consistent schedule
 //! `r_max = RADIUS_SCALE · diagonal · N^(−1/4)`. As N grows the kernel shrinks (bias → 0) while
@@ -66,6 +69,9 @@ pub struct KernelSettings {
     pub r_max: f32,
     /// Smallest radius per metre of distance from the eye (0: no floor).
     pub footprint: f32,
+    /// The floor's ceiling in metres: a tenth of the scene's diagonal
+    /// ([`KernelSettings::scene_relative`]).
+    pub footprint_max: f32,
 }
 
 impl KernelSettings {
@@ -84,6 +90,7 @@ impl KernelSettings {
             r_min: r_max / RADIUS_RANGE,
             r_max,
             footprint: 0.0,
+            footprint_max: 0.1 * diag,
         }
     }
 
@@ -114,8 +121,16 @@ pub fn kernel_radius(rho_p: f32, settings: &KernelSettings, eye_distance: f32) -
     } else {
         settings.r_max
     };
+    let floor = settings.footprint * eye_distance;
+    // Camera case (1×1 images, fields of view near 180°): a pixel wider than the room made
+    // kernels that spanned its walls; the floor stops at a tenth of the scene (NaN stays NaN).
+    let floor = if floor > settings.footprint_max {
+        settings.footprint_max
+    } else {
+        floor
+    };
     // NaN distances (a photon with a broken position) leave the floor out.
-    let r = r.max(settings.footprint * eye_distance);
+    let r = r.max(floor);
     (r, r * NORMAL_RATIO)
 }
 
@@ -200,6 +215,7 @@ mod tests {
             r_min: 0.01,
             r_max: 0.5,
             footprint: 0.0,
+            footprint_max: f32::INFINITY,
         };
         assert_eq!(kernel_radius(1.0, &k, 3.0).0, 0.01);
         assert_eq!(kernel_radius(1e-9, &k, 3.0).0, 0.5);
@@ -216,6 +232,7 @@ mod tests {
             r_min: 0.01,
             r_max: 0.5,
             footprint: 0.0,
+            footprint_max: 10.0,
         }
         .for_view(std::f32::consts::FRAC_PI_2, 100);
         assert!(
@@ -229,6 +246,8 @@ mod tests {
         // … a diffuse one keeps its larger radius, and the floor may exceed r_max far away.
         assert_eq!(kernel_radius(1e-9, &k, 2.0).0, 0.5);
         assert!((kernel_radius(1e-9, &k, 100.0).0 - FOOTPRINT_PIXELS * 2.0).abs() < 1e-5);
+        // … up to its ceiling: a pixel wider than the scene does not make a kernel as wide.
+        assert_eq!(kernel_radius(1e-9, &k, 1000.0).0, 10.0);
         // Broken distances leave the clamp alone.
         assert_eq!(kernel_radius(1.0, &k, f32::NAN).0, 0.01);
     }

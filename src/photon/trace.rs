@@ -7,7 +7,8 @@
 //!   [`EmittedPhoton`] to its first hit and bounces it there ([`first_bounce`], the CPU
 //!   equivalent of one bounce-map texel), then continues with [`trace_photons`].
 //! - **From the GPU bounce map**: [`PhotonState::from_bounce_map`] turns a read-back texel (its
-//!   position recovered from the light G-buffer depth by the caller) into the same state.
+//!   position recovered from the light G-buffer depth by the caller, with an error bound) into
+//!   the same state.
 //!
 //! # What is stored, and where
 //! A photon is stored at the k-th surface it hits only when k ≥ 2 (it has bounced at least
@@ -95,17 +96,19 @@ pub struct PhotonState {
 
 impl PhotonState {
     /// The state of a GPU bounce-map photon whose hit point (recovered from the light
-    /// G-buffer's depth) is `position`. `None` for absorbed texels (zero power or direction).
-    /// The origin is pushed along the direction by a relative epsilon, since the read-back
-    /// texel has no normal or error bound.
-    pub fn from_bounce_map(p: &BounceMapPhoton, position: Vec3) -> Option<Self> {
+    /// G-buffer's depth) is `position`, within `error` metres. `None` for absorbed texels
+    /// (zero power or direction). The read-back texel has no normal, so the origin is pushed
+    /// along the direction by the error bound ([`BouncePlan::photon_starts`] computes it from
+    /// the scene's scale and the position's magnitude).
+    ///
+    /// [`BouncePlan::photon_starts`]: crate::ispm::BouncePlan::photon_starts
+    pub fn from_bounce_map(p: &BounceMapPhoton, position: Vec3, error: f32) -> Option<Self> {
         let (direction, rho_p) = unpack_direction(p.direction);
         if direction == Vec3::ZERO || p.power.max_element() <= 0.0 || !p.power.is_finite() {
             return None;
         }
-        let offset = 1e-4 * (1.0 + position.abs().max_element());
         Some(Self {
-            origin: position + direction * offset,
+            origin: position + direction * error,
             direction,
             power: p.power,
             rho_p,
@@ -503,9 +506,9 @@ mod tests {
     #[test]
     fn absorbed_or_empty_bounce_map_texels_start_no_path() {
         let empty = BounceMapPhoton::default();
-        assert!(PhotonState::from_bounce_map(&empty, Vec3::ONE).is_none());
+        assert!(PhotonState::from_bounce_map(&empty, Vec3::ONE, 1e-4).is_none());
         let lit = BounceMapPhoton::new(Vec3::ONE, Vec3::Y, 0.5, 1.0, 3.0);
-        let s = PhotonState::from_bounce_map(&lit, Vec3::ZERO).unwrap();
+        let s = PhotonState::from_bounce_map(&lit, Vec3::ZERO, 1e-4).unwrap();
         assert_eq!(s.bounces, 1);
         assert!(s.origin.y > 0.0 && (s.rho_p - 0.5).abs() < 1e-6);
     }
