@@ -5,7 +5,7 @@
 mod common;
 
 use common::hard::{self, render_hard};
-use ispm::frame::RenderSettings;
+use ispm::frame::{RenderSettings, Renderer};
 use ispm::photon::emit::light_flux;
 use ispm::reference::scenes::{cornell, grey_box};
 
@@ -81,4 +81,35 @@ fn subsample_larger_than_the_image() {
     let (a, b) = (coarse.mean().element_sum(), full.mean().element_sum());
     eprintln!("{case}: mean radiance {a:.4} at 1×1 indirect, {b:.4} at full resolution");
     assert!(a > 0.5 * b && a < 2.0 * b, "{a} against {b}");
+}
+
+#[test]
+fn a_bounce_map_beyond_one_buffer_is_an_error_not_a_fault() {
+    // 5 M photons from one point light: six views of 913² texels, 160 MB of bounce map, past
+    // one storage buffer's reach on lavapipe (128 MiB). The bounce map is not split (yet): the
+    // renderer refuses with the sizes, before any GPU work, instead of binding what the device
+    // cannot read. (On devices whose reach is larger the frame is made; nothing is rendered.)
+    let gpu = common::gpu();
+    let reach = u64::from(gpu.properties.max_storage_buffer_range);
+    let scene = grey_box(1.0, 1.0);
+    let settings = hard::settings_for(5_000_000);
+    match Renderer::new(&gpu, &scene, settings) {
+        Err(e) => {
+            let message = format!("{e:#}");
+            eprintln!("{message}");
+            assert!(
+                message.contains("bounce map") && message.contains("bytes"),
+                "{message}"
+            );
+        }
+        Ok(r) => {
+            let texels = r.photons().map_or(0, |p| p.plan().texels);
+            eprintln!("made: {texels} texels, reach {reach}");
+            assert!(
+                reach >= 5_000_000 * 32,
+                "a {reach}-byte reach accepted 160 MB"
+            );
+        }
+    }
+    common::assert_validation_clean(&gpu);
 }
