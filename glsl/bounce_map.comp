@@ -42,6 +42,19 @@ bool first_hit_is_delta(ivec3 t) {
     return mirror || max(m.transmission.r, max(m.transmission.g, m.transmission.b)) > 0.0;
 }
 
+// The random-number key of texel xy of `view`: the twin of BouncePlan::texel_key (src/ispm.rs),
+// which says why: the light's seed, which of its views this is, and the texel in the view's
+// grid (a caustic view's in its parent's grid subdivided k x k), never its bounce-map index.
+uint texel_key(BounceView view, uvec2 xy) {
+    uvec2 g = xy;
+    if (view.kind.y == BOUNCE_VIEW_CAUSTIC) {
+        BounceView parent = views[view.kind.z];
+        vec2 corner = (view.params.zw - parent.params.zw) / view.params.x;
+        g += uvec2(ivec2(round(corner)));
+    }
+    return hash2(hash2(hash2(view.texels.w, view.kind.w), g.x), g.y);
+}
+
 void main() {
     BounceView view = views[gl_GlobalInvocationID.z];
     uvec2 size = view.texels.xy;
@@ -140,7 +153,7 @@ void main() {
     vec3 albedo = texelFetch(g_albedo, texel, 0).rgb;
     GpuMaterial m = materials[texelFetch(g_material, texel, 0).x];
     Bsdf bsdf = material_bsdf(m, albedo);
-    Rng rng = rng_new(hash2(hash2(view.texels.w, index), push.seed));
+    Rng rng = rng_new(hash2(texel_key(view, xy), push.seed));
     BsdfSample s;
     if (any(greaterThan(power, vec3(0.0)))
         && bsdf_sample_russian_roulette(bsdf, -travel, n, n, rng_next_3(rng), s)) {

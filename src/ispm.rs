@@ -69,7 +69,7 @@
 use crate::layout::{BounceView, FrameUniforms, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
 use crate::lighting::LightSetup;
 use crate::photon::emit::{photon_budget_among, spot_falloff, spot_falloff_integral};
-use crate::photon::rng::hash_vec3;
+use crate::photon::rng::hash2;
 use crate::photon::trace::PhotonState;
 use crate::photon::types::BounceMapPhoton;
 use crate::scene::{Aabb, LightKind, Scene};
@@ -89,6 +89,14 @@ pub const MAX_CAUSTIC_SUBDIVISION: u32 = 16;
 /// Texels per side of the probe grid that measures the fraction of a light's texels inside its
 /// cone.
 const PROBE: u32 = 64;
+
+/// Salt of a light's bounce-map seed ([`light_seed`]).
+const LIGHT_SEED_STREAM: u32 = 0x6c1e_5eed;
+/// `BounceView.kind.w` of a caustic view: this plus its parent's (the parent's own is its index
+/// among the light's main views).
+const CAUSTIC_ORDINAL: u32 = 16;
+/// Salt of a bounce-map photon's CPU path key (its generator must not repeat the texel's).
+const CPU_PATH_STREAM: u32 = 0x0c90_7ace;
 
 /// The light views of one frame's photon emission: each light's main views, then its caustic
 /// views, light after light.
@@ -555,7 +563,9 @@ impl BouncePlan {
                 axis: gpu_light.direction,
                 intensity: (light.intensity * scale as f32).extend(cos_inner),
                 params: Vec4::ZERO,
-                texels: UVec4::new(0, 0, 0, hash_vec3(light.position)),
+                // Temporal case: keyed by the light's name, not its position, so a moving
+                // light keeps every texel's random numbers (no flicker as it moves).
+                texels: UVec4::new(0, 0, 0, light_seed(&scene.lights, index)),
                 kind: UVec4::new(kind, BOUNCE_VIEW_WHOLE, 0, 0),
             };
             let viewer = if ortho {
@@ -573,7 +583,7 @@ impl BouncePlan {
                 let corner = -halves[v] as f32;
                 let view = BounceView {
                     params: Vec4::new(side(v) as f32, 0.0, corner, corner),
-                    kind: UVec4::new(kind, role, child, 0),
+                    kind: UVec4::new(kind, role, child, v as u32),
                     ..template
                 };
                 plan.push(matrices[v], view, (res, res), viewer, index);
@@ -603,7 +613,12 @@ impl BouncePlan {
                         (-halves[v] + f64::from(w.i0) * parent_side) as f32,
                         (-halves[v] + f64::from(w.j0) * parent_side) as f32,
                     ),
-                    kind: UVec4::new(kind, BOUNCE_VIEW_CAUSTIC, (first_view + v) as u32, 0),
+                    kind: UVec4::new(
+                        kind,
+                        BOUNCE_VIEW_CAUSTIC,
+                        (first_view + v) as u32,
+                        CAUSTIC_ORDINAL + v as u32,
+                    ),
                     ..template
                 };
                 let extent = ((w.i1 - w.i0) * k, (w.j1 - w.j0) * k);
@@ -668,6 +683,26 @@ impl BouncePlan {
         self.max_extent = (self.max_extent.0.max(width), self.max_extent.1.max(height));
     }
 
+    /// The random-number key of texel (`x`, `y`) of view `v`, the twin of `texel_key` in
+    /// `bounce_map.comp`: its light's seed ([`light_seed`]), which of the light's views it is
+    /// (`kind.w`) and its texel in that view's grid, a caustic view's counted in its parent's
+    /// grid subdivided k × k. Temporal case: none of it changes as a light moves slowly, not
+    /// the views before it in the bounce map (their sizes) nor where a caustic window lies, so
+    /// each texel keeps its random numbers and its photon moves with the light.
+    pub fn texel_key(&self, v: usize, x: u32, y: u32) -> u32 {
+        let view = &self.views[v];
+        let (mut gx, mut gy) = (x, y);
+        if view.kind.y == BOUNCE_VIEW_CAUSTIC {
+            // The window's corner in sub-texels of the parent's plane.
+            let parent = &self.views[view.kind.z as usize];
+            let zw = |p: Vec4| glam::Vec2::new(p.z, p.w);
+            let corner = (zw(view.params) - zw(parent.params)) / view.params.x;
+            gx = gx.wrapping_add(corner.x.round() as i32 as u32);
+            gy = gy.wrapping_add(corner.y.round() as i32 as u32);
+        }
+        hash2(hash2(hash2(view.texels.w, view.kind.w), gx), gy)
+    }
+
     /// The photons to continue on the CPU: every bounce-map record with power, placed at the
     /// hit point its texel ray and depth describe (in world space), and pushed along its
     /// direction by the hit point's error bound.
@@ -692,7 +727,8 @@ impl BouncePlan {
             let offset = view.texels.z as usize;
             for y in 0..height {
                 for x in 0..width {
-                    let Some(p) = bounce_map.get(offset + (y * width + x) as usize) else {
+                    let index = offset + (y * width + x) as usize;
+                    let Some(p) = bounce_map.get(index) else {
                         continue;
                     };
                     if p.power.max_element().partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
@@ -704,11 +740,11 @@ impl BouncePlan {
                     let dir = (unproject(&inverse, ndc, 1.0) - near).normalize();
                     let relative = near + dir * f64::from(p.depth);
                     let hit = relative + self.origin;
-                    if let Some(s) = PhotonState::from_bounce_map(
-                        p,
-                        hit.as_vec3(),
-                        error(relative, p.depth, hit),
-                    ) {
+                    // The path is keyed by its texel, as the bounce map's own generator is, not
+                    // by where it starts.
+                    let key = hash2(self.texel_key(v, x, y), CPU_PATH_STREAM);
+                    let error = error(relative, p.depth, hit);
+                    if let Some(s) = PhotonState::from_bounce_map(p, hit.as_vec3(), error, key) {
                         starts.push(s);
                     }
                 }
@@ -716,6 +752,19 @@ impl BouncePlan {
         }
         starts
     }
+}
+
+/// The bounce-map seed of light `index` of `lights`: a hash of its name and of how many lights
+/// before it share the name. Not of its position, so a moving light keeps its texels' random
+/// numbers (temporal stability, docs/stability.md); not of its index, so removing another light
+/// leaves its photons as they were (`tests/effects_plan.rs`, the enclosed lamp).
+pub fn light_seed(lights: &[crate::scene::Light], index: usize) -> u32 {
+    let name = &lights[index].name;
+    let twins = lights[..index].iter().filter(|l| &l.name == name).count();
+    let h = name
+        .bytes()
+        .fold(LIGHT_SEED_STREAM, |h, b| hash2(h, u32::from(b)));
+    hash2(h, twins as u32)
 }
 
 #[cfg(test)]
@@ -1106,5 +1155,24 @@ mod tests {
         let err = BouncePlan::within(&scene, &all, camera, &bounds, (50_000, 0.5), &none)
             .expect_err("the main view needs more texels");
         assert!(err.to_string().contains("light views"), "{err}");
+    }
+
+    #[test]
+    fn a_lights_seed_follows_its_name_not_its_place_or_position() {
+        let light = |name: &str, x: f32| Light {
+            name: name.into(),
+            kind: LightKind::Point,
+            position: Vec3::new(x, 1.0, 0.0),
+            direction: Vec3::NEG_Y,
+            intensity: Vec3::ONE,
+        };
+        let lights = [light("a", 0.0), light("b", 0.0), light("b", 2.0)];
+        let seeds: Vec<u32> = (0..3).map(|i| light_seed(&lights, i)).collect();
+        // Distinct for distinct names, and for two lights of one name.
+        assert!(seeds[0] != seeds[1] && seeds[1] != seeds[2] && seeds[0] != seeds[2]);
+        // Moved: the same seed; another light removed: the same seed.
+        let moved = [light("a", 0.5), light("b", 0.0), light("b", 2.0)];
+        assert_eq!(light_seed(&moved, 0), seeds[0]);
+        assert_eq!(light_seed(&lights[1..], 0), seeds[1]);
     }
 }

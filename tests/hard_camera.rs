@@ -223,12 +223,14 @@ fn a_1x1_image_is_the_centre_pixel_of_a_larger_one() {
 #[test]
 fn a_256x1_image_is_the_centre_row_of_a_tall_one_with_the_same_rays() {
     let gpu = common::gpu();
-    // 256×1 at 40° vertical: 179° across. The centre row of a 256×257 image whose vertical
-    // field of view is 257 times as tall (in tan) holds the same rays.
-    let wide = looking(EYE, WALL_POINT, YFOV, 0.05);
+    // 256×1 at 40° vertical: 179° across, from inside the box so that the row sees the side
+    // walls as well as the back. The centre row of a 256×257 image whose vertical field of
+    // view is 257 times as tall (in tan) holds the same rays.
+    let inside = Vec3::new(0.0, 0.8, 0.9);
+    let wide = looking(inside, WALL_POINT, YFOV, 0.05);
     let line = render(&gpu, &wide, (256, 1), Method::Direct, "256x1-direct");
     let tall_fov = 2.0 * (257.0 * (YFOV / 2.0).tan()).atan();
-    let tall = looking(EYE, WALL_POINT, tall_fov, 0.05);
+    let tall = looking(inside, WALL_POINT, tall_fov, 0.05);
     let tall = render(&gpu, &tall, (256, 257), Method::Direct, "256x257-direct");
     let row = &tall.frame.hdr[(128 * 256 * 4) as usize..(129 * 256 * 4) as usize];
     assert!(hard::mean(row) > 0.0, "the row sees the lit wall");

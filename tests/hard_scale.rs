@@ -5,9 +5,10 @@
 //! What is invariant: with every length multiplied by `s` and the spot's intensity by `s²`,
 //! the irradiance at every scaled point is the same, so the radiance (the image) is too. Kernel
 //! radii, shadow offsets, near and far planes and ray offsets must follow the scene's scale for
-//! that to hold. Direct light (shadow maps) is deterministic and compared pixel by pixel; the
-//! indirect light draws other random numbers at each scale (its seeds hash positions), so it is
-//! compared as the mean over two seeds and over 8×8-pixel tiles. Validation and
+//! that to hold. Direct light (shadow maps) is deterministic and compared pixel by pixel. The
+//! indirect light draws the same random numbers at every scale and place (they are keyed by the
+//! light's name and the bounce-map texel, not by positions: docs/stability.md), so it is
+//! compared over 8×8-pixel tiles and as a mean, tightly; each over two seeds. Validation and
 //! synchronization validation on, the GPU value check 0, the EXR finite and non-negative.
 
 mod common;
@@ -22,14 +23,13 @@ const SEEDS: u32 = 2;
 /// Direct light and glass, Σ|Δ|/Σ: pixels along silhouettes and shadow edges may move by a
 /// fraction of a texel between scales.
 const DIRECT_TOLERANCE: f64 = 0.01;
-/// Indirect light over 8×8-pixel tiles, Σ|Δ|/Σ (seed-to-seed at one scale: about 0.07).
-const INDIRECT_TILE_TOLERANCE: f64 = 0.15;
-/// Mean indirect radiance ratio (seed-to-seed spread of a two-seed mean: about 1.5 %).
-const INDIRECT_MEAN_TOLERANCE: f64 = 0.06;
+/// Indirect light over 8×8-pixel tiles, Σ|Δ|/Σ, and its mean's ratio: the same photons, so
+/// only rounding differs (seed to seed the tiles differ by about 0.07).
+const INDIRECT_TOLERANCE: (f64, f64) = (0.01, 0.01);
 /// The same, 10⁵ m from the origin, where the CPU photon trace still works in f32 world
-/// coordinates (8 mm apart there): paths through the glass ball lose light (measured ratio
-/// 0.94, 0.96 without the ball; docs/stability.md).
-const MOVED_INDIRECT_MEAN_TOLERANCE: f64 = 0.10;
+/// coordinates (8 mm apart there): paths that bounce often, through the glass ball most,
+/// lose light (measured: tiles 0.081, mean ratio 0.92; docs/stability.md).
+const MOVED_INDIRECT_TOLERANCE: (f64, f64) = (0.15, 0.12);
 
 /// The direct image (`--method direct`: shadow-mapped light and the glass, deterministic) and
 /// the indirect image averaged over [`SEEDS`] seeds.
@@ -67,7 +67,7 @@ fn render(gpu: &std::sync::Arc<ispm::gpu::Gpu>, scale: f32, offset: Vec3, name: 
     }
 }
 
-fn compare(reference: &Averaged, other: &Averaged, case: &str, mean_tolerance: f64) {
+fn compare(reference: &Averaged, other: &Averaged, case: &str, (max_tiles, means): (f64, f64)) {
     let direct = hard::relative_l1(&other.direct, &reference.direct);
     let tiles = |a: &Averaged| hard::block_average(&a.indirect, SIZE, 8);
     let indirect = hard::relative_l1(&tiles(other), &tiles(reference));
@@ -81,11 +81,11 @@ fn compare(reference: &Averaged, other: &Averaged, case: &str, mean_tolerance: f
         "{case}: direct differs by {direct:.4}"
     );
     assert!(
-        indirect < INDIRECT_TILE_TOLERANCE,
+        indirect < max_tiles,
         "{case}: indirect tiles differ by {indirect:.4}"
     );
     assert!(
-        (mean - 1.0).abs() < mean_tolerance,
+        (mean - 1.0).abs() < means,
         "{case}: indirect mean ratio {mean:.4}"
     );
 }
@@ -97,7 +97,7 @@ fn the_same_box_at_a_millimetre_a_metre_and_ten_kilometres_renders_the_same_imag
     assert!(hard::mean(&reference.indirect) > 0.0 && hard::mean(&reference.direct) > 0.0);
     for (scale, name) in [(1e-3, "scale-1mm"), (1e4, "scale-10km")] {
         let other = render(&gpu, scale, Vec3::ZERO, name);
-        compare(&reference, &other, name, INDIRECT_MEAN_TOLERANCE);
+        compare(&reference, &other, name, INDIRECT_TOLERANCE);
     }
     common::assert_validation_clean(&gpu);
 }
@@ -108,11 +108,6 @@ fn the_box_moved_a_hundred_kilometres_from_the_origin_renders_the_same_image() {
     let reference = render(&gpu, 1.0, Vec3::ZERO, "origin");
     // |offset| = 10⁵ m, along two axes.
     let far = render(&gpu, 1.0, Vec3::new(6e4, 0.0, 8e4), "moved-100km");
-    compare(
-        &reference,
-        &far,
-        "moved-100km",
-        MOVED_INDIRECT_MEAN_TOLERANCE,
-    );
+    compare(&reference, &far, "moved-100km", MOVED_INDIRECT_TOLERANCE);
     common::assert_validation_clean(&gpu);
 }

@@ -137,7 +137,7 @@ fn bounce_map_photons_continue_like_cpu_first_bounces() {
     assert!(states.iter().all(|s| s.bounces == 1));
     for s in &states {
         let record = s.to_bounce_map(1.0);
-        let back = PhotonState::from_bounce_map(&record, s.origin, 0.0).unwrap();
+        let back = PhotonState::from_bounce_map(&record, s.origin, 0.0, s.path_key).unwrap();
         assert_eq!(back.power, s.power);
         assert!((back.direction - s.direction).length() < 1e-6);
         // ρp rides on ‖v‖ = ρp + 1: f32 keeps it to one ulp of 1 (types.rs's packing docs).

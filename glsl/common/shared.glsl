@@ -61,7 +61,7 @@ struct BounceView {
                          // of texel (0, 0) (the parent view's plane, for caustic views)
     uvec4 texels;        // x: width; y: height; z: first bounce-map index; w: light seed
     uvec4 kind;          // x: light kind (LIGHT_*); y: role (BOUNCE_VIEW_*); z: parent view
-                         // (caustic views); w: unused
+                         // (caustic views); w: which of the light's views (random-number key)
 };
 
 // Per-draw push constants of the raster passes (128 bytes: the guaranteed minimum).

@@ -6,10 +6,14 @@
 //! - [`Rng`]: a PCG RXS-M-XS 32/32 generator (period 2³²), one `u32` of state, which is plenty
 //!   for one photon path or one pixel sample.
 //!
-//! Seeding is frame-coherent (DESIGN.md §2.3): a bounce-map texel is seeded from the light's
-//! position bits and the texel index ([`seed_bounce_map_texel`]); a CPU path is re-seeded from
-//! the bits of where it starts ([`seed_from_position`]). Static light and geometry therefore give
-//! the same photons every frame. `-0.0` is canonicalised to `+0.0` before hashing, on both sides.
+//! Seeding is frame-coherent (DESIGN.md §2.3). The CPU references seed an emitted photon from
+//! the light's position bits and its index ([`seed_bounce_map_texel`]) and a path from the bits
+//! of where it starts ([`seed_from_position`]). The renderer's bounce map seeds a texel from its
+//! light's *index* and the texel index, and the CPU path that continues it from the same pair
+//! (`ispm::BouncePlan::photon_starts`): a moving light keeps its random numbers, so its photons
+//! move with it rather than flicker (docs/stability.md). Static light and geometry give the same
+//! photons every frame either way. `-0.0` is canonicalised to `+0.0` before hashing, on both
+//! sides.
 //!
 //! [`PCG_HASH_TEST_VECTORS`] and [`RNG_TEST_VECTORS`] pin the outputs; the GPU-side test compares
 //! `rng.glsl` against the same tables.

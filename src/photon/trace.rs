@@ -37,8 +37,12 @@
 //! map is the same bit for bit. [`first_bounce`] (the CPU references) always has every lobe.
 //!
 //! # Determinism
-//! Each path draws from `Rng::new(seed_from_position(origin, seed))` (frame-coherent: the
-//! same start gives the same path). Work is split into fixed-size chunks traced in parallel by
+//! Each path draws from `Rng::new(hash2(path_key, seed))` (frame-coherent). The CPU
+//! references' paths are keyed by where they start (`hash_vec3(origin)`: the same start gives
+//! the same path); the GPU bounce map's by the texel they come from
+//! ([`crate::ispm::BouncePlan::photon_starts`]), so that a slowly moving light keeps each
+//! path's random numbers and its photons move with it instead of being drawn anew (the
+//! temporal stability case, docs/stability.md). Work is split into fixed-size chunks traced in parallel by
 //! rayon; per-chunk buffers are concatenated in chunk order, so the photon map does not depend
 //! on the number of threads. Each chunk is a `trace_chunk` span on its worker's track
 //! ([`crate::timing`]), in the frame of the thread that called [`trace_photons`].
@@ -47,7 +51,7 @@ use super::bsdf::{Bsdf, BsdfVariant, Lobe};
 use super::bvh::SceneBvh;
 use super::emit::EmittedPhoton;
 use super::ray::{Hit, Ray};
-use super::rng::{hash2, seed_from_position, Rng};
+use super::rng::{hash2, hash_vec3, Rng};
 use super::types::{pack_direction, unpack_direction, BounceMapPhoton, Photon};
 use crate::scene::{Material, Scene};
 use glam::{Vec2, Vec3};
@@ -92,6 +96,10 @@ pub struct PhotonState {
     /// Index of refraction of the medium it travels in.
     pub eta: f32,
     pub bounces: u32,
+    /// What the path's random numbers are drawn from, with the global seed: a hash of the
+    /// start point for the CPU references, of the bounce-map texel for the GPU's photons
+    /// (module docs, "Determinism").
+    pub path_key: u32,
 }
 
 impl PhotonState {
@@ -102,7 +110,12 @@ impl PhotonState {
     /// the scene's scale and the position's magnitude).
     ///
     /// [`BouncePlan::photon_starts`]: crate::ispm::BouncePlan::photon_starts
-    pub fn from_bounce_map(p: &BounceMapPhoton, position: Vec3, error: f32) -> Option<Self> {
+    pub fn from_bounce_map(
+        p: &BounceMapPhoton,
+        position: Vec3,
+        error: f32,
+        path_key: u32,
+    ) -> Option<Self> {
         let (direction, rho_p) = unpack_direction(p.direction);
         if direction == Vec3::ZERO || p.power.max_element() <= 0.0 || !p.power.is_finite() {
             return None;
@@ -114,6 +127,7 @@ impl PhotonState {
             rho_p,
             eta: if p.eta > 0.0 { p.eta } else { 1.0 },
             bounces: 1,
+            path_key,
         })
     }
 
@@ -216,6 +230,7 @@ fn scatter<const GLOSSY: bool, const DELTA: bool>(
         rho_p: state.rho_p * s.path_density_factor,
         eta,
         bounces: state.bounces + 1,
+        path_key: state.path_key,
     })
 }
 
@@ -233,15 +248,20 @@ pub fn first_bounce(scene: &Scene, bvh: &SceneBvh, photon: &EmittedPhoton) -> Op
         rho_p: 1.0,
         eta: 1.0,
         bounces: 0,
+        path_key: 0,
     };
     let mut rng = Rng::new(hash2(photon.seed, FIRST_BOUNCE_STREAM));
-    scatter::<true, true>(
+    let bounced = scatter::<true, true>(
         &bsdf_at(scene, &hit),
         &hit,
         photon.direction,
         &start,
         &mut rng,
-    )
+    )?;
+    Some(PhotonState {
+        path_key: hash_vec3(bounced.origin),
+        ..bounced
+    })
 }
 
 #[derive(Default)]
@@ -275,7 +295,7 @@ fn trace_path<const GLOSSY: bool, const DELTA: bool>(
         return;
     }
     out.attrition[start.bounces as usize] += 1;
-    let mut rng = Rng::new(seed_from_position(start.origin, settings.seed));
+    let mut rng = Rng::new(hash2(start.path_key, settings.seed));
     let mut state = *start;
     loop {
         let Some(hit) = bvh.intersect(&Ray::new(state.origin, state.direction)) else {
@@ -506,9 +526,9 @@ mod tests {
     #[test]
     fn absorbed_or_empty_bounce_map_texels_start_no_path() {
         let empty = BounceMapPhoton::default();
-        assert!(PhotonState::from_bounce_map(&empty, Vec3::ONE, 1e-4).is_none());
+        assert!(PhotonState::from_bounce_map(&empty, Vec3::ONE, 1e-4, 7).is_none());
         let lit = BounceMapPhoton::new(Vec3::ONE, Vec3::Y, 0.5, 1.0, 3.0);
-        let s = PhotonState::from_bounce_map(&lit, Vec3::ZERO, 1e-4).unwrap();
+        let s = PhotonState::from_bounce_map(&lit, Vec3::ZERO, 1e-4, 7).unwrap();
         assert_eq!(s.bounces, 1);
         assert!(s.origin.y > 0.0 && (s.rho_p - 0.5).abs() < 1e-6);
     }

@@ -42,22 +42,8 @@ pub fn lit_box(scale: f32, offset: Vec3) -> Scene {
 /// front of the block when `glass`: the translucent pass and caustic views at that scale.
 pub fn lit_box_with(scale: f32, offset: Vec3, glass: bool) -> Scene {
     let mut w = GltfWriter::default();
-    let white = w.material(&MaterialSpec::diffuse("white", [0.75, 0.75, 0.75]));
-    let red = w.material(&MaterialSpec::diffuse("red", [0.63, 0.065, 0.05]));
-    let green = w.material(&MaterialSpec::diffuse("green", [0.14, 0.45, 0.091]));
     let at = |p: Vec3| offset + p * scale;
-    let walls = [
-        ("floor", Vec3::ZERO, Vec3::Y, white),
-        ("ceiling", Vec3::new(0.0, 2.0, 0.0), Vec3::NEG_Y, white),
-        ("back", Vec3::new(0.0, 1.0, -1.0), Vec3::Z, white),
-        ("left", Vec3::new(-1.0, 1.0, 0.0), Vec3::X, red),
-        ("right", Vec3::new(1.0, 1.0, 0.0), Vec3::NEG_X, green),
-    ];
-    for (name, c, n, m) in walls {
-        // Centred on the node, so the vertices stay small and the node carries the offset.
-        let mesh = w.mesh(name, &quad(Vec3::ZERO, n, scale, scale), m);
-        w.mesh_node(name, mesh, at(c), Quat::IDENTITY);
-    }
+    let white = room(&mut w, scale, offset);
     let block = w.mesh("block", &cuboid(Vec3::new(0.3, 0.6, 0.3) * scale), white);
     w.mesh_node(
         "block",
@@ -90,8 +76,68 @@ pub fn lit_box_with(scale: f32, offset: Vec3, glass: bool) -> Scene {
         at(Vec3::new(0.0, 1.0, 0.0)),
         0.7,
     );
-    let mut scene = ispm::scene::load::load_from_slice(&w.glb(), "lit-box.glb", None)
-        .expect("the authored box loads");
+    load(w, scale)
+}
+
+/// Two rooms of [`lit_box`] side by side, 0.5 m apart (the first centred on x = −1.25, the
+/// second on x = +1.25), each lit by its own spot under the ceiling, both open towards the
+/// camera, which sees both: no light of one room can reach the other (nothing outside them
+/// sends it back in). Light 0 lights the first room, light 1 the second.
+pub fn two_rooms() -> Scene {
+    let mut w = GltfWriter::default();
+    for (x, name) in [(-1.25f32, "spot-left"), (1.25, "spot-right")] {
+        let white = room(&mut w, 1.0, Vec3::new(x, 0.0, 0.0));
+        let block = w.mesh("block", &cuboid(Vec3::new(0.3, 0.6, 0.3)), white);
+        w.mesh_node(
+            "block",
+            block,
+            Vec3::new(x - 0.35, 0.6, -0.3),
+            Quat::from_rotation_y(0.3),
+        );
+        let spot = Vec3::new(x, 1.95, 0.0);
+        w.spot(
+            name,
+            spot,
+            spot - Vec3::Y,
+            [1.0; 3],
+            SPOT_W_PER_SR,
+            (0.7, 0.9),
+        );
+    }
+    w.camera(
+        "camera",
+        Vec3::new(0.0, 1.0, 6.5),
+        Vec3::new(0.0, 1.0, 0.0),
+        0.7,
+    );
+    load(w, 1.0)
+}
+
+/// The five walls of a 2 m room (module docs of [`lit_box`]), scaled and moved; returns the
+/// white material.
+fn room(w: &mut GltfWriter, scale: f32, offset: Vec3) -> usize {
+    let white = w.material(&MaterialSpec::diffuse("white", [0.75, 0.75, 0.75]));
+    let red = w.material(&MaterialSpec::diffuse("red", [0.63, 0.065, 0.05]));
+    let green = w.material(&MaterialSpec::diffuse("green", [0.14, 0.45, 0.091]));
+    let walls = [
+        ("floor", Vec3::ZERO, Vec3::Y, white),
+        ("ceiling", Vec3::new(0.0, 2.0, 0.0), Vec3::NEG_Y, white),
+        ("back", Vec3::new(0.0, 1.0, -1.0), Vec3::Z, white),
+        ("left", Vec3::new(-1.0, 1.0, 0.0), Vec3::X, red),
+        ("right", Vec3::new(1.0, 1.0, 0.0), Vec3::NEG_X, green),
+    ];
+    for (name, c, n, m) in walls {
+        // Centred on the node, so the vertices stay small and the node carries the offset.
+        let mesh = w.mesh(name, &quad(Vec3::ZERO, n, scale, scale), m);
+        w.mesh_node(name, mesh, offset + c * scale, Quat::IDENTITY);
+    }
+    white
+}
+
+/// The scene `w` wrote, its cameras' near and far planes scaled by `scale`.
+fn load(w: GltfWriter, scale: f32) -> Scene {
+    let mut scene = ispm::scene::load::load_from_slice(&w.glb(), "hard-case.glb", None)
+        .expect("the authored scene loads");
     for camera in std::iter::once(&mut scene.camera).chain(&mut scene.cameras) {
         camera.znear *= scale;
         camera.zfar = camera.zfar.map(|f| f * scale);

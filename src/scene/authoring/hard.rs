@@ -77,7 +77,7 @@ pub fn facing_mirrors() -> Vec<u8> {
 
 /// A closed glass cube (η = 1.5, twelve triangles with sharp edges) and a glass ball of
 /// η = 3 (critical angle 19.5°: most light inside it is reflected totally) on a diffuse floor
-/// under a sun 10° above the horizon: long refracted caustics, none leaking through an edge.
+/// under a sun 30° above the horizon: long refracted caustics, none leaking through an edge.
 pub fn glass_cube() -> Vec<u8> {
     let mut w = GltfWriter::default();
     let floor_m = w.material(&MaterialSpec::diffuse("floor", WHITE));
@@ -94,7 +94,7 @@ pub fn glass_cube() -> Vec<u8> {
         "glass-cube",
         cube,
         Vec3::new(-0.35, 0.3, 0.0),
-        Quat::from_rotation_y(0.5),
+        Quat::IDENTITY,
     );
     let ball = w.mesh("dense-ball", &icosphere(0.25, 3), dense);
     w.mesh_node(
@@ -103,7 +103,7 @@ pub fn glass_cube() -> Vec<u8> {
         Vec3::new(0.45, 0.25, 0.2),
         Quat::IDENTITY,
     );
-    let elevation = 10f32.to_radians();
+    let elevation = 30f32.to_radians();
     let dir = Vec3::new(
         -elevation.cos() * 0.8,
         -elevation.sin(),
