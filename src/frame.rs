@@ -119,6 +119,10 @@ pub struct RenderSettings {
     /// Smallest share of each light's photons spent on its caustic views, the windows around
     /// the mirrors and glass it lights (`ispm::CAUSTIC_SHARE`; 0: no caustic views).
     pub caustic_share: f32,
+    /// Most photons one photon buffer holds (`None`: as many as one storage-buffer descriptor
+    /// reaches, the device's `maxStorageBufferRange`); a larger photon map is split over
+    /// several buffers and draws. Tests lower it to exercise the split at small sizes.
+    pub photons_per_buffer: Option<usize>,
     /// Count the NaN, ±Inf and negative values of the frame's HDR buffers on the GPU
     /// (`--check-values`, `FrameStats::value_check`; `passes/value_check.rs`). Off: the pass
     /// is neither made nor recorded.
@@ -144,6 +148,7 @@ impl Default for RenderSettings {
             effects: Effects::Auto,
             bsdf_variant: BsdfVariant::ALL,
             caustic_share: crate::ispm::CAUSTIC_SHARE,
+            photons_per_buffer: None,
             check_values: false,
         }
     }
@@ -199,6 +204,9 @@ pub struct FrameStats {
     /// Bounce-map photons the frame traced on the CPU: `bounce_map_photons` less the reused
     /// lights' (0 in a frame that reuses the whole map).
     pub traced_bounce_map_photons: usize,
+    /// Photon buffers the photon map was split over (0 without photons; more than 1 past
+    /// `RenderSettings::photons_per_buffer`).
+    pub photon_buffers: usize,
     /// The NaN, ±Inf and negative values in the frame's buffers, counted on the GPU
     /// (`RenderSettings::check_values`; `None` when off).
     pub value_check: Option<ValueCheck>,
@@ -833,7 +841,7 @@ impl Renderer {
         // Box D (graphics): photon volumes, upsampling, composite, glass, tonemap.
         self.prepare_debug_view()?;
         let d = gpu.record(QueueRole::Graphics, "box D", Some(timestamps.clone()))?;
-        self.record_estimate_and_finish(&d.cmd(), &frame, slot);
+        self.record_estimate_and_finish(&d.cmd(), &frame, slot)?;
         // The upload (which itself follows the readback); the readback too, for frames whose
         // trace stored nothing: box D takes the bounce map back from the transfer queue.
         let waits: Vec<Wait> = upload_done
@@ -1059,7 +1067,12 @@ impl Renderer {
     /// Box D: photon volumes (+ upsampling and composite), glass and mirrors, tonemapping;
     /// with `check_values`, the value check of every HDR buffer, read back from frame slot
     /// `slot` when the frame retires.
-    fn record_estimate_and_finish(&mut self, cmd: &Cmd, frame: &FrameSetup, slot: usize) {
+    fn record_estimate_and_finish(
+        &mut self,
+        cmd: &Cmd,
+        frame: &FrameSetup,
+        slot: usize,
+    ) -> anyhow::Result<()> {
         let composite = !matches!(self.debug_view, Some((DebugView::DirectOnly, _)));
         if let Some(check) = &mut self.value_check {
             check.begin(cmd, slot);
@@ -1071,7 +1084,7 @@ impl Renderer {
                 (&self.frame_uniforms, &self.scene.materials, &self.gbuffer),
                 &mut self.radiance,
                 (composite, self.value_check.as_mut()),
-            );
+            )?;
         }
         if let Some(translucent) = &mut self.translucent {
             translucent.record(
@@ -1104,6 +1117,7 @@ impl Renderer {
             };
             pass.record(cmd, &inputs, &mut self.display);
         }
+        Ok(())
     }
 
     /// What the debug views read.

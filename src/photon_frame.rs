@@ -37,7 +37,10 @@ use retrace::Traced;
 use std::ops::Range;
 use std::sync::Arc;
 
+mod buffers;
 mod retrace;
+
+use buffers::{photons_per_buffer, PhotonBuffers};
 
 /// Poses of an animated scene over one period that the buffers are sized for.
 const POSE_SAMPLES: usize = 24;
@@ -61,9 +64,9 @@ pub struct PhotonFrame {
     bounce_map: Buffer,
     readback: Buffer,
     bounce_pass: BounceMapPass,
-    staging: Buffer,
-    photons: Buffer,
-    count: u32,
+    /// The photon map: staging and device buffers of at most `per_buffer` photons each, and
+    /// the photons in each ([`PhotonBuffers`]).
+    buffers: PhotonBuffers,
     rebind: bool,
     /// The photon buffer was last used by the graphics queue (the photon volumes), which must
     /// hand it to the transfer queue before the next upload.
@@ -129,25 +132,6 @@ pub fn subsample_factor(settings: &RenderSettings) -> u32 {
         .clamp(1, settings.width.max(settings.height).max(1))
 }
 
-fn photon_buffers(gpu: &Arc<Gpu>, capacity: usize) -> anyhow::Result<(Buffer, Buffer)> {
-    let bytes = (capacity.max(1) * size_of::<Photon>()) as u64;
-    let staging = Buffer::new(
-        gpu,
-        "photon_map.staging",
-        bytes,
-        vk::BufferUsageFlags::TRANSFER_SRC,
-        MemoryLocation::CpuToGpu,
-    )?;
-    let device = Buffer::new(
-        gpu,
-        "photon_map",
-        bytes,
-        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
-        MemoryLocation::GpuOnly,
-    )?;
-    Ok((staging, device))
-}
-
 impl PhotonFrame {
     /// The photon part of `settings`' frame of `scene`, emitting from the lights of
     /// `effects`' photon mask, tracing at most `effects.max_bounces` bounces.
@@ -208,6 +192,15 @@ impl PhotonFrame {
             vk::BufferUsageFlags::STORAGE_BUFFER,
         )?;
         let bounce_bytes = (texels * size_of::<BounceMapPhoton>()) as u64;
+        // Hard case "more photons than fit in one buffer": the bounce map is one storage
+        // buffer, read through one descriptor; past its reach, a clear error, not a device fault.
+        let reach = u64::from(gpu.properties.max_storage_buffer_range);
+        anyhow::ensure!(
+            bounce_bytes <= reach,
+            "{} photons need a bounce map of {texels} texels ({bounce_bytes} bytes), more than \
+             one storage buffer reaches on this device ({reach} bytes): ask for fewer photons",
+            settings.photons
+        );
         // TRANSFER_DST: the value check's test seam writes into it (`passes/value_check.rs`).
         let bounce_map = Buffer::new(
             gpu,
@@ -235,13 +228,13 @@ impl PhotonFrame {
             },
             settings.bsdf_variant,
         )?;
-        let (staging, photons) = photon_buffers(gpu, 1)?;
+        let buffers = PhotonBuffers::new(gpu, 1, 1, photons_per_buffer(gpu, settings))?;
         let subsample = subsample_factor(settings);
         let photon_pass = PhotonVolumesPass::new(
             gpu,
             &PhotonVolumeInputs {
                 frame,
-                photons: &photons,
+                photons: &buffers.device,
                 materials: &gpu_scene.materials,
                 gbuffer,
             },
@@ -304,9 +297,7 @@ impl PhotonFrame {
             bounce_map,
             readback,
             bounce_pass,
-            staging,
-            photons,
-            count: 0,
+            buffers,
             rebind: false,
             photons_on_graphics: false,
             photon_pass,
@@ -426,11 +417,13 @@ impl PhotonFrame {
         if plan.texels == 0 {
             // No photons this frame (the lights went dark): nothing to upload or draw, so the
             // photon buffer's hand-offs stay paired.
-            self.count = 0;
+            self.buffers.counts.fill(0);
             return;
         }
         if self.photons_on_graphics {
-            cmd.release_buffer(&self.photons, QueueRole::Transfer);
+            for (_, photons) in self.buffers.used() {
+                cmd.release_buffer(photons, QueueRole::Transfer);
+            }
             self.photons_on_graphics = false;
         }
         // The re-traced lights' views, consecutive ones in one batch.
@@ -527,7 +520,7 @@ impl PhotonFrame {
             ..Default::default()
         };
         if plan.texels == 0 {
-            self.count = 0;
+            self.buffers.counts.fill(0);
             self.traced.invalidate();
             return Ok(stats);
         }
@@ -554,17 +547,17 @@ impl PhotonFrame {
             },
             &mut stats,
         );
-        if relative.len() * size_of::<Photon>() > self.photons.size as usize {
+        if !self.buffers.holds(relative.len()) {
             // The old buffers go to the graveyard, destroyed once the frames using them finish.
-            let (staging, photons) = photon_buffers(&self.gpu, relative.len().next_power_of_two())?;
-            self.staging = staging;
-            self.photons = photons;
+            // The photons that were on the graphics queue were released in `record_emission`
+            // (they have none now: the new buffers start out owned by nobody).
+            let per_buffer = self.buffers.per_buffer;
+            let capacity = relative.len().next_power_of_two();
+            self.buffers = PhotonBuffers::new(&self.gpu, relative.len(), capacity, per_buffer)?;
             self.rebind = true;
         }
-        timing::timed("upload write", || {
-            self.staging.write(0, bytemuck::cast_slice(&relative))
-        })?;
-        self.count = relative.len() as u32;
+        timing::timed("upload write", || self.buffers.write(&relative))?;
+        stats.photon_buffers = self.buffers.counts.iter().filter(|&&n| n > 0).count();
         self.last_bounce_map = bounce_map;
         self.last_photons = relative;
         Ok(stats)
@@ -572,19 +565,26 @@ impl PhotonFrame {
 
     /// Whether [`Self::trace`] left photons to upload and draw.
     pub fn has_photons(&self) -> bool {
-        self.count > 0
+        self.count() > 0
+    }
+
+    /// Photons in the photon map this frame.
+    fn count(&self) -> u32 {
+        self.buffers.counts.iter().sum()
     }
 
     /// The CPU→GPU copy of the photon map (on the transfer queue), handing it to the graphics
     /// queue for [`Self::record_estimate`].
     pub fn record_upload(&self, cmd: &Cmd) {
-        if self.count == 0 {
+        if self.count() == 0 {
             return;
         }
         let _scope = cmd.scope("upload");
-        cmd.acquire_buffer(&self.photons, QueueRole::Graphics, Access::TransferDst);
-        cmd.copy_buffer(&self.staging, &self.photons);
-        cmd.release_buffer(&self.photons, QueueRole::Graphics);
+        for (staging, photons) in self.buffers.used() {
+            cmd.acquire_buffer(photons, QueueRole::Graphics, Access::TransferDst);
+            cmd.copy_buffer(staging, photons);
+            cmd.release_buffer(photons, QueueRole::Graphics);
+        }
     }
 
     /// Photon volumes into the indirect buffer (at 1/N resolution and upsampled, at
@@ -601,13 +601,11 @@ impl PhotonFrame {
         (frame, materials, gbuffer): (&Buffer, &Buffer, &GBuffer),
         radiance: &mut Image,
         (composite, mut check): (bool, Option<&mut ValueCheckPass>),
-    ) {
-        if self.count > 0 {
-            cmd.acquire_buffer(
-                &self.photons,
-                QueueRole::Transfer,
-                Access::GraphicsStorageRead,
-            );
+    ) -> anyhow::Result<()> {
+        if self.count() > 0 {
+            for (_, photons) in self.buffers.used() {
+                cmd.acquire_buffer(photons, QueueRole::Transfer, Access::GraphicsStorageRead);
+            }
             self.photons_on_graphics = true;
         }
         if !self.batches.is_empty() {
@@ -623,15 +621,15 @@ impl PhotonFrame {
         }
         let inputs = PhotonVolumeInputs {
             frame,
-            photons: &self.photons,
+            photons: &self.buffers.device,
             materials,
             gbuffer,
         };
         if self.rebind {
-            self.photon_pass.rebind(&inputs);
+            self.photon_pass.rebind(&inputs)?;
             self.rebind = false;
         }
-        let volumes = (self.count, &self.kernel, self.eye_offset());
+        let volumes = (&self.buffers.counts[..], &self.kernel, self.eye_offset());
         match &mut self.subsampled {
             None => self.photon_pass.record(
                 cmd,
@@ -659,6 +657,7 @@ impl PhotonFrame {
         if composite {
             self.composite.record(cmd, &self.indirect, radiance);
         }
+        Ok(())
     }
 
     /// The value check of the bounce map (the records the plan's texels filled, once it is
@@ -673,12 +672,14 @@ impl PhotonFrame {
             };
             check.records(cmd, Checked::BounceMap, &self.bounce_map, records);
         }
+        // The first photon buffer: the check has one descriptor set per buffer kind, so a
+        // photon map split over several buffers (`PhotonBuffers`) is checked in its first.
         let records = Records {
-            count: self.count,
+            count: self.buffers.counts[0],
             stride: (size_of::<Photon>() / FLOAT) as u32,
             power_offset: (std::mem::offset_of!(Photon, power) / FLOAT) as u32,
         };
-        check.records(cmd, Checked::PhotonMap, &self.photons, records);
+        check.records(cmd, Checked::PhotonMap, &self.buffers.device[0], records);
     }
 
     /// What the debug views read of the photon part of the frame (`passes/debug_view.rs`).
@@ -698,7 +699,7 @@ impl PhotonFrame {
         let photon_peak = self
             .last_photons
             .iter()
-            .take(self.count as usize)
+            .take(self.buffers.counts[0] as usize)
             .map(|p| lum(p.power))
             .fold(0.0, f32::max);
         PhotonSources {
@@ -707,8 +708,9 @@ impl PhotonFrame {
             views: &self.views,
             bounce_map: &self.bounce_map,
             bounce_peak,
-            photons: &self.photons,
-            count: self.count,
+            // The debug views show the first photon buffer's photons.
+            photons: &self.buffers.device[0],
+            count: self.buffers.counts[0],
             photon_peak,
             offset: self.eye_offset(),
             indirect: &self.indirect,

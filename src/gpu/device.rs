@@ -192,6 +192,8 @@ pub struct DeviceProperties {
     pub timestamp_period: f32,
     pub families: Vec<vk::QueueFamilyProperties>,
     pub calibrated_timestamps: bool,
+    /// Most bytes one storage-buffer descriptor reaches (`maxStorageBufferRange`).
+    pub max_storage_buffer_range: u32,
 }
 
 impl Gpu {
@@ -638,6 +640,7 @@ fn describe(instance: &ash::Instance, pd: vk::PhysicalDevice) -> DevicePropertie
         driver_name: text(driver.driver_name_as_c_str()),
         driver_info: text(driver.driver_info_as_c_str()),
         timestamp_period: p.limits.timestamp_period,
+        max_storage_buffer_range: p.limits.max_storage_buffer_range,
         families,
         calibrated_timestamps: has(ash::ext::calibrated_timestamps::NAME)
             || has(ash::khr::calibrated_timestamps::NAME),

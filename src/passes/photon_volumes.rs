@@ -10,6 +10,11 @@
 //! surface. The cost: no early rejection of volumes in front of the surface (the kernel test
 //! discards them in the fragment shader).
 //!
+//! The photon map may span several photon buffers (hard case "more photons than fit in one
+//! buffer": one storage-buffer descriptor reaches `maxStorageBufferRange` bytes at most, 128 MiB
+//! on lavapipe): the pass holds one descriptor set per buffer and draws each buffer's volumes
+//! in turn, in photon order, so the sum is the same as from one buffer.
+//!
 //! At `--subsample N > 1` the same volumes are drawn at 1/N resolution with
 //! `photon_volumes_subsampled.frag` into two low-resolution targets (irradiance-like Σ Φκ and
 //! glossy radiance) for [`super::upsample`], without a depth attachment: the eye depth is full
@@ -107,10 +112,15 @@ pub fn low_targets(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<[I
     ])
 }
 
+/// The most photon buffers one pass draws from (the descriptor pool's size). At lavapipe's
+/// 128 MiB per buffer that is 179 million photons.
+pub const MAX_PHOTON_BUFFERS: usize = 64;
+
 /// What the photon volumes read.
 pub struct PhotonVolumeInputs<'a> {
     pub frame: &'a Buffer,
-    pub photons: &'a Buffer,
+    /// The photon map, split over one or more buffers (in photon order).
+    pub photons: &'a [Buffer],
     pub materials: &'a Buffer,
     pub gbuffer: &'a GBuffer,
 }
@@ -118,7 +128,8 @@ pub struct PhotonVolumeInputs<'a> {
 pub struct PhotonVolumesPass {
     pipeline: Pipeline,
     layout: DescriptorLayout,
-    set: DescriptorSet,
+    /// One set per photon buffer, grown by [`Self::rebind`].
+    sets: Vec<DescriptorSet>,
     sampler: Sampler,
     vertices: Buffer,
     indices: Buffer,
@@ -145,9 +156,14 @@ impl PhotonVolumesPass {
             BindingKind::SampledImage,
         ];
         let bindings = Binding::sequence(&kinds, graphics);
-        let layout = DescriptorLayout::new(gpu, "photon_volumes", &bindings, 1)?;
+        let layout =
+            DescriptorLayout::new(gpu, "photon_volumes", &bindings, MAX_PHOTON_BUFFERS as u32)?;
         let sampler = Sampler::new(gpu, "photon_volumes.nearest", Filter::Nearest, false)?;
-        let set = layout.allocate(&Self::writes(inputs, &sampler))?;
+        let sets = inputs
+            .photons
+            .iter()
+            .map(|photons| layout.allocate(&Self::writes(inputs, photons, &sampler)))
+            .collect::<Result<Vec<_>, _>>()?;
         let (vertices, indices) = icosahedron();
         let vertices = gpu.upload_buffer(
             "photon_volumes.icosahedron.vertices",
@@ -206,7 +222,7 @@ impl PhotonVolumesPass {
         Ok(Self {
             pipeline,
             layout,
-            set,
+            sets,
             sampler,
             vertices,
             indices,
@@ -214,12 +230,16 @@ impl PhotonVolumesPass {
         })
     }
 
-    fn writes<'a>(inputs: &'a PhotonVolumeInputs, sampler: &'a Sampler) -> [Write<'a>; 7] {
+    fn writes<'a>(
+        inputs: &'a PhotonVolumeInputs,
+        photons: &'a Buffer,
+        sampler: &'a Sampler,
+    ) -> [Write<'a>; 7] {
         let g = inputs.gbuffer;
         let image = |image| Write::Image { image, sampler };
         [
             Write::Buffer(inputs.frame),
-            Write::Buffer(inputs.photons),
+            Write::Buffer(photons),
             Write::Buffer(inputs.materials),
             image(&g.position),
             image(&g.normal),
@@ -228,22 +248,34 @@ impl PhotonVolumesPass {
         ]
     }
 
-    /// Points the pass at new inputs (a larger photon buffer). The GPU must be done with the
-    /// previous frame.
-    pub fn rebind(&self, inputs: &PhotonVolumeInputs) {
-        self.layout
-            .update(self.set, &Self::writes(inputs, &self.sampler));
+    /// Points the pass at new inputs (larger or more photon buffers), allocating a set for
+    /// each new buffer. The GPU must be done with the previous frame.
+    pub fn rebind(&mut self, inputs: &PhotonVolumeInputs) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            inputs.photons.len() <= MAX_PHOTON_BUFFERS,
+            "the photon map needs {} photon buffers, more than the {MAX_PHOTON_BUFFERS} the \
+             photon volumes can draw from",
+            inputs.photons.len()
+        );
+        for (i, photons) in inputs.photons.iter().enumerate() {
+            let writes = Self::writes(inputs, photons, &self.sampler);
+            match self.sets.get(i) {
+                Some(&set) => self.layout.update(set, &writes),
+                None => self.sets.push(self.layout.allocate(&writes)?),
+            }
+        }
+        Ok(())
     }
 
-    /// Draws `count` photon volumes with the radii of `kernel` (its clamp and footprint floor,
-    /// [`crate::photon::kernel`]) into `targets`: `[indirect]` at subsample 1, else the two
-    /// [`low_targets`]. `offset` is added to every stored photon position to make it relative
-    /// to the eye (the frame's space).
+    /// Draws `counts[i]` photon volumes from photon buffer `i` with the radii of `kernel` (its
+    /// clamp and footprint floor, [`crate::photon::kernel`]) into `targets`: `[indirect]` at
+    /// subsample 1, else the two [`low_targets`]. `offset` is added to every stored photon
+    /// position to make it relative to the eye (the frame's space).
     pub fn record(
         &self,
         cmd: &Cmd,
         inputs: &PhotonVolumeInputs,
-        (count, kernel, offset): (u32, &KernelSettings, glam::Vec3),
+        (counts, kernel, offset): (&[u32], &KernelSettings, glam::Vec3),
         targets: &mut [Image],
     ) {
         let _scope = cmd.scope("photon_volumes");
@@ -251,9 +283,12 @@ impl PhotonVolumesPass {
         for image in [&g.position, &g.normal, &g.albedo, &g.material] {
             cmd.transition(image, Access::FragmentSampledRead);
         }
-        if count > 0 {
-            // Only when drawn: an undrawn photon buffer may belong to the transfer queue.
-            cmd.transition_buffer(inputs.photons, Access::GraphicsStorageRead);
+        let drawn = || inputs.photons.iter().zip(&self.sets).zip(counts);
+        for ((photons, _), &count) in drawn() {
+            if count > 0 {
+                // Only when drawn: an undrawn photon buffer may belong to the transfer queue.
+                cmd.transition_buffer(photons, Access::GraphicsStorageRead);
+            }
         }
         let colors: Vec<Attachment> = targets
             .iter()
@@ -269,9 +304,12 @@ impl PhotonVolumesPass {
             load: Load::Keep,
         };
         cmd.begin_rendering(&colors, (self.subsample == 1).then_some(&depth));
-        if count > 0 {
+        for ((_, &set), &count) in drawn() {
+            if count == 0 {
+                continue;
+            }
             cmd.bind_pipeline(&self.pipeline);
-            cmd.bind_sets(&self.pipeline, 0, &[self.set]);
+            cmd.bind_sets(&self.pipeline, 0, &[set]);
             cmd.bind_vertex_buffer(&self.vertices);
             cmd.bind_index_buffer(&self.indices);
             cmd.push_constants(

@@ -8,7 +8,8 @@
 //! - **Directional**: origins uniform on the disk perpendicular to the direction that covers
 //!   the scene's bounding sphere, placed just outside it; `Φ = E·π R²`.
 //!
-//! Budget: light L gets `round(N·Φ̄_L/Φ̄_total)` photons (Φ̄: mean of RGB), each carrying
+//! Budget: light L gets `N·Φ̄_L/Φ̄_total` photons (Φ̄: mean of RGB) rounded so that the lights'
+//! budgets sum to `N` exactly (largest remainders round up), each carrying
 //! `Φ_L / N_L`, so a light's photon powers sum to its flux exactly (up to float rounding),
 //! whatever the rounding of the budget.
 //!
@@ -137,9 +138,23 @@ pub fn photon_budget_among(scene: &Scene, photons: usize, active: &[bool]) -> Ve
     if !(total > 0.0 && total.is_finite()) {
         return vec![0; scene.lights.len()];
     }
-    flux.iter()
-        .map(|f| ((photons as f64) * (*f as f64) / (total as f64)).round() as usize)
-        .collect()
+    // Hard case "hundreds of lights": rounding each share on its own misses the total by up
+    // to half a photon per light; the largest remainders get the photons left over instead.
+    let exact: Vec<f64> = flux
+        .iter()
+        .map(|f| (photons as f64) * f64::from(*f) / f64::from(total))
+        .collect();
+    let mut budget: Vec<usize> = exact.iter().map(|e| e.floor() as usize).collect();
+    let left = photons.saturating_sub(budget.iter().sum());
+    let mut order: Vec<usize> = (0..exact.len()).filter(|&i| exact[i] > 0.0).collect();
+    order.sort_by(|&a, &b| {
+        let rem = |i: usize| exact[i] - exact[i].floor();
+        rem(b).total_cmp(&rem(a)).then(a.cmp(&b))
+    });
+    for &i in order.iter().take(left) {
+        budget[i] += 1;
+    }
+    budget
 }
 
 /// One photon of `light`, drawn with `rng`, carrying `power`.

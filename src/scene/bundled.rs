@@ -8,7 +8,15 @@ use anyhow::Result;
 use std::path::Path;
 
 /// Names of the bundled scenes, the first being the default.
-pub const BUNDLED: &[&str] = &["cornell-box", "caustic-ring", "glass-sphere", "diffuse-box"];
+pub const BUNDLED: &[&str] = &[
+    "cornell-box",
+    "caustic-ring",
+    "glass-sphere",
+    "diffuse-box",
+    "thin-walls",
+    "facing-mirrors",
+    "glass-cube",
+];
 
 /// The scene used when the command line names none.
 pub const DEFAULT_SCENE: &str = "cornell-box";
@@ -20,6 +28,9 @@ pub fn bundled(name: &str) -> Option<&'static [u8]> {
         "caustic-ring" => Some(include_bytes!("../../assets/caustic-ring.glb")),
         "glass-sphere" => Some(include_bytes!("../../assets/glass-sphere.glb")),
         "diffuse-box" => Some(include_bytes!("../../assets/diffuse-box.glb")),
+        "thin-walls" => Some(include_bytes!("../../assets/thin-walls.glb")),
+        "facing-mirrors" => Some(include_bytes!("../../assets/facing-mirrors.glb")),
+        "glass-cube" => Some(include_bytes!("../../assets/glass-cube.glb")),
         _ => None,
     }
 }

@@ -1,7 +1,8 @@
 //! One glTF primitive → one [`Mesh`], with the repairs that make [`Mesh`]'s invariants hold.
 //!
 //! Repairs (each logged once per mesh): zero-area triangles dropped; zero-length or
-//! non-finite normals recomputed from the adjacent faces; non-finite UVs zeroed; missing
+//! non-finite normals, and normals facing away from every triangle they belong to (flipped),
+//! recomputed from the adjacent faces; non-finite UVs zeroed; missing
 //! normals computed as flat face normals (the glTF specification requires flat normals).
 //! Rejected: non-finite positions, indices out of range, bad accessor types.
 
@@ -233,6 +234,35 @@ fn repair_normals(file: &str, mesh: &mut Mesh) {
     for n in &mut mesh.normals {
         *n = n.try_normalize().unwrap_or(Vec3::Y);
     }
+    flip_backward_normals(file, mesh);
+}
+
+/// Hard case "flipped normals": a normal that points behind every triangle it belongs to
+/// (against the winding, glTF's front side) would make the surface black to direct light and
+/// reject every photon by the front-side test; it is recomputed from the adjacent faces.
+fn flip_backward_normals(file: &str, mesh: &mut Mesh) {
+    let mut faces = vec![Vec3::ZERO; mesh.positions.len()];
+    let mut agrees = vec![false; mesh.positions.len()];
+    for t in &mesh.triangles {
+        let f = face_cross(mesh, t);
+        for &i in t {
+            faces[i as usize] += f;
+            agrees[i as usize] |= mesh.normals[i as usize].dot(f) > 0.0;
+        }
+    }
+    let mut flipped = 0usize;
+    for ((n, face), agrees) in mesh.normals.iter_mut().zip(&faces).zip(&agrees) {
+        if let (false, Some(face)) = (*agrees, face.try_normalize()) {
+            *n = face;
+            flipped += 1;
+        }
+    }
+    if flipped > 0 {
+        log::warn!(
+            "{file}: mesh {}: {flipped} normal(s) facing away from every adjacent triangle recomputed from geometry",
+            mesh.name
+        );
+    }
 }
 
 #[cfg(test)]
@@ -265,5 +295,21 @@ mod tests {
         for n in &mesh.normals {
             assert!((*n - Vec3::Z).length() < 1e-6);
         }
+    }
+
+    #[test]
+    fn flipped_normals_are_recomputed_and_tilted_ones_kept() {
+        let tilted = Vec3::new(0.3, 0.0, 1.0).normalize();
+        let mut mesh = Mesh {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+            normals: vec![Vec3::NEG_Z, tilted, Vec3::new(0.0, 0.2, -1.0)],
+            uvs: vec![Vec2::ZERO; 3],
+            triangles: vec![[0, 1, 2]],
+            ..Default::default()
+        };
+        repair_normals("f", &mut mesh);
+        assert!((mesh.normals[0] - Vec3::Z).length() < 1e-6);
+        assert!((mesh.normals[1] - tilted).length() < 1e-6);
+        assert!((mesh.normals[2] - Vec3::Z).length() < 1e-6);
     }
 }

@@ -5,6 +5,7 @@
 //! standard metallic-roughness values (so other viewers show something sensible) and its exact
 //! über-BSDF parameters in `extras.ispm`, which the loader applies verbatim.
 
+mod hard;
 mod shapes;
 mod writer;
 
@@ -22,6 +23,9 @@ pub fn all() -> Vec<(&'static str, Vec<u8>)> {
         ("caustic-ring", caustic_ring()),
         ("glass-sphere", glass_sphere()),
         ("diffuse-box", diffuse_box()),
+        ("thin-walls", hard::thin_walls()),
+        ("facing-mirrors", hard::facing_mirrors()),
+        ("glass-cube", hard::glass_cube()),
     ]
 }
 
@@ -127,16 +131,7 @@ pub fn cornell_box() -> Vec<u8> {
 pub fn caustic_ring() -> Vec<u8> {
     let mut w = GltfWriter::default();
     let floor_m = w.material(&MaterialSpec::diffuse("floor", WHITE));
-    let metal = w.material(&MaterialSpec {
-        base_color: [0.95, 0.93, 0.88],
-        metallic: 1.0,
-        roughness: 0.0,
-        lambertian: [0.0; 3],
-        glossy: [0.95, 0.93, 0.88],
-        exponent: f32::INFINITY,
-        double_sided: true,
-        ..MaterialSpec::diffuse("mirror-metal", [0.0; 3])
-    });
+    let metal = w.material(&MaterialSpec::mirror("mirror-metal", [0.95, 0.93, 0.88]));
     let floor = w.mesh("floor", &quad(Vec3::ZERO, Vec3::Y, 2.0, 2.0), floor_m);
     w.mesh_node("floor", floor, Vec3::ZERO, Quat::IDENTITY);
     let r = w.mesh("ring", &ring(0.5, 0.2, 0.015, 192), metal);

@@ -46,6 +46,20 @@ impl MaterialSpec {
         }
     }
 
+    /// A perfect mirror (σ = ∞) of reflectance `rho`, metallic for other viewers, double-sided.
+    pub fn mirror(name: &'static str, rho: [f32; 3]) -> Self {
+        Self {
+            base_color: rho,
+            metallic: 1.0,
+            roughness: 0.0,
+            lambertian: [0.0; 3],
+            glossy: rho,
+            exponent: f32::INFINITY,
+            double_sided: true,
+            ..Self::diffuse(name, [0.0; 3])
+        }
+    }
+
     /// Clear glass of refractive index η = 1.5: 95 % transmission, a Fresnel-weighted mirror
     /// (ρS = 0.04 at normal incidence), no diffuse part.
     pub fn glass(name: &'static str) -> Self {
@@ -135,16 +149,15 @@ impl GltfWriter {
         self.accessors.len() - 1
     }
 
-    /// Adds a mesh of one primitive; returns its index.
+    /// Adds a mesh of one primitive; returns its index. A geometry without normals is written
+    /// without the NORMAL attribute (the loader then computes flat normals, as glTF requires).
     pub fn mesh(&mut self, name: &str, g: &Geometry, material: usize) -> usize {
         let p: Vec<f32> = g.positions.iter().flat_map(|v| v.to_array()).collect();
         let n: Vec<f32> = g.normals.iter().flat_map(|v| v.to_array()).collect();
         let t: Vec<f32> = g.uvs.iter().flat_map(|v| v.to_array()).collect();
-        let (pa, na, ta) = (
-            self.push_vec(&p, 3, true),
-            self.push_vec(&n, 3, false),
-            self.push_vec(&t, 2, false),
-        );
+        let pa = self.push_vec(&p, 3, true);
+        let na = (!n.is_empty()).then(|| self.push_vec(&n, 3, false));
+        let ta = self.push_vec(&t, 2, false);
         let ia = if g.positions.len() <= u16::MAX as usize {
             let bytes: Vec<u8> = g
                 .indices
@@ -160,9 +173,12 @@ impl GltfWriter {
             self.accessors.push(json!({"bufferView": view, "componentType": 5125, "count": g.indices.len(), "type": "SCALAR"}));
             self.accessors.len() - 1
         };
+        let mut attributes = json!({"POSITION": pa, "TEXCOORD_0": ta});
+        if let Some(na) = na {
+            attributes["NORMAL"] = json!(na);
+        }
         self.meshes.push(json!({"name": name, "primitives": [{
-            "attributes": {"POSITION": pa, "NORMAL": na, "TEXCOORD_0": ta},
-            "indices": ia, "material": material}]}));
+            "attributes": attributes, "indices": ia, "material": material}]}));
         self.meshes.len() - 1
     }
 
@@ -259,6 +275,14 @@ impl GltfWriter {
             "intensity": watts_per_sr_to_candela(w_per_sr),
             "spot": {"innerConeAngle": cone.0, "outerConeAngle": cone.1}}));
         self.light_node(name, pos, target - pos)
+    }
+
+    /// Adds a point light (intensity in W/sr, written in candela) at `pos`; returns its node.
+    pub fn point(&mut self, name: &str, pos: Vec3, color: [f32; 3], w_per_sr: f32) -> usize {
+        self.lights
+            .push(json!({"name": name, "type": "point", "color": color,
+            "intensity": watts_per_sr_to_candela(w_per_sr)}));
+        self.light_node(name, pos, Vec3::NEG_Z)
     }
 
     /// Adds a directional light travelling along `dir` (irradiance in W/m², written in lux);
