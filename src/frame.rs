@@ -678,7 +678,8 @@ impl Renderer {
 
     /// Test seam of the value check (`passes/value_check.rs`): the next check of `buffer`
     /// finds `value` at its float `index` (an image's texel `index / 4`, channel `index % 4`,
-    /// the texel's other channels 0), written just before the check reads it, so a test sees
+    /// the texel's other channels 0; a record's float counted over the whole photon map when it
+    /// is split over buffers), written just before the check reads it, so a test sees
     /// the counter catch a bad value in every kind of buffer (and later passes carry it on).
     /// Fails unless the renderer checks values (`RenderSettings::check_values`).
     pub fn inject_value(&mut self, buffer: Checked, index: u64, value: f32) -> anyhow::Result<()> {
@@ -1076,7 +1077,7 @@ impl Renderer {
         let composite = !matches!(self.debug_view, Some((DebugView::DirectOnly, _)));
         if let Some(check) = &mut self.value_check {
             check.begin(cmd, slot);
-            check.image(cmd, Checked::Direct, &self.radiance);
+            check.image(cmd, Checked::Direct, &self.radiance)?;
         }
         if let Some(photons) = &mut self.photons {
             photons.record_estimate(
@@ -1097,7 +1098,7 @@ impl Renderer {
             );
         }
         if let Some(check) = &mut self.value_check {
-            check.image(cmd, Checked::Final, &self.radiance);
+            check.image(cmd, Checked::Final, &self.radiance)?;
             check.end(cmd);
         }
         self.tonemap.record(

@@ -617,7 +617,7 @@ impl PhotonFrame {
             );
         }
         if let Some(check) = check.as_deref_mut() {
-            self.check_photon_records(cmd, check);
+            self.check_photon_records(cmd, check)?;
         }
         let inputs = PhotonVolumeInputs {
             frame,
@@ -640,8 +640,8 @@ impl PhotonFrame {
             Some(sub) => {
                 self.photon_pass.record(cmd, &inputs, volumes, &mut sub.low);
                 if let Some(check) = check.as_deref_mut() {
-                    check.image(cmd, Checked::IndirectLowIrradiance, &sub.low[0]);
-                    check.image(cmd, Checked::IndirectLowGlossy, &sub.low[1]);
+                    check.image(cmd, Checked::IndirectLowIrradiance, &sub.low[0])?;
+                    check.image(cmd, Checked::IndirectLowGlossy, &sub.low[1])?;
                 }
                 let inputs = UpsampleInputs {
                     materials,
@@ -652,7 +652,7 @@ impl PhotonFrame {
             }
         }
         if let Some(check) = check {
-            check.image(cmd, Checked::Indirect, &self.indirect);
+            check.image(cmd, Checked::Indirect, &self.indirect)?;
         }
         if composite {
             self.composite.record(cmd, &self.indirect, radiance);
@@ -661,25 +661,43 @@ impl PhotonFrame {
     }
 
     /// The value check of the bounce map (the records the plan's texels filled, once it is
-    /// back on this queue) and of the photon map (the photons drawn).
-    fn check_photon_records(&self, cmd: &Cmd, check: &mut ValueCheckPass) {
+    /// back on this queue) and of the photon map (the photons drawn, every buffer of it into
+    /// the one `photon_map` count).
+    fn check_photon_records(&self, cmd: &Cmd, check: &mut ValueCheckPass) -> anyhow::Result<()> {
         const FLOAT: usize = size_of::<f32>();
         if self.plan.texels > 0 {
             let records = Records {
+                first: 0,
                 count: self.plan.texels as u32,
                 stride: (size_of::<BounceMapPhoton>() / FLOAT) as u32,
                 power_offset: (std::mem::offset_of!(BounceMapPhoton, power) / FLOAT) as u32,
             };
-            check.records(cmd, Checked::BounceMap, &self.bounce_map, records);
+            check.records(cmd, Checked::BounceMap, &self.bounce_map, records)?;
         }
-        // The first photon buffer: the check has one descriptor set per buffer kind, so a
-        // photon map split over several buffers (`PhotonBuffers`) is checked in its first.
-        let records = Records {
-            count: self.buffers.counts[0],
-            stride: (size_of::<Photon>() / FLOAT) as u32,
-            power_offset: (std::mem::offset_of!(Photon, power) / FLOAT) as u32,
-        };
-        check.records(cmd, Checked::PhotonMap, &self.buffers.device[0], records);
+        // Buffers hold the map in photon order, each full but the last used one
+        // (`PhotonBuffers::write`); the first is checked even when empty, so the photon map is
+        // listed with 0 values in a frame without photons.
+        let mut first = 0u64;
+        for (i, (buffer, &count)) in self
+            .buffers
+            .device
+            .iter()
+            .zip(&self.buffers.counts)
+            .enumerate()
+        {
+            if i > 0 && count == 0 {
+                continue;
+            }
+            let records = Records {
+                first,
+                count,
+                stride: (size_of::<Photon>() / FLOAT) as u32,
+                power_offset: (std::mem::offset_of!(Photon, power) / FLOAT) as u32,
+            };
+            check.records(cmd, Checked::PhotonMap, buffer, records)?;
+            first += u64::from(count);
+        }
+        Ok(())
     }
 
     /// What the debug views read of the photon part of the frame (`passes/debug_view.rs`).

@@ -59,6 +59,13 @@ fn more_photons_than_fit_in_one_buffer() {
     assert_eq!(one.frame.stats.photon_buffers, 1);
     assert_eq!(split.frame.stats.photon_buffers, stored.div_ceil(1000));
     assert_eq!(stored, one.frame.stats.stored_photons, "the same photons");
+    // The GPU value check (which found nothing bad: `render_hard`) read every buffer.
+    let checked = |f: &hard::HardFrame| {
+        let check = f.frame.stats.value_check.as_ref();
+        check.and_then(|c| c.buffer("photon_map")).map(|b| b.values)
+    };
+    assert_eq!(checked(&split), Some(12 * stored as u64));
+    assert_eq!(checked(&one), checked(&split));
     hard::assert_same_image(case, &split.frame, &one.frame, 1e-5);
 }
 

@@ -1,8 +1,9 @@
 //! The GPU value check (`--check-values`, `passes/value_check.rs`): a normal frame has no NaN,
 //! ±Inf or negative value in any HDR buffer and the check reads every value of each; a bad
 //! value written into any kind of buffer (an image, the bounce map's records, the photon map's
-//! records) is counted, exactly, and what later passes make of it is seen too. Validation and
-//! synchronization validation on, lavapipe through `.ci/test`.
+//! records, in any buffer of a photon map split over several) is counted, exactly, and what
+//! later passes make of it is seen too. Validation and synchronization validation on, lavapipe
+//! through `.ci/test`.
 
 mod common;
 
@@ -242,6 +243,75 @@ fn an_injected_nan_and_negative_are_counted_in_every_kind_of_buffer() {
     assert_eq!(counts(c, Checked::Direct), (0, 0, 4 * w * w), "{c:?}");
 
     // Injections are one-shot and the buffers are written again every frame: clean.
+    let after = renderer.render().expect("render");
+    assert_eq!(check(&after).total_bad(), 0, "{:?}", check(&after));
+    common::assert_validation_clean(&gpu);
+}
+
+#[test]
+fn every_buffer_of_a_split_photon_map_is_checked_and_a_nan_in_the_last_is_counted() {
+    // Buffers of at most 2000 photons: the map of 20 000 emitted photons spans several, each
+    // checked into the one `photon_map` count (12 floats a photon: power at 0..3).
+    const PER_BUFFER: usize = 2000;
+    let gpu = common::gpu();
+    let mut renderer = Renderer::new(
+        &gpu,
+        &cornell_box(),
+        RenderSettings {
+            photons_per_buffer: Some(PER_BUFFER),
+            // Every frame traces and uploads again, so the injected photons are gone next frame.
+            effects: Effects::All,
+            ..settings(1)
+        },
+    )
+    .expect("renderer");
+    let clean = renderer.render().expect("render");
+    let (stored, buffers) = (clean.stats.stored_photons, clean.stats.photon_buffers);
+    eprintln!("{stored} photons in {buffers} buffers");
+    assert!(buffers >= 3, "{stored} photons in {buffers} buffers");
+    assert_eq!(buffers, stored.div_ceil(PER_BUFFER));
+    let c = check(&clean);
+    assert_eq!(c.total_bad(), 0, "{c:?}");
+    assert_eq!(counts(c, Checked::PhotonMap), (0, 0, 12 * stored as u64));
+    let listed = c
+        .per_buffer
+        .iter()
+        .filter(|b| b.name == "photon_map")
+        .count();
+    assert_eq!(listed, 1, "listed once however many buffers: {c:?}");
+
+    // A NaN in the power of the last buffer's first photon and a -1 in the power of the map's
+    // last photon (both in the last buffer), a -5 in the position of the second buffer's
+    // first photon (no error): the indices count over the whole map.
+    let last_first = ((buffers - 1) * PER_BUFFER) as u64;
+    let last = stored as u64 - 1;
+    for (photon, field, value) in [
+        (last_first, 0, f32::NAN),
+        (last, 2, -1.0),
+        (PER_BUFFER as u64, 7, -5.0),
+    ] {
+        renderer
+            .inject_value(Checked::PhotonMap, 12 * photon + field, value)
+            .unwrap();
+    }
+    let frame = renderer.render().expect("render");
+    assert_eq!(
+        (frame.stats.stored_photons, frame.stats.photon_buffers),
+        (stored, buffers),
+        "the next frame stores the same photons"
+    );
+    let c = check(&frame);
+    assert_eq!(
+        counts(c, Checked::PhotonMap),
+        (1, 1, 12 * stored as u64),
+        "{c:?}"
+    );
+    assert_eq!(
+        counts(c, Checked::Direct),
+        (0, 0, 4 * u64::from(SIZE * SIZE))
+    );
+
+    // One-shot: the next frame uploads the map again and is clean.
     let after = renderer.render().expect("render");
     assert_eq!(check(&after).total_bad(), 0, "{:?}", check(&after));
     common::assert_validation_clean(&gpu);

@@ -7,7 +7,7 @@
 //! |---|---|---|---|
 //! | `direct` | before the composite adds indirect light | 4 per pixel | every channel |
 //! | `bounce_map` | after it is back from the readback | 8 per record | power |
-//! | `photon_map` | before the photon volumes draw it | 12 per photon | power |
+//! | `photon_map` | before the photon volumes draw it (every buffer of it) | 12 per photon | power |
 //! | `indirect.low_irradiance`, `indirect.low_glossy` | after the photon volumes, before the upsample (`--subsample N > 1`) | 4 per pixel | every channel |
 //! | `indirect` | before the composite | 4 per pixel | every channel |
 //! | `final` | after the translucent pass, before tonemapping | 4 per pixel | every channel |
@@ -22,6 +22,16 @@
 //! `FRAMES_IN_FLIGHT` frames earlier, has retired by then (`Renderer::submit_frame`), so a
 //! photon buffer that grew is simply bound the next time.
 //!
+//! A photon map split over several buffers (`photon_frame/buffers.rs`) is checked buffer by
+//! buffer into the one `photon_map` counter, so its `values` is the whole map's. A set must not
+//! be rewritten while a command buffer that bound it is recording or pending, so each check of
+//! a kind in a frame takes the next set of its own: the record kernel has
+//! [`MAX_PHOTON_BUFFERS`] sets per frame in flight for the photon map (the renderer refuses a
+//! map needing more buffers, `PhotonBuffers::new`, and the photon volumes bind no more), every
+//! other kind one. The sets are allocated up front from a pool sized for that bound rather than
+//! from pools grown on demand: `FRAMES_IN_FLIGHT` × (6 + 64) sets of two storage-buffer
+//! descriptors is a small pool, and nothing is allocated while frames are recorded.
+//!
 //! **Test seam**: [`ValueCheckPass::inject`] writes a chosen value into a buffer just before
 //! the check reads it (an image texel by a copy, a record's float by `vkCmdUpdateBuffer`), so
 //! the tests prove the counter sees a bad value in every kind of buffer, and that what later
@@ -32,6 +42,8 @@ use crate::gpu::{
     Filter, Gpu, Image, MemoryLocation, Pipeline, Sampler, Write,
 };
 use crate::layout::ValueCounters;
+use crate::passes::photon_volumes::MAX_PHOTON_BUFFERS;
+use std::ops::Range;
 use std::sync::Arc;
 
 /// Counter slots per frame: one per [`Checked`] buffer.
@@ -124,6 +136,9 @@ impl ValueCheck {
 /// How a buffer of photon records is laid out, in floats.
 #[derive(Clone, Copy, Debug)]
 pub struct Records {
+    /// Records before this buffer in a map split over buffers (0 for the first or only one):
+    /// injections address the whole map ([`ValueCheckPass::inject`]).
+    pub first: u64,
     pub count: u32,
     /// Floats per record.
     pub stride: u32,
@@ -153,17 +168,19 @@ struct RecordPush {
 #[derive(Clone, Copy, Debug)]
 struct Injection {
     buffer: Checked,
-    /// Float index: `(y·width + x)·4 + channel` in an image, `record·stride + field` in records.
+    /// Float index: `(y·width + x)·4 + channel` in an image, `record·stride + field` in records
+    /// (the record counted over every buffer of a split photon map).
     index: u64,
     value: f32,
 }
 
-/// A compute pipeline, its descriptor layout and a set per frame in flight and slot.
+/// A compute pipeline, its descriptor layout and sets per frame in flight and slot.
 struct Kernel {
     pipeline: Pipeline,
     layout: DescriptorLayout,
-    /// `[frame][slot]`; written before each use (module docs).
-    sets: Vec<Vec<DescriptorSet>>,
+    /// `[frame][slot][part]`: a set for each check of a slot in one frame (module docs);
+    /// written before each use.
+    sets: Vec<Vec<Vec<DescriptorSet>>>,
 }
 
 impl Kernel {
@@ -172,13 +189,19 @@ impl Kernel {
         name: &str,
         shader: &crate::gpu::Shader,
         (source, push_size): (BindingKind, usize),
-        frames: usize,
+        (frames, photon_map_sets): (usize, usize),
     ) -> anyhow::Result<Self> {
+        // Sets per frame in flight for the checks of each kind in one frame (module docs).
+        let parts = |which: Checked| match which {
+            Checked::PhotonMap => photon_map_sets,
+            _ => 1,
+        };
         let bindings = Binding::sequence(
             &[BindingKind::StorageBuffer, source],
             vk::ShaderStageFlags::COMPUTE,
         );
-        let layout = DescriptorLayout::new(gpu, name, &bindings, (frames * SLOTS) as u32)?;
+        let per_frame: usize = Checked::ALL.iter().map(|&c| parts(c)).sum();
+        let layout = DescriptorLayout::new(gpu, name, &bindings, (frames * per_frame) as u32)?;
         let pipeline = Pipeline::compute(
             gpu,
             &ComputeDesc {
@@ -190,8 +213,13 @@ impl Kernel {
             },
         )?;
         let sets = (0..frames)
-            .map(|_| (0..SLOTS).map(|_| layout.allocate(&[])).collect())
-            .collect::<Result<Vec<Vec<_>>, _>>()?;
+            .map(|_| {
+                Checked::ALL
+                    .iter()
+                    .map(|&c| (0..parts(c)).map(|_| layout.allocate(&[])).collect())
+                    .collect()
+            })
+            .collect::<Result<Vec<Vec<Vec<_>>>, _>>()?;
         Ok(Self {
             pipeline,
             layout,
@@ -199,21 +227,31 @@ impl Kernel {
         })
     }
 
-    /// Points the set of (`frame`, `which`) at `writes` and dispatches `groups` with `push`.
+    /// Points the set of (`frame`, `which`, `part`) at `writes` and dispatches `groups` with
+    /// `push`.
     fn dispatch<T: bytemuck::Pod>(
         &self,
         cmd: &Cmd,
-        (frame, which): (usize, Checked),
+        (frame, which, part): (usize, Checked, usize),
         writes: &[Write],
         push: &T,
         groups: [u32; 3],
-    ) {
-        let set = self.sets[frame][which.slot()];
+    ) -> anyhow::Result<()> {
+        let sets = &self.sets[frame][which.slot()];
+        let Some(&set) = sets.get(part) else {
+            anyhow::bail!(
+                "value check: {} checked {} times in one frame, more than its {} descriptor sets",
+                which.name(),
+                part + 1,
+                sets.len()
+            );
+        };
         self.layout.update(set, writes);
         cmd.bind_pipeline(&self.pipeline);
         cmd.bind_sets(&self.pipeline, 0, &[set]);
         cmd.push_constants(&self.pipeline, push);
         cmd.dispatch(groups[0], groups[1], groups[2]);
+        Ok(())
     }
 }
 
@@ -225,8 +263,10 @@ pub struct ValueCheckPass {
     counters: Buffer,
     /// One texel per slot: the values injected into images are copied from here.
     poison: Buffer,
-    /// Per frame in flight: the buffers its frame checked, in order.
+    /// Per frame in flight: the buffers its frame checked, in order, each once.
     checked: Vec<Vec<Checked>>,
+    /// Checks of each slot in the frame being recorded: the next one's set index.
+    uses: [usize; SLOTS],
     /// The frame in flight being recorded.
     frame: usize,
     injections: Vec<Injection>,
@@ -240,14 +280,14 @@ impl ValueCheckPass {
             "value_check",
             &crate::gpu::shader_table::VALUE_CHECK_COMP,
             (BindingKind::SampledImage, size_of::<ImagePush>()),
-            frames,
+            (frames, 1),
         )?;
         let records = Kernel::new(
             gpu,
             "value_check.records",
             &crate::gpu::shader_table::VALUE_CHECK_RECORDS_COMP,
             (BindingKind::StorageBuffer, size_of::<RecordPush>()),
-            frames,
+            (frames, MAX_PHOTON_BUFFERS),
         )?;
         let counters = Buffer::new(
             gpu,
@@ -269,6 +309,7 @@ impl ValueCheckPass {
             counters,
             poison,
             checked: vec![Vec::new(); frames],
+            uses: [0; SLOTS],
             frame: 0,
             injections: Vec::new(),
         })
@@ -279,6 +320,7 @@ impl ValueCheckPass {
     pub fn begin(&mut self, cmd: &Cmd, frame: usize) {
         self.frame = frame;
         self.checked[frame].clear();
+        self.uses = [0; SLOTS];
         let zeros = [ValueCounters::default(); SLOTS];
         cmd.update_buffer(
             &self.counters,
@@ -288,9 +330,9 @@ impl ValueCheckPass {
     }
 
     /// Counts the bad values of the RGBA float `image`, named `which`.
-    pub fn image(&mut self, cmd: &Cmd, which: Checked, image: &Image) {
+    pub fn image(&mut self, cmd: &Cmd, which: Checked, image: &Image) -> anyhow::Result<()> {
         let _scope = cmd.scope("value_check");
-        for injection in self.take_injections(which) {
+        for injection in self.take_injections(which, 0..u64::MAX) {
             let texel = injection.index / 4;
             let width = u64::from(image.width);
             let at = ((texel % width) as u32, (texel / width) as u32);
@@ -300,7 +342,7 @@ impl ValueCheckPass {
             cmd.update_buffer(&self.poison, offset, bytemuck::cast_slice(&value));
             cmd.copy_buffer_to_texel(&self.poison, offset, image, at);
         }
-        self.checked[self.frame].push(which);
+        let part = self.note(which);
         cmd.transition(image, Access::ComputeSampledRead);
         cmd.transition_buffer(&self.counters, Access::ComputeStorageWrite);
         let push = ImagePush {
@@ -318,20 +360,31 @@ impl ValueCheckPass {
         ];
         let groups = super::image_groups(image.width, image.height);
         self.images
-            .dispatch(cmd, (self.frame, which), &writes, &push, groups);
+            .dispatch(cmd, (self.frame, which, part), &writes, &push, groups)
     }
 
-    /// Counts the bad values of the `records` in `buffer`, named `which`.
-    pub fn records(&mut self, cmd: &Cmd, which: Checked, buffer: &Buffer, records: Records) {
-        self.checked[self.frame].push(which);
+    /// Counts the bad values of the `records` in `buffer`, named `which`. The buffers of a map
+    /// split over several are checked by one call each, into the same counter.
+    pub fn records(
+        &mut self,
+        cmd: &Cmd,
+        which: Checked,
+        buffer: &Buffer,
+        records: Records,
+    ) -> anyhow::Result<()> {
+        let part = self.note(which);
         if records.count == 0 {
             // Listed with no values: the buffer holds no record this frame (and may belong to
             // another queue), so injections wait for a frame that has some.
-            return;
+            return Ok(());
         }
         let _scope = cmd.scope("value_check");
-        for injection in self.take_injections(which) {
-            cmd.update_buffer(buffer, injection.index * 4, &injection.value.to_le_bytes());
+        let stride = u64::from(records.stride);
+        let start = records.first * stride;
+        let end = start + u64::from(records.count) * stride;
+        for injection in self.take_injections(which, start..end) {
+            let at = (injection.index - start) * 4;
+            cmd.update_buffer(buffer, at, &injection.value.to_le_bytes());
         }
         cmd.transition_buffer(buffer, Access::ComputeStorageRead);
         cmd.transition_buffer(&self.counters, Access::ComputeStorageWrite);
@@ -343,8 +396,13 @@ impl ValueCheckPass {
         };
         let writes = [Write::Buffer(&self.counters), Write::Buffer(buffer)];
         let groups = records.count.div_ceil(RECORD_GROUP).min(MAX_RECORD_GROUPS);
-        self.records
-            .dispatch(cmd, (self.frame, which), &writes, &push, [groups, 1, 1]);
+        self.records.dispatch(
+            cmd,
+            (self.frame, which, part),
+            &writes,
+            &push,
+            [groups, 1, 1],
+        )
     }
 
     /// Ends the frame's checks: its counters become readable by the host once it completes.
@@ -374,7 +432,9 @@ impl ValueCheckPass {
 
     /// Test seam: at the next check of `buffer`, once, writes `value` at float `index` of it
     /// just before the check reads it (module docs). An image texel gets `value` in channel
-    /// `index % 4` and 0 in the others.
+    /// `index % 4` and 0 in the others. In a photon map split over buffers, `index` counts over
+    /// the whole map (`record·stride + field`, records in map order): the value lands in the
+    /// buffer holding that record. An index past the records checked waits, unused.
     pub fn inject(&mut self, buffer: Checked, index: u64, value: f32) {
         self.injections.push(Injection {
             buffer,
@@ -383,10 +443,26 @@ impl ValueCheckPass {
         });
     }
 
-    fn take_injections(&mut self, which: Checked) -> Vec<Injection> {
-        let (now, later) = self.injections.drain(..).partition(|i| i.buffer == which);
+    /// The injections into `which` whose float index lies in `floats`, taken out.
+    fn take_injections(&mut self, which: Checked, floats: Range<u64>) -> Vec<Injection> {
+        let (now, later) = self
+            .injections
+            .drain(..)
+            .partition(|i| i.buffer == which && floats.contains(&i.index));
         self.injections = later;
         now
+    }
+
+    /// Notes a check of `which` in the frame being recorded (listed once however many buffers
+    /// it spans) and returns its index among this frame's checks of `which`: its set.
+    fn note(&mut self, which: Checked) -> usize {
+        let checked = &mut self.checked[self.frame];
+        if !checked.contains(&which) {
+            checked.push(which);
+        }
+        let part = self.uses[which.slot()];
+        self.uses[which.slot()] += 1;
+        part
     }
 
     fn counter(&self, which: Checked) -> u32 {
