@@ -264,22 +264,26 @@ fn effects_all_retraces_every_light_when_one_moves() {
 
 #[test]
 fn a_change_that_moves_no_lights_views_retraces_nothing_and_uploads_the_kept_map() {
-    // A new name changes the lights (the photon map is not reused whole) but no light's
-    // views: every light's photons are kept, nothing is drawn, read back or traced.
-    let scene = two_lights();
+    // Moving a light that is switched off (zero power: the plan gives it no views) changes the
+    // lights (the photon map is not reused whole) but no light's views: every light's photons
+    // are kept, nothing is drawn, read back or traced.
+    let mut scene = two_lights();
+    let mut off = point_light(Vec3::new(0.3, 0.5, 0.0), Vec3::ZERO);
+    off.name = "off".into();
+    scene.lights.push(off);
     let gpu = common::gpu();
     let mut r = Renderer::new(&gpu, &scene, settings(Effects::Auto)).expect("renderer");
     let first = r.render().expect("frame 0");
-    let mut renamed = scene.lights.clone();
-    renamed[0].name = "lamp".into();
-    r.set_lights(&renamed).expect("rename");
+    let off_moved = moved(&scene.lights, 2, Vec3::new(-0.2, 0.0, 0.1));
+    r.set_lights(&off_moved)
+        .expect("move the light that is off");
     let second = r.render().expect("frame 1");
     let s = &second.stats;
     assert!(s.lights_retraced.is_empty(), "{:?}", s.lights_retraced);
     assert_eq!(reused(&second), vec![0, 1]);
     assert!(s.lights_reused[0]
         .reason
-        .contains("light 0 (lamp) unchanged"));
+        .contains("light 0 (ceiling) unchanged"));
     for pass in ["light_gbuffers", "bounce_map", "readback", "cpu_trace"] {
         assert!(!s.passes_run.iter().any(|p| p == pass), "{pass} ran");
         assert!(
@@ -295,10 +299,17 @@ fn a_change_that_moves_no_lights_views_retraces_nothing_and_uploads_the_kept_map
         "the kept photon map changed the image"
     );
     // Then a light moves again: traced from the kept records.
-    r.set_lights(&moved(&renamed, 1, Vec3::new(0.1, 0.0, 0.0)))
+    r.set_lights(&moved(&off_moved, 1, Vec3::new(0.1, 0.0, 0.0)))
         .expect("move light 1");
     let third = r.render().expect("frame 2");
     assert_eq!(third.stats.lights_retraced, vec![1]);
+    // A new name is a new light to the random numbers (they are keyed by the light's name,
+    // `ispm::light_seed`, not its position): that light alone is traced again.
+    let mut renamed = moved(&off_moved, 1, Vec3::new(0.1, 0.0, 0.0));
+    renamed[0].name = "lamp".into();
+    r.set_lights(&renamed).expect("rename light 0");
+    let fourth = r.render().expect("frame 3");
+    assert_eq!(fourth.stats.lights_retraced, vec![0]);
     drop(r);
     common::assert_validation_clean(&gpu);
 }
