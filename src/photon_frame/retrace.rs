@@ -23,7 +23,7 @@
 use crate::frame::{FrameStats, ReusedLight, SkippedPass};
 use crate::ispm::BouncePlan;
 use crate::photon::bvh::SceneBvh;
-use crate::photon::trace::{trace_photons, TraceSettings};
+use crate::photon::trace::{trace_photon_groups, PhotonState, TraceSettings};
 use crate::photon::types::{BounceMapPhoton, Photon};
 use crate::scene::Scene;
 use crate::timing;
@@ -109,13 +109,15 @@ impl Traced {
         let traces = frame.retrace.iter().any(|&r| r);
         let mut bounce_map = vec![BounceMapPhoton::default(); plan.texels];
         let trace_span = traces.then(|| timing::span("cpu_trace"));
-        let mut lights = Vec::with_capacity(frame.retrace.len());
+        // Kept lights' records, and the re-traced lights' starts (traced together below).
+        let mut lights = vec![None; frame.retrace.len()];
+        let mut traced: Vec<(usize, Vec<PhotonState>)> = Vec::new();
         for (light, &retrace) in frame.retrace.iter().enumerate() {
             let views = plan.light_views(light);
             let texels = plan.texel_range(views.clone());
             let name = &frame.scene.lights[light].name;
             if views.is_empty() {
-                lights.push(LightPhotons::default()); // no photons this frame
+                lights[light] = Some(LightPhotons::default()); // no photons this frame
                 continue;
             }
             if !retrace {
@@ -128,12 +130,17 @@ impl Traced {
                     name: name.clone(),
                     reason: format!("light {light} ({name}) unchanged: its photons reused"),
                 });
-                lights.push(self.take(light));
+                lights[light] = Some(self.take(light));
                 continue;
             }
             bounce_map[texels.clone()].copy_from_slice(&frame.fresh[texels]);
-            let starts = plan.photon_starts_in(&bounce_map, views);
-            let map = trace_photons(frame.scene, frame.bvh, &starts, frame.trace);
+            traced.push((light, plan.photon_starts_in(&bounce_map, views)));
+        }
+        // One parallel trace of every re-traced light's starts; each light's photons are those
+        // a trace of its starts alone makes (`trace_photon_groups`).
+        let groups: Vec<&[PhotonState]> = traced.iter().map(|(_, s)| s.as_slice()).collect();
+        let maps = trace_photon_groups(frame.scene, frame.bvh, &groups, frame.trace);
+        for ((light, starts), map) in traced.iter().zip(maps) {
             // Origin-relative positions, subtracted in f64 (see DESIGN: precision far from the
             // world's origin); the photon volumes add the eye's offset (`photon_frame.rs`).
             let photons = map
@@ -144,14 +151,15 @@ impl Traced {
                     ..*p
                 })
                 .collect();
-            stats.lights_retraced.push(light);
+            stats.lights_retraced.push(*light);
             stats.traced_bounce_map_photons += starts.len();
-            lights.push(LightPhotons {
+            lights[*light] = Some(LightPhotons {
                 photons,
                 starts: starts.len(),
                 attrition: map.attrition,
             });
         }
+        let lights: Vec<LightPhotons> = lights.into_iter().map(Option::unwrap_or_default).collect();
         if let Some(span) = trace_span {
             stats.cpu_trace_ms = span.finish();
         } else {
