@@ -3,8 +3,9 @@
 //! run, on the same renderer settings. `cargo bench --bench retrace` (the Vulkan device the
 //! renderer picks: set `VK_DRIVER_FILES` for lavapipe); results in `docs/performance.md`.
 //!
-//! Scene: the Cornell box of `reference::scenes::cornell` with a second point light of half
-//! the first's power (`tests/retrace.rs`' scene), 128×128, 100 000 photons, 256² shadow maps.
+//! Scene: the Cornell box of `reference::scenes::cornell(3)` (a finer sphere than
+//! `tests/retrace.rs`' `cornell(1)`) with a second point light of half the first's power (as in
+//! the tests), 128×128, 100 000 photons, 256² shadow maps.
 //! Each iteration moves the light(s) between two positions and renders one frame, waiting for
 //! it: every iteration traces the moved lights again. After each benchmark the medians of the
 //! photon stages it re-ran (host trace, GPU light G-buffers, bounce map, readback) are printed.

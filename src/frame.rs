@@ -228,7 +228,19 @@ pub struct SkippedPass {
     pub reason: String,
 }
 
-/// The photon passes a frame that reuses the last photon map skips.
+impl ReusedLight {
+    /// Light `light` named `name`, unchanged since it was traced: `what` was reused.
+    pub fn new(light: usize, name: &str, what: &str) -> Self {
+        Self {
+            light,
+            name: name.to_string(),
+            reason: format!("light {light} ({name}) unchanged: {what}"),
+        }
+    }
+}
+
+/// The photon passes a frame that reuses the last photon map skips: the emission and trace
+/// ([`TRACE_PASSES`]), then the upload.
 const REUSE_SKIPS: &[&str] = &[
     "light_gbuffers",
     "bounce_map",
@@ -236,6 +248,43 @@ const REUSE_SKIPS: &[&str] = &[
     "cpu_trace",
     "upload",
 ];
+
+/// The photon passes a frame in which every light keeps its photons skips (the kept map is
+/// still uploaded: `photon_frame/retrace.rs`).
+pub(crate) const TRACE_PASSES: &[&str] = REUSE_SKIPS.split_at(4).0;
+
+/// `names` as skipped passes, each for `reason`.
+pub(crate) fn skipped(names: &[&str], reason: &str) -> Vec<SkippedPass> {
+    names
+        .iter()
+        .map(|name| SkippedPass {
+            name: (*name).to_string(),
+            reason: reason.to_string(),
+        })
+        .collect()
+}
+
+/// What a frame that reuses the photon map of frame `from` (traced with `traced`, for
+/// `lights`) reports: built once, when that map is traced.
+fn reuse_stats(from: u64, traced: &FrameStats, lights: &[Light]) -> FrameStats {
+    let reason =
+        format!("photon map of frame {from} reused: nothing moved and no light changed since");
+    let what = format!("the photon map of frame {from} reused");
+    let mut reused: Vec<usize> = traced.lights_reused.iter().map(|l| l.light).collect();
+    reused.extend(&traced.lights_retraced);
+    reused.sort_unstable();
+    FrameStats {
+        cpu_trace_ms: 0.0,
+        passes_skipped: skipped(REUSE_SKIPS, &reason),
+        lights_retraced: Vec::new(),
+        lights_reused: reused
+            .into_iter()
+            .map(|l| ReusedLight::new(l, &lights[l].name, &what))
+            .collect(),
+        traced_bounce_map_photons: 0,
+        ..traced.clone()
+    }
+}
 
 /// Renders frames of one scene at one size.
 pub struct Renderer {
@@ -251,9 +300,9 @@ pub struct Renderer {
     /// The scene's camera- and light-independent analysis, which the plan is re-made from when
     /// the camera moves or a light changes.
     analysis: SceneAnalysis,
-    /// The frame whose photon map the photon buffer holds, and its stats, while that map is
-    /// still valid (no light changed since; never under `--effects all`).
-    photon_map: Option<(u64, FrameStats)>,
+    /// While the photon map the photon buffer holds is still valid (no light changed since;
+    /// never under `--effects all`): the stats a frame that reuses it reports.
+    photon_map: Option<FrameStats>,
     scene: GpuScene,
     frame_uniforms: Buffer,
     light_buffer: Buffer,
@@ -739,41 +788,12 @@ impl Renderer {
         // Nothing moved and no light changed since the photon map was traced: draw it again
         // (issue #9), without light G-buffers, bounce map, readback, trace or upload.
         let reuse = match &self.photon_map {
-            Some((from, stats)) if self.settings.effects == Effects::Auto => Some((*from, stats)),
+            Some(stats) if self.settings.effects == Effects::Auto => Some(stats),
             _ => None,
         };
         let mut stats = FrameStats::default();
-        if let Some((from, traced)) = reuse {
-            let reason = format!(
-                "photon map of frame {from} reused: nothing moved and no light changed since"
-            );
-            let mut lights: Vec<ReusedLight> = traced.lights_reused.clone();
-            lights.extend(traced.lights_retraced.iter().map(|&light| ReusedLight {
-                light,
-                ..Default::default()
-            }));
-            lights.sort_by_key(|l| l.light);
-            for l in &mut lights {
-                l.name.clone_from(&self.lights[l.light].name);
-                l.reason = format!(
-                    "light {} ({}) unchanged: the photon map of frame {from} reused",
-                    l.light, l.name
-                );
-            }
-            stats = FrameStats {
-                cpu_trace_ms: 0.0,
-                passes_skipped: REUSE_SKIPS
-                    .iter()
-                    .map(|name| SkippedPass {
-                        name: (*name).to_string(),
-                        reason: reason.clone(),
-                    })
-                    .collect(),
-                lights_retraced: Vec::new(),
-                lights_reused: lights,
-                traced_bounce_map_photons: 0,
-                ..traced.clone()
-            };
+        if let Some(reused) = reuse {
+            stats = reused.clone();
         }
         let reuse = reuse.is_some();
 
@@ -835,7 +855,7 @@ impl Renderer {
                 self.last_upload = Some(done);
             }
             if self.settings.effects == Effects::Auto {
-                self.photon_map = Some((self.frame_index, stats.clone()));
+                self.photon_map = Some(reuse_stats(self.frame_index, &stats, &self.lights));
             }
         }
 

@@ -685,7 +685,9 @@ impl BouncePlan {
     }
 
     /// The views of light `light` (its index in `scene.lights`): its main views, then its
-    /// caustic views, one contiguous range; empty for a light that gets no photons.
+    /// caustic views, one contiguous range; empty for a light the plan emits no views for
+    /// (e.g. its photon mask off). An active light whose budget is zero still has views, of
+    /// extent (0, 0): an empty texel range.
     pub fn light_views(&self, light: usize) -> Range<usize> {
         let Some(first) = self.view_lights.iter().position(|&l| l == light) else {
             return 0..0;

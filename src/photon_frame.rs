@@ -20,12 +20,10 @@ use crate::gpu_scene::GpuScene;
 use crate::ispm::{BouncePlan, Capacity};
 use crate::passes::bounce_map::{BounceMapIo, BounceMapPass, ViewBatch};
 use crate::passes::composite::CompositePass;
-use crate::passes::debug_view::PhotonSources;
 use crate::passes::eye_gbuffer::GBuffer;
 use crate::passes::light_gbuffer::LightGBufferPass;
 use crate::passes::photon_volumes::{self, PhotonVolumeInputs, PhotonVolumesPass};
 use crate::passes::upsample::{self, UpsampleInputs, UpsamplePass};
-use crate::passes::value_check::{Checked, Records, ValueCheckPass};
 use crate::photon::bvh::SceneBvh;
 use crate::photon::kernel::KernelSettings;
 use crate::photon::trace::TraceSettings;
@@ -38,6 +36,7 @@ use std::ops::Range;
 use std::sync::Arc;
 
 mod buffers;
+mod estimate;
 mod retrace;
 
 use buffers::{photons_per_buffer, PhotonBuffers};
@@ -76,10 +75,8 @@ pub struct PhotonFrame {
     subsampled: Option<Subsampled>,
     indirect: Image,
     composite: CompositePass,
-    /// The last frame's bounce map and photon map (positions relative to `plan.origin`).
-    last_bounce_map: Vec<BounceMapPhoton>,
-    last_photons: Vec<Photon>,
-    /// The photon map per light, and the plan it was traced with (`retrace.rs`).
+    /// The last frame's bounce map and photon map per light (positions relative to
+    /// `plan.origin`), and the plan they were traced with (`retrace.rs`).
     traced: Traced,
     /// Whether unchanged lights keep their photons (not under `--effects all`).
     reuse_lights: bool,
@@ -304,8 +301,6 @@ impl PhotonFrame {
             subsampled,
             indirect,
             composite,
-            last_bounce_map: Vec::new(),
-            last_photons: Vec::new(),
             traced: Traced::default(),
             reuse_lights: settings.effects == Effects::Auto,
             retrace: Vec::new(),
@@ -314,22 +309,6 @@ impl PhotonFrame {
             kernel_clamp,
             estimate_height,
         })
-    }
-
-    /// Draws the photon volumes for `camera` from the next recorded estimate on: its position
-    /// (the offset added to the photons) and its field of view (the kernel's footprint floor).
-    /// The photon map itself does not depend on the camera and stays valid.
-    pub fn set_view(&mut self, camera: &crate::scene::Camera) {
-        self.eye = camera.position().as_dvec3();
-        self.kernel = self
-            .kernel_clamp
-            .for_view(camera.yfov, self.estimate_height);
-    }
-
-    /// What the photon volumes add to each stored position to make it eye-relative:
-    /// `origin − eye`, subtracted in f64 and rounded once.
-    fn eye_offset(&self) -> glam::Vec3 {
-        (self.plan.origin - self.eye).as_vec3()
     }
 
     /// Moves the lights (same lights, new transforms or powers; `active`: the effects plan's
@@ -521,45 +500,41 @@ impl PhotonFrame {
         };
         if plan.texels == 0 {
             self.buffers.counts.fill(0);
-            self.traced.invalidate();
+            self.traced.clear();
             return Ok(stats);
         }
         anyhow::ensure!(
             self.retrace.len() == self.scene.lights.len(),
             "the photon trace ran without its emission"
         );
-        let fresh: Vec<BounceMapPhoton> = if self.batches.is_empty() {
-            Vec::new()
-        } else {
-            let bytes = self.readback.read()?;
-            let records = plan.texels * size_of::<BounceMapPhoton>();
-            bytemuck::pod_collect_to_vec(&bytes[..records])
+        // Only the re-traced lights' records, straight from the mapped readback.
+        let readback = &self.readback;
+        let mut read = |texels: Range<usize>, out: &mut [BounceMapPhoton]| {
+            let offset = (texels.start * size_of::<BounceMapPhoton>()) as u64;
+            readback.read_into(offset, bytemuck::cast_slice_mut(out))
         };
-        let (bounce_map, relative) = self.traced.update(
-            &retrace::Frame {
-                plan,
-                scene: &self.scene,
-                bvh: &self.bvh,
-                trace: &self.trace,
-                retrace: &self.retrace,
-                fresh: &fresh,
-                last: &self.last_bounce_map,
-            },
-            &mut stats,
-        );
-        if !self.buffers.holds(relative.len()) {
+        let frame = retrace::Frame {
+            plan,
+            scene: &self.scene,
+            bvh: &self.bvh,
+            trace: &self.trace,
+            retrace: &self.retrace,
+        };
+        self.traced.update(&frame, &mut read, &mut stats)?;
+        let count = self.traced.photon_count();
+        if !self.buffers.holds(count) {
             // The old buffers go to the graveyard, destroyed once the frames using them finish.
             // The photons that were on the graphics queue were released in `record_emission`
             // (they have none now: the new buffers start out owned by nobody).
             let per_buffer = self.buffers.per_buffer;
-            let capacity = relative.len().next_power_of_two();
-            self.buffers = PhotonBuffers::new(&self.gpu, relative.len(), capacity, per_buffer)?;
+            let capacity = count.next_power_of_two();
+            self.buffers = PhotonBuffers::new(&self.gpu, count, capacity, per_buffer)?;
             self.rebind = true;
         }
-        timing::timed("upload write", || self.buffers.write(&relative))?;
+        // Light after light, each light's photons where a fresh map has them.
+        let lights = self.traced.lights().iter().map(|l| l.photons.as_slice());
+        timing::timed("upload write", || self.buffers.write(lights))?;
         stats.photon_buffers = self.buffers.counts.iter().filter(|&&n| n > 0).count();
-        self.last_bounce_map = bounce_map;
-        self.last_photons = relative;
         Ok(stats)
     }
 
@@ -587,154 +562,6 @@ impl PhotonFrame {
         }
     }
 
-    /// Photon volumes into the indirect buffer (at 1/N resolution and upsampled, at
-    /// `--subsample N > 1`), then radiance += indirect. Takes the photon buffer over from the
-    /// transfer queue after an upload (a no-op in a frame that reuses the photon map) and keeps
-    /// it until the next [`Self::record_emission`]. Without `composite` (the direct-only debug
-    /// view) the estimate is made but not added. With `check` (`--check-values`), the bounce
-    /// map and photon map are checked before the photon volumes draw, the low-resolution
-    /// targets before the upsample reads them, the indirect image before the composite
-    /// (`passes/value_check.rs`).
-    pub fn record_estimate(
-        &mut self,
-        cmd: &Cmd,
-        (frame, materials, gbuffer): (&Buffer, &Buffer, &GBuffer),
-        radiance: &mut Image,
-        (composite, mut check): (bool, Option<&mut ValueCheckPass>),
-    ) -> anyhow::Result<()> {
-        if self.count() > 0 {
-            for (_, photons) in self.buffers.used() {
-                cmd.acquire_buffer(photons, QueueRole::Transfer, Access::GraphicsStorageRead);
-            }
-            self.photons_on_graphics = true;
-        }
-        if !self.batches.is_empty() {
-            // Back from the readback, for the next frame's bounce map.
-            cmd.acquire_buffer(
-                &self.bounce_map,
-                QueueRole::Transfer,
-                Access::ComputeStorageWrite,
-            );
-        }
-        if let Some(check) = check.as_deref_mut() {
-            self.check_photon_records(cmd, check)?;
-        }
-        let inputs = PhotonVolumeInputs {
-            frame,
-            photons: &self.buffers.device,
-            materials,
-            gbuffer,
-        };
-        if self.rebind {
-            self.photon_pass.rebind(&inputs)?;
-            self.rebind = false;
-        }
-        let volumes = (&self.buffers.counts[..], &self.kernel, self.eye_offset());
-        match &mut self.subsampled {
-            None => self.photon_pass.record(
-                cmd,
-                &inputs,
-                volumes,
-                std::slice::from_mut(&mut self.indirect),
-            ),
-            Some(sub) => {
-                self.photon_pass.record(cmd, &inputs, volumes, &mut sub.low);
-                if let Some(check) = check.as_deref_mut() {
-                    check.image(cmd, Checked::IndirectLowIrradiance, &sub.low[0])?;
-                    check.image(cmd, Checked::IndirectLowGlossy, &sub.low[1])?;
-                }
-                let inputs = UpsampleInputs {
-                    materials,
-                    gbuffer,
-                    low: &sub.low,
-                };
-                sub.upsample.record(cmd, &inputs, &mut self.indirect);
-            }
-        }
-        if let Some(check) = check {
-            check.image(cmd, Checked::Indirect, &self.indirect)?;
-        }
-        if composite {
-            self.composite.record(cmd, &self.indirect, radiance);
-        }
-        Ok(())
-    }
-
-    /// The value check of the bounce map (the records the plan's texels filled, once it is
-    /// back on this queue) and of the photon map (the photons drawn, every buffer of it into
-    /// the one `photon_map` count).
-    fn check_photon_records(&self, cmd: &Cmd, check: &mut ValueCheckPass) -> anyhow::Result<()> {
-        const FLOAT: usize = size_of::<f32>();
-        if self.plan.texels > 0 {
-            let records = Records {
-                first: 0,
-                count: self.plan.texels as u32,
-                stride: (size_of::<BounceMapPhoton>() / FLOAT) as u32,
-                power_offset: (std::mem::offset_of!(BounceMapPhoton, power) / FLOAT) as u32,
-            };
-            check.records(cmd, Checked::BounceMap, &self.bounce_map, records)?;
-        }
-        // Buffers hold the map in photon order, each full but the last used one
-        // (`PhotonBuffers::write`); the first is checked even when empty, so the photon map is
-        // listed with 0 values in a frame without photons.
-        let mut first = 0u64;
-        for (i, (buffer, &count)) in self
-            .buffers
-            .device
-            .iter()
-            .zip(&self.buffers.counts)
-            .enumerate()
-        {
-            if i > 0 && count == 0 {
-                continue;
-            }
-            let records = Records {
-                first,
-                count,
-                stride: (size_of::<Photon>() / FLOAT) as u32,
-                power_offset: (std::mem::offset_of!(Photon, power) / FLOAT) as u32,
-            };
-            check.records(cmd, Checked::PhotonMap, buffer, records)?;
-            first += u64::from(count);
-        }
-        Ok(())
-    }
-
-    /// What the debug views read of the photon part of the frame (`passes/debug_view.rs`).
-    pub fn debug_sources(&self) -> PhotonSources<'_> {
-        let lum = |c: glam::Vec3| c.dot(glam::Vec3::new(0.2126, 0.7152, 0.0722));
-        let first = self.plan.views.first().map(|v| (v.texels.x, v.texels.y));
-        let (offset, records) = self.plan.views.first().map_or((0, 0), |v| {
-            (v.texels.z as usize, (v.texels.x * v.texels.y) as usize)
-        });
-        let bounce_peak = self
-            .last_bounce_map
-            .iter()
-            .skip(offset)
-            .take(records)
-            .map(|p| lum(p.power))
-            .fold(0.0, f32::max);
-        let photon_peak = self
-            .last_photons
-            .iter()
-            .take(self.buffers.counts[0] as usize)
-            .map(|p| lum(p.power))
-            .fold(0.0, f32::max);
-        PhotonSources {
-            light_gbuffer: &self.light_gbuffer,
-            first_view_extent: first.unwrap_or((0, 0)),
-            views: &self.views,
-            bounce_map: &self.bounce_map,
-            bounce_peak,
-            // The debug views show the first photon buffer's photons.
-            photons: &self.buffers.device[0],
-            count: self.buffers.counts[0],
-            photon_peak,
-            offset: self.eye_offset(),
-            indirect: &self.indirect,
-        }
-    }
-
     /// The CPU tracer's BVH.
     pub fn bvh(&self) -> &SceneBvh {
         &self.bvh
@@ -747,7 +574,7 @@ impl PhotonFrame {
 
     /// The last frame's bounce map, one record per light-G-buffer texel.
     pub fn bounce_map(&self) -> &[BounceMapPhoton] {
-        &self.last_bounce_map
+        self.traced.bounce_map()
     }
 
     /// The last traced photon map as the photon volumes draw it now: positions relative to the
@@ -755,8 +582,8 @@ impl PhotonFrame {
     /// `origin − eye`, in f32).
     pub fn photon_map(&self) -> Vec<Photon> {
         let offset = self.eye_offset();
-        self.last_photons
-            .iter()
+        self.traced
+            .photons()
             .map(|p| Photon {
                 position: p.position + offset,
                 ..*p
@@ -768,20 +595,8 @@ impl PhotonFrame {
     /// plan's origin, as stored), and the bounce-map photons they were traced from.
     pub fn light_photons(&self, light: usize) -> (&[Photon], usize) {
         self.traced
-            .lights
+            .lights()
             .get(light)
             .map_or((&[], 0), |l| (l.photons.as_slice(), l.starts))
-    }
-
-    /// The kernel radius clamp the photon volumes use.
-    pub fn kernel(&self) -> KernelSettings {
-        self.kernel
-    }
-
-    /// Reads back the indirect radiance (RGBA f32; alpha = volumes per pixel).
-    pub fn read_indirect(&self) -> anyhow::Result<Vec<f32>> {
-        Ok(bytemuck::pod_collect_to_vec(
-            &self.gpu.read_image(&self.indirect)?,
-        ))
     }
 }

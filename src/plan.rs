@@ -289,6 +289,12 @@ pub struct SceneAnalysis {
     enclosures: Enclosures,
 }
 
+/// Whether the analysis of `scene` welds its closed surfaces (`plan/enclosure.rs`): only a
+/// planned frame (`--effects auto`) of a scene with lights.
+pub(crate) fn welds_enclosures(scene: &Scene, settings: &RenderSettings) -> bool {
+    settings.effects == Effects::Auto && !scene.lights.is_empty()
+}
+
 impl SceneAnalysis {
     /// Analyses the geometry and materials of `scene` for frames made with `settings`.
     pub fn new(scene: &Scene, settings: &RenderSettings) -> Self {
@@ -383,7 +389,7 @@ impl SceneAnalysis {
                 }
             }
         }
-        let enclosures = if planned && !scene.lights.is_empty() {
+        let enclosures = if welds_enclosures(scene, settings) {
             match statics {
                 Some(statics) => Enclosures::with_static(statics, scene),
                 None => Enclosures::new(scene),

@@ -45,17 +45,59 @@ fn reused(frame: &FrameImage) -> Vec<usize> {
     frame.stats.lights_reused.iter().map(|l| l.light).collect()
 }
 
+/// Per light: its photons (bit patterns) and its bounce-map photons.
+type LightsPhotons = Vec<(Vec<u8>, usize)>;
+
 /// A fresh renderer's first frame of `scene`, and its per-light photons.
-fn fresh(scene: &Scene) -> (FrameImage, Vec<(Vec<u8>, usize)>) {
+fn fresh(scene: &Scene) -> (FrameImage, LightsPhotons) {
+    let (frame, lights, _) = fresh_with_bounce_map(scene);
+    (frame, lights)
+}
+
+/// [`fresh`], and the renderer's bounce map (bit patterns).
+fn fresh_with_bounce_map(scene: &Scene) -> (FrameImage, LightsPhotons, Vec<u8>) {
     let gpu = common::gpu();
     let mut r = Renderer::new(&gpu, scene, settings(Effects::Auto)).expect("renderer");
     let frame = r.render().expect("render");
     let lights = (0..scene.lights.len())
         .map(|l| light_photons(&r, l))
         .collect();
+    let bounce_map = bounce_map_bits(&r);
     drop(r);
     common::assert_validation_clean(&gpu);
-    (frame, lights)
+    (frame, lights, bounce_map)
+}
+
+fn bounce_map_bits(r: &Renderer) -> Vec<u8> {
+    bytemuck::cast_slice(r.photons().expect("photon part").bounce_map()).to_vec()
+}
+
+/// `r`'s last frame against a fresh renderer's first frame of `scene`, bit for bit: the image,
+/// every light's photons and bounce-map photons, and the bounce map.
+fn assert_as_fresh(r: &Renderer, frame: &FrameImage, scene: &Scene) {
+    let lights: Vec<_> = (0..scene.lights.len())
+        .map(|l| light_photons(r, l))
+        .collect();
+    let bounce_map = bounce_map_bits(r);
+    let (expected, expected_lights, expected_bounce_map) = fresh_with_bounce_map(scene);
+    for (l, (got, want)) in lights.iter().zip(&expected_lights).enumerate() {
+        assert!(
+            got == want,
+            "light {l}'s photons differ from a fresh renderer's ({} vs {} bytes, {} vs {} starts)",
+            got.0.len(),
+            want.0.len(),
+            got.1,
+            want.1
+        );
+    }
+    assert!(
+        bounce_map == expected_bounce_map,
+        "bounce map differs from a fresh renderer's"
+    );
+    assert!(
+        bits(frame) == bits(&expected),
+        "image differs from a fresh renderer's"
+    );
 }
 
 fn moved(lights: &[Light], light: usize, by: Vec3) -> Vec<Light> {
@@ -143,11 +185,6 @@ fn the_unmoved_lights_photons_are_kept_bit_for_bit_after_the_moved_ones() {
     let (_, starts1) = light_photons(&r, 1);
     let n0 = r.photons().expect("photon part").light_photons(0).0.len();
     let light1 = photon_bits(&before[n0..]);
-    let bounce_map = r.photons().expect("photon part").bounce_map().to_vec();
-    let texels1 = {
-        let plan = r.photons().expect("photon part").plan();
-        plan.texel_range(plan.light_views(1))
-    };
 
     r.set_lights(&moved(&scene.lights, 0, Vec3::new(-0.2, -0.1, 0.15)))
         .expect("move light 0");
@@ -171,12 +208,45 @@ fn the_unmoved_lights_photons_are_kept_bit_for_bit_after_the_moved_ones() {
         photons.light_photons(0).1
     );
     assert_eq!(photons.light_photons(1).1, starts1);
-    // Its bounce-map records too, in the same place.
-    let now = photons.bounce_map();
-    assert!(
-        bytemuck::cast_slice::<_, u8>(&now[texels1.clone()])
-            == bytemuck::cast_slice::<_, u8>(&bounce_map[texels1])
+    let mut moved_scene = scene.clone();
+    moved_scene.lights = moved(&scene.lights, 0, Vec3::new(-0.2, -0.1, 0.15));
+    // Light 1's bounce-map records in the same place, and the whole bounce map as a fresh
+    // renderer's.
+    assert_as_fresh(&r, &second, &moved_scene);
+    drop(r);
+    common::assert_validation_clean(&gpu);
+}
+
+#[test]
+fn moving_two_non_adjacent_lights_retraces_both_and_matches_a_fresh_renderer() {
+    // Lights 0 and 2 move, light 1 (between them) is kept: two bounce-map dispatches and two
+    // readback ranges, the second starting after a gap.
+    let mut scene = two_lights();
+    let mut third = point_light(Vec3::new(0.5, 0.3, -0.3), Vec3::splat(0.8));
+    third.name = "back".into();
+    scene.lights.push(third);
+    let gpu = common::gpu();
+    let mut r = Renderer::new(&gpu, &scene, settings(Effects::Auto)).expect("renderer");
+    r.render().expect("frame 0");
+    let kept = light_photons(&r, 1);
+    let lights = moved(
+        &moved(&scene.lights, 0, Vec3::new(-0.15, -0.1, 0.1)),
+        2,
+        Vec3::new(-0.2, 0.1, 0.2),
     );
+    r.set_lights(&lights).expect("move lights 0 and 2");
+    let second = r.render().expect("frame 1");
+    assert_eq!(second.stats.lights_retraced, vec![0, 2]);
+    assert_eq!(reused(&second), vec![1]);
+    assert!(light_photons(&r, 1) == kept, "light 1's photons changed");
+    let plan = r.photons().expect("photon part").plan();
+    assert!(
+        plan.light_views(2).start > plan.light_views(0).end,
+        "no gap between lights 0 and 2"
+    );
+    let mut moved_scene = scene.clone();
+    moved_scene.lights = lights;
+    assert_as_fresh(&r, &second, &moved_scene);
     drop(r);
     common::assert_validation_clean(&gpu);
 }
@@ -314,11 +384,8 @@ fn a_change_that_moves_no_lights_views_retraces_nothing_and_uploads_the_kept_map
     common::assert_validation_clean(&gpu);
 }
 
-#[test]
-fn with_a_mirror_ball_moving_one_light_retraces_its_main_and_caustic_views_only() {
-    // The sphere is a mirror: both lights get caustic views around it (nested in their main
-    // views, the parents' indices in the bounce map's views). Light 1 moves, its caustic window
-    // with it; light 0's views, before light 1's, keep their places.
+/// [`two_lights`] with a mirror sphere: every light gets caustic views around it.
+fn mirror_ball() -> Scene {
     let mut scene = two_lights();
     scene.materials.push(Material {
         name: "mirror".into(),
@@ -329,6 +396,44 @@ fn with_a_mirror_ball_moving_one_light_retraces_its_main_and_caustic_views_only(
     });
     let sphere = scene.meshes.len() - 1;
     scene.meshes[sphere].material = scene.materials.len() - 1;
+    scene
+}
+
+#[test]
+fn with_a_mirror_ball_moving_the_first_light_shifts_the_later_lights_records_as_a_fresh_renderer() {
+    // Light 0 moves: its caustic window changes size, so light 1's views (after light 0's)
+    // move to other bounce-map records, and light 1 is re-traced with them.
+    let scene = mirror_ball();
+    let gpu = common::gpu();
+    let mut r = Renderer::new(&gpu, &scene, settings(Effects::Auto)).expect("renderer");
+    r.render().expect("frame 0");
+    let texels1 = {
+        let plan = r.photons().expect("photon part").plan();
+        plan.texel_range(plan.light_views(1))
+    };
+    let lights = moved(&scene.lights, 0, Vec3::new(0.3, -0.15, 0.2));
+    r.set_lights(&lights).expect("move light 0");
+    let second = r.render().expect("frame 1");
+    let plan = r.photons().expect("photon part").plan();
+    let texels1_now = plan.texel_range(plan.light_views(1));
+    assert_ne!(
+        texels1_now.start, texels1.start,
+        "light 1's records did not shift"
+    );
+    assert_eq!(second.stats.lights_retraced, vec![0, 1]);
+    let mut moved_scene = scene.clone();
+    moved_scene.lights = lights;
+    assert_as_fresh(&r, &second, &moved_scene);
+    drop(r);
+    common::assert_validation_clean(&gpu);
+}
+
+#[test]
+fn with_a_mirror_ball_moving_one_light_retraces_its_main_and_caustic_views_only() {
+    // The sphere is a mirror: both lights get caustic views around it (nested in their main
+    // views, the parents' indices in the bounce map's views). Light 1 moves, its caustic window
+    // with it; light 0's views, before light 1's, keep their places.
+    let scene = mirror_ball();
     let gpu = common::gpu();
     let mut r = Renderer::new(&gpu, &scene, settings(Effects::Auto)).expect("renderer");
     r.render().expect("frame 0");

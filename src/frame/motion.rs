@@ -123,9 +123,7 @@ impl Renderer {
         let declared = moved.iter().all(|(i, _)| moving.contains(i));
         if !valid {
             self.static_enclosures = None;
-            let welds = self.settings.effects == crate::plan::Effects::Auto
-                && !self.source.lights.is_empty();
-            if declared && welds {
+            if declared && crate::plan::welds_enclosures(&self.source, &self.settings) {
                 // Welded from the scene as it is now; valid until an instance outside
                 // `moving` moves (then `covers` fails and it is dropped).
                 self.static_enclosures = Some(StaticEnclosures::new(&self.source, moving));

@@ -122,6 +122,25 @@ impl Buffer {
         Ok(out)
     }
 
+    /// Reads `out.len()` bytes at `offset` of the host-visible buffer into `out`. The caller has
+    /// waited for the GPU writes.
+    pub fn read_into(&self, offset: u64, out: &mut [u8]) -> anyhow::Result<()> {
+        let ptr = self.mapped_ptr()?;
+        anyhow::ensure!(
+            offset + out.len() as u64 <= self.size,
+            "read of {} bytes at {offset} overflows buffer {} ({} bytes)",
+            out.len(),
+            self.name,
+            self.size
+        );
+        // SAFETY: the mapping covers `size` bytes, the range was checked above, and `out`
+        // cannot overlap GPU-mapped memory.
+        unsafe {
+            std::ptr::copy_nonoverlapping(ptr.add(offset as usize), out.as_mut_ptr(), out.len())
+        };
+        Ok(())
+    }
+
     fn mapped_ptr(&self) -> anyhow::Result<*mut u8> {
         self.allocation
             .as_ref()

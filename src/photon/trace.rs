@@ -356,6 +356,21 @@ pub fn trace_photons(
     starts: &[PhotonState],
     settings: &TraceSettings,
 ) -> PhotonMap {
+    trace_photon_groups(scene, bvh, &[starts], settings)
+        .pop()
+        .unwrap_or_default()
+}
+
+/// [`trace_photons`] of several groups of starts (e.g. one per light) in one parallel pass:
+/// one photon map per group, each bit for bit the one [`trace_photons`] makes of that group
+/// alone (a path depends on its start only; a group's chunks are its own and are concatenated
+/// in order).
+pub fn trace_photon_groups(
+    scene: &Scene,
+    bvh: &SceneBvh,
+    groups: &[&[PhotonState]],
+    settings: &TraceSettings,
+) -> Vec<PhotonMap> {
     let max_bounces = settings.max_bounces.max(1);
     let settings = TraceSettings {
         max_bounces,
@@ -370,18 +385,27 @@ pub fn trace_photons(
         (false, false) => trace_path::<false, false>,
     };
     let frame = crate::timing::current_frame();
-    let chunks: Vec<Chunk> = starts
-        .par_chunks(CHUNK)
+    // Work items: every group's chunks, group after group.
+    let items: Vec<&[PhotonState]> = groups.iter().flat_map(|g| g.chunks(CHUNK)).collect();
+    let mut chunks = items
+        .par_iter()
         .map(|chunk| {
             let _span = crate::timing::span_in("trace_chunk", frame);
             let mut out = Chunk::new(max_bounces);
-            for s in chunk {
+            for s in *chunk {
                 trace_path(scene, bvh, s, &settings, &mut out);
             }
             out
         })
-        .collect();
-    merge(chunks, max_bounces, starts.len() as u64)
+        .collect::<Vec<Chunk>>()
+        .into_iter();
+    groups
+        .iter()
+        .map(|g| {
+            let own: Vec<Chunk> = chunks.by_ref().take(g.len().div_ceil(CHUNK)).collect();
+            merge(own, max_bounces, g.len() as u64)
+        })
+        .collect()
 }
 
 /// The CPU bounce map: [`first_bounce`] of every emitted photon, in parallel, in input order,

@@ -69,12 +69,24 @@ impl PhotonBuffers {
         photons <= self.capacity * self.device.len()
     }
 
-    /// Writes `photons` into the staging buffers, `capacity` a buffer.
-    pub(super) fn write(&mut self, photons: &[Photon]) -> anyhow::Result<()> {
+    /// Writes the photon map, given as consecutive `parts` (e.g. each light's photons), into
+    /// the staging buffers, `capacity` a buffer; a part may straddle two buffers.
+    pub(super) fn write<'a>(
+        &mut self,
+        parts: impl IntoIterator<Item = &'a [Photon]>,
+    ) -> anyhow::Result<()> {
         self.counts.fill(0);
-        for (i, chunk) in photons.chunks(self.capacity).enumerate() {
-            self.staging[i].write(0, bytemuck::cast_slice(chunk))?;
-            self.counts[i] = chunk.len() as u32;
+        let mut written = 0;
+        for mut part in parts {
+            while !part.is_empty() {
+                let (buffer, within) = (written / self.capacity, written % self.capacity);
+                let n = part.len().min(self.capacity - within);
+                let offset = (within * size_of::<Photon>()) as u64;
+                self.staging[buffer].write(offset, bytemuck::cast_slice(&part[..n]))?;
+                self.counts[buffer] += n as u32;
+                written += n;
+                part = &part[n..];
+            }
         }
         Ok(())
     }

@@ -20,13 +20,14 @@
 //! view ([`BouncePlan::same_light_views`]), never taken from the caller. So a kept light's
 //! records and photons are bit for bit those a fresh trace would make, and so is the image.
 
-use crate::frame::{FrameStats, ReusedLight, SkippedPass};
+use crate::frame::{skipped, FrameStats, ReusedLight, TRACE_PASSES};
 use crate::ispm::BouncePlan;
 use crate::photon::bvh::SceneBvh;
-use crate::photon::trace::{trace_photons, TraceSettings};
+use crate::photon::trace::{trace_photon_groups, PhotonState, TraceSettings};
 use crate::photon::types::{BounceMapPhoton, Photon};
 use crate::scene::Scene;
 use crate::timing;
+use std::ops::Range;
 
 /// One light's share of the photon map.
 #[derive(Clone, Debug, Default)]
@@ -47,25 +48,54 @@ pub(super) struct Frame<'a> {
     pub trace: &'a TraceSettings,
     /// Per light: whether its photons are traced again ([`Traced::changed`]).
     pub retrace: &'a [bool],
-    /// The bounce map read back this frame: the re-traced lights' records (empty if none).
-    pub fresh: &'a [BounceMapPhoton],
-    /// The last frame's bounce map: the kept lights' records, at the same places.
-    pub last: &'a [BounceMapPhoton],
 }
+
+/// Reads the bounce-map records of a texel range (a re-traced light's) from this frame's
+/// readback.
+pub(super) type ReadRecords<'a> =
+    dyn FnMut(Range<usize>, &mut [BounceMapPhoton]) -> anyhow::Result<()> + 'a;
 
 /// The last traced photon map, per light, and the plan it was traced with.
 #[derive(Default)]
 pub(super) struct Traced {
     /// `None`: nothing kept (no frame traced yet, or the geometry moved since).
     plan: Option<BouncePlan>,
-    /// Per light of the scene, in order.
-    pub lights: Vec<LightPhotons>,
+    /// Per light of the scene, in order: the photon map is their photons, light after light.
+    lights: Vec<LightPhotons>,
+    /// The last frame's bounce map, one record per texel of its plan: the kept lights' records
+    /// stay in place, the re-traced lights' are read back over theirs.
+    bounce_map: Vec<BounceMapPhoton>,
 }
 
 impl Traced {
     /// Forgets the kept photons: the next frame traces every light (an instance moved).
     pub fn invalidate(&mut self) {
         self.plan = None;
+    }
+
+    /// Forgets everything: a frame without photons.
+    pub fn clear(&mut self) {
+        *self = Self::default();
+    }
+
+    /// The last frame's bounce map.
+    pub fn bounce_map(&self) -> &[BounceMapPhoton] {
+        &self.bounce_map
+    }
+
+    /// The photon map per light, in light order.
+    pub fn lights(&self) -> &[LightPhotons] {
+        &self.lights
+    }
+
+    /// The photon map (origin-relative): every light's photons, light after light.
+    pub fn photons(&self) -> impl Iterator<Item = &Photon> {
+        self.lights.iter().flat_map(|l| &l.photons)
+    }
+
+    /// The photon map's length.
+    pub fn photon_count(&self) -> usize {
+        self.lights.iter().map(|l| l.photons.len()).sum()
     }
 
     /// Keeps `lights` (one per scene light) as traced with `plan`.
@@ -96,78 +126,85 @@ impl Traced {
 }
 
 impl Traced {
-    /// Traces the re-traced lights of `frame` on every core and keeps the others' photons:
-    /// returns the frame's bounce map and its photon map (origin-relative, light after light:
-    /// the order a fresh trace of every light stores them in), and fills `stats`' photon
-    /// counts, attrition, CPU trace time and per-light lists.
+    /// Traces the re-traced lights of `frame` on every core (their records read with `read`)
+    /// and keeps the others' photons and records: the bounce map ([`Self::bounce_map`]) and
+    /// photon map ([`Self::photons`]: origin-relative, light after light, the order a fresh
+    /// trace of every light stores them in) are then the frame's. Fills `stats`' photon counts,
+    /// attrition, CPU trace time and per-light lists.
     pub fn update(
         &mut self,
         frame: &Frame,
+        read: &mut ReadRecords,
         stats: &mut FrameStats,
-    ) -> (Vec<BounceMapPhoton>, Vec<Photon>) {
+    ) -> anyhow::Result<()> {
         let plan = frame.plan;
         let traces = frame.retrace.iter().any(|&r| r);
-        let mut bounce_map = vec![BounceMapPhoton::default(); plan.texels];
         let trace_span = traces.then(|| timing::span("cpu_trace"));
-        let mut lights = Vec::with_capacity(frame.retrace.len());
+        // The kept lights' records stay where they are (the same places in both plans).
+        let kept_records = self.bounce_map.len();
+        self.bounce_map
+            .resize(plan.texels, BounceMapPhoton::default());
+        // Kept lights' photons, and the re-traced lights' starts (traced together below).
+        let mut lights = vec![None; frame.retrace.len()];
+        let mut traced: Vec<(usize, Vec<PhotonState>)> = Vec::new();
         for (light, &retrace) in frame.retrace.iter().enumerate() {
             let views = plan.light_views(light);
             let texels = plan.texel_range(views.clone());
-            let name = &frame.scene.lights[light].name;
             if views.is_empty() {
-                lights.push(LightPhotons::default()); // no photons this frame
+                lights[light] = Some(LightPhotons::default()); // no photons this frame
                 continue;
             }
             if !retrace {
-                // Kept: the same views at the same places as when it was traced.
-                if let Some(old) = frame.last.get(texels.clone()) {
-                    bounce_map[texels].copy_from_slice(old);
-                }
-                stats.lights_reused.push(ReusedLight {
-                    light,
-                    name: name.clone(),
-                    reason: format!("light {light} ({name}) unchanged: its photons reused"),
-                });
-                lights.push(self.take(light));
+                // Invariant: `changed` keeps a light only if the last traced plan has its views,
+                // bit for bit at the same places, so its records are in the last bounce map.
+                assert!(
+                    texels.end <= kept_records && self.plan.is_some(),
+                    "light {light} is kept but its records {texels:?} are not in the last \
+                     bounce map ({kept_records} records)"
+                );
+                let name = &frame.scene.lights[light].name;
+                stats
+                    .lights_reused
+                    .push(ReusedLight::new(light, name, "its photons reused"));
+                lights[light] = Some(self.take(light));
                 continue;
             }
-            bounce_map[texels.clone()].copy_from_slice(&frame.fresh[texels]);
-            let starts = plan.photon_starts_from_origin(&bounce_map, views);
-            let map = trace_photons(frame.scene, frame.bvh, &starts, frame.trace);
+            read(texels.clone(), &mut self.bounce_map[texels])?;
+            traced.push((
+                light,
+                plan.photon_starts_from_origin(&self.bounce_map, views),
+            ));
+        }
+        // One parallel trace of every re-traced light's starts; each light's photons are those
+        // a trace of its starts alone makes (`trace_photon_groups`).
+        let groups: Vec<&[PhotonState]> = traced.iter().map(|(_, s)| s.as_slice()).collect();
+        let maps = trace_photon_groups(frame.scene, frame.bvh, &groups, frame.trace);
+        for ((light, starts), map) in traced.iter().zip(maps) {
             // Traced relative to the origin (the BVH is), so the photons come out relative;
             // the photon volumes add the eye's offset (`photon_frame.rs`).
             let photons = map.photons;
-            stats.lights_retraced.push(light);
+            stats.lights_retraced.push(*light);
             stats.traced_bounce_map_photons += starts.len();
-            lights.push(LightPhotons {
+            lights[*light] = Some(LightPhotons {
                 photons,
                 starts: starts.len(),
                 attrition: map.attrition,
             });
         }
+        let lights: Vec<LightPhotons> = lights.into_iter().map(Option::unwrap_or_default).collect();
         if let Some(span) = trace_span {
             stats.cpu_trace_ms = span.finish();
         } else {
             let reason = "every light's photons reused: no light's views changed";
-            stats.passes_skipped = ["light_gbuffers", "bounce_map", "readback", "cpu_trace"]
-                .iter()
-                .map(|name| SkippedPass {
-                    name: (*name).to_string(),
-                    reason: reason.to_string(),
-                })
-                .collect();
+            stats.passes_skipped = skipped(TRACE_PASSES, reason);
         }
         for l in &lights {
             stats.bounce_map_photons += l.starts;
+            stats.stored_photons += l.photons.len();
             add_attrition(&mut stats.attrition, &l.attrition);
         }
-        let photons: Vec<Photon> = lights
-            .iter()
-            .flat_map(|l| l.photons.iter().copied())
-            .collect();
-        stats.stored_photons = photons.len();
         self.keep(plan, lights);
-        (bounce_map, photons)
+        Ok(())
     }
 }
 

@@ -12,8 +12,8 @@
 //! agree, or when the point lies within its clearance of the surface: unknown never
 //! separates, so every doubt keeps the light on.
 //!
-//! **Moving instances.** Welding is the costly part (a hash of every world vertex: 4–10 ms on
-//! `cornell-box`, 0.5 s at 330k triangles), and a frame in which instances move would redo it
+//! **Moving instances.** Welding is the costly part (a hash of every world vertex, linear in the
+//! scene's triangles), and a frame in which instances move would redo it
 //! for the whole scene. [`StaticEnclosures`] welds the instances that do not move once;
 //! [`Enclosures::with_static`] then welds the moving ones alone and adds their surfaces, which
 //! is exact while no moving vertex lands exactly on a static one (a surface would then span

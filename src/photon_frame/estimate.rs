@@ -1,0 +1,192 @@
+//! The estimate half of the photon part of a frame: the photon volumes drawn for the current
+//! eye (`set_view`: the eye-relative offset and the kernel's footprint floor), upsampled at
+//! `--subsample N > 1`, composited, and what the debug views read of it.
+
+use super::PhotonFrame;
+use crate::gpu::{Access, Buffer, Cmd, Image, QueueRole};
+use crate::passes::debug_view::PhotonSources;
+use crate::passes::eye_gbuffer::GBuffer;
+use crate::passes::photon_volumes::PhotonVolumeInputs;
+use crate::passes::upsample::UpsampleInputs;
+use crate::passes::value_check::{Checked, Records, ValueCheckPass};
+use crate::photon::kernel::KernelSettings;
+use crate::photon::types::{BounceMapPhoton, Photon};
+
+impl PhotonFrame {
+    /// Draws the photon volumes for `camera` from the next recorded estimate on: its position
+    /// (the offset added to the photons) and its field of view (the kernel's footprint floor).
+    /// The photon map itself does not depend on the camera and stays valid.
+    pub fn set_view(&mut self, camera: &crate::scene::Camera) {
+        self.eye = camera.position().as_dvec3();
+        self.kernel = self
+            .kernel_clamp
+            .for_view(camera.yfov, self.estimate_height);
+    }
+
+    /// What the photon volumes add to each stored position to make it eye-relative:
+    /// `origin − eye`, subtracted in f64 and rounded once.
+    pub(super) fn eye_offset(&self) -> glam::Vec3 {
+        (self.plan.origin - self.eye).as_vec3()
+    }
+
+    /// Photon volumes into the indirect buffer (at 1/N resolution and upsampled, at
+    /// `--subsample N > 1`), then radiance += indirect. Takes the photon buffer over from the
+    /// transfer queue after an upload (a no-op in a frame that reuses the photon map) and keeps
+    /// it until the next [`Self::record_emission`]. Without `composite` (the direct-only debug
+    /// view) the estimate is made but not added. With `check` (`--check-values`), the bounce
+    /// map and photon map are checked before the photon volumes draw, the low-resolution
+    /// targets before the upsample reads them, the indirect image before the composite
+    /// (`passes/value_check.rs`).
+    pub fn record_estimate(
+        &mut self,
+        cmd: &Cmd,
+        (frame, materials, gbuffer): (&Buffer, &Buffer, &GBuffer),
+        radiance: &mut Image,
+        (composite, mut check): (bool, Option<&mut ValueCheckPass>),
+    ) -> anyhow::Result<()> {
+        if self.count() > 0 {
+            for (_, photons) in self.buffers.used() {
+                cmd.acquire_buffer(photons, QueueRole::Transfer, Access::GraphicsStorageRead);
+            }
+            self.photons_on_graphics = true;
+        }
+        if !self.batches.is_empty() {
+            // Back from the readback, for the next frame's bounce map.
+            cmd.acquire_buffer(
+                &self.bounce_map,
+                QueueRole::Transfer,
+                Access::ComputeStorageWrite,
+            );
+        }
+        if let Some(check) = check.as_deref_mut() {
+            self.check_photon_records(cmd, check)?;
+        }
+        let inputs = PhotonVolumeInputs {
+            frame,
+            photons: &self.buffers.device,
+            materials,
+            gbuffer,
+        };
+        if self.rebind {
+            self.photon_pass.rebind(&inputs)?;
+            self.rebind = false;
+        }
+        let volumes = (&self.buffers.counts[..], &self.kernel, self.eye_offset());
+        match &mut self.subsampled {
+            None => self.photon_pass.record(
+                cmd,
+                &inputs,
+                volumes,
+                std::slice::from_mut(&mut self.indirect),
+            ),
+            Some(sub) => {
+                self.photon_pass.record(cmd, &inputs, volumes, &mut sub.low);
+                if let Some(check) = check.as_deref_mut() {
+                    check.image(cmd, Checked::IndirectLowIrradiance, &sub.low[0])?;
+                    check.image(cmd, Checked::IndirectLowGlossy, &sub.low[1])?;
+                }
+                let inputs = UpsampleInputs {
+                    materials,
+                    gbuffer,
+                    low: &sub.low,
+                };
+                sub.upsample.record(cmd, &inputs, &mut self.indirect);
+            }
+        }
+        if let Some(check) = check {
+            check.image(cmd, Checked::Indirect, &self.indirect)?;
+        }
+        if composite {
+            self.composite.record(cmd, &self.indirect, radiance);
+        }
+        Ok(())
+    }
+
+    /// The value check of the bounce map (the records the plan's texels filled, once it is
+    /// back on this queue) and of the photon map (the photons drawn, every buffer of it into
+    /// the one `photon_map` count).
+    fn check_photon_records(&self, cmd: &Cmd, check: &mut ValueCheckPass) -> anyhow::Result<()> {
+        const FLOAT: usize = size_of::<f32>();
+        if self.plan.texels > 0 {
+            let records = Records {
+                first: 0,
+                count: self.plan.texels as u32,
+                stride: (size_of::<BounceMapPhoton>() / FLOAT) as u32,
+                power_offset: (std::mem::offset_of!(BounceMapPhoton, power) / FLOAT) as u32,
+            };
+            check.records(cmd, Checked::BounceMap, &self.bounce_map, records)?;
+        }
+        // Buffers hold the map in photon order, each full but the last used one
+        // (`PhotonBuffers::write`); the first is checked even when empty, so the photon map is
+        // listed with 0 values in a frame without photons.
+        let mut first = 0u64;
+        for (i, (buffer, &count)) in self
+            .buffers
+            .device
+            .iter()
+            .zip(&self.buffers.counts)
+            .enumerate()
+        {
+            if i > 0 && count == 0 {
+                continue;
+            }
+            let records = Records {
+                first,
+                count,
+                stride: (size_of::<Photon>() / FLOAT) as u32,
+                power_offset: (std::mem::offset_of!(Photon, power) / FLOAT) as u32,
+            };
+            check.records(cmd, Checked::PhotonMap, buffer, records)?;
+            first += u64::from(count);
+        }
+        Ok(())
+    }
+
+    /// What the debug views read of the photon part of the frame (`passes/debug_view.rs`).
+    pub fn debug_sources(&self) -> PhotonSources<'_> {
+        let lum = |c: glam::Vec3| c.dot(glam::Vec3::new(0.2126, 0.7152, 0.0722));
+        let first = self.plan.views.first().map(|v| (v.texels.x, v.texels.y));
+        let (offset, records) = self.plan.views.first().map_or((0, 0), |v| {
+            (v.texels.z as usize, (v.texels.x * v.texels.y) as usize)
+        });
+        let bounce_peak = self
+            .traced
+            .bounce_map()
+            .iter()
+            .skip(offset)
+            .take(records)
+            .map(|p| lum(p.power))
+            .fold(0.0, f32::max);
+        let photon_peak = self
+            .traced
+            .photons()
+            .take(self.buffers.counts[0] as usize)
+            .map(|p| lum(p.power))
+            .fold(0.0, f32::max);
+        PhotonSources {
+            light_gbuffer: &self.light_gbuffer,
+            first_view_extent: first.unwrap_or((0, 0)),
+            views: &self.views,
+            bounce_map: &self.bounce_map,
+            bounce_peak,
+            // The debug views show the first photon buffer's photons.
+            photons: &self.buffers.device[0],
+            count: self.buffers.counts[0],
+            photon_peak,
+            offset: self.eye_offset(),
+            indirect: &self.indirect,
+        }
+    }
+
+    /// The kernel radius clamp the photon volumes use.
+    pub fn kernel(&self) -> KernelSettings {
+        self.kernel
+    }
+
+    /// Reads back the indirect radiance (RGBA f32; alpha = volumes per pixel).
+    pub fn read_indirect(&self) -> anyhow::Result<Vec<f32>> {
+        Ok(bytemuck::pod_collect_to_vec(
+            &self.gpu.read_image(&self.indirect)?,
+        ))
+    }
+}
