@@ -24,9 +24,16 @@ layout(std430, set = 0, binding = 6) writeonly buffer BounceMap {
     PackedBounceMapPhoton bounce_map[];
 };
 
+// The map may be split over buffers (src/passes/bounce_map.rs, Split): this dispatch writes
+// records first_record .. first_record + records of the map, which lie in the bound buffer,
+// whose first record is record `base` of the map.
 layout(push_constant) uniform Push {
-    uint seed;        // the renderer's --seed
-    uint first_view;  // the dispatch's first view (gl_GlobalInvocationID.z counts from it)
+    uint seed;          // the renderer's --seed
+    uint first_view;    // the dispatch's first view (gl_GlobalInvocationID.z counts from it)
+    uint first_record;
+    uint records;
+    uint base;
+    uint pad0;
     uint pad1;
     uint pad2;
 } push;
@@ -63,7 +70,12 @@ void main() {
     if (xy.x >= size.x || xy.y >= size.y) {
         return;
     }
-    uint index = view.texels.z + xy.y * size.x + xy.x;
+    uint record = view.texels.z + xy.y * size.x + xy.x;
+    // Another dispatch writes it (into another buffer). Unsigned: below first_record wraps.
+    if (record - push.first_record >= push.records) {
+        return;
+    }
+    uint index = record - push.base;
     ivec3 texel = ivec3(xy, int(v));
     BounceMapPhoton photon = BounceMapPhoton(vec3(0.0), vec3(0.0), 1.0, 0.0);
     vec4 pos = texelFetch(g_position, texel, 0);

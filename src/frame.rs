@@ -119,10 +119,11 @@ pub struct RenderSettings {
     /// Smallest share of each light's photons spent on its caustic views, the windows around
     /// the mirrors and glass it lights (`ispm::CAUSTIC_SHARE`; 0: no caustic views).
     pub caustic_share: f32,
-    /// Most photons one photon buffer holds (`None`: as many as one storage-buffer descriptor
-    /// reaches, the device's `maxStorageBufferRange`); a larger photon map is split over
-    /// several buffers and draws. Tests lower it to exercise the split at small sizes.
-    pub photons_per_buffer: Option<usize>,
+    /// Most bytes one buffer of the bounce map or photon map is bound with (`None`: what one
+    /// storage-buffer descriptor reaches, the device's `maxStorageBufferRange`; a larger value
+    /// is lowered to it); a larger map is split over several buffers, written, read back and
+    /// drawn buffer by buffer. Tests lower it to exercise the splits at small sizes.
+    pub storage_buffer_range: Option<u64>,
     /// Count the NaN, ±Inf and negative values of the frame's HDR buffers on the GPU
     /// (`--check-values`, `FrameStats::value_check`; `passes/value_check.rs`). Off: the pass
     /// is neither made nor recorded.
@@ -148,7 +149,7 @@ impl Default for RenderSettings {
             effects: Effects::Auto,
             bsdf_variant: BsdfVariant::ALL,
             caustic_share: crate::ispm::CAUSTIC_SHARE,
-            photons_per_buffer: None,
+            storage_buffer_range: None,
             check_values: false,
         }
     }
@@ -205,8 +206,11 @@ pub struct FrameStats {
     /// lights' (0 in a frame that reuses the whole map).
     pub traced_bounce_map_photons: usize,
     /// Photon buffers the photon map was split over (0 without photons; more than 1 past
-    /// `RenderSettings::photons_per_buffer`).
+    /// `RenderSettings::storage_buffer_range`).
     pub photon_buffers: usize,
+    /// Buffers the frame's bounce map spans (0 without photons; more than 1 past
+    /// `RenderSettings::storage_buffer_range`).
+    pub bounce_map_buffers: usize,
     /// The NaN, ±Inf and negative values in the frame's buffers, counted on the GPU
     /// (`RenderSettings::check_values`; `None` when off).
     pub value_check: Option<ValueCheck>,

@@ -31,6 +31,7 @@ use crate::photon::types::{BounceMapPhoton, Photon};
 use crate::plan::{Effects, EffectsPlan};
 use crate::scene::Scene;
 use crate::timing;
+use anyhow::Context;
 use retrace::Traced;
 use std::ops::Range;
 use std::sync::Arc;
@@ -39,7 +40,7 @@ mod buffers;
 mod estimate;
 mod retrace;
 
-use buffers::{photons_per_buffer, PhotonBuffers};
+use buffers::{photons_per_buffer, storage_buffer_range, BounceBuffers, PhotonBuffers};
 
 /// Poses of an animated scene over one period that the buffers are sized for.
 const POSE_SAMPLES: usize = 24;
@@ -60,7 +61,10 @@ pub struct PhotonFrame {
     light_gbuffer: GBuffer,
     light_pass: LightGBufferPass,
     views: Buffer,
-    bounce_map: Buffer,
+    /// The bounce map on the GPU, over one or more buffers ([`BounceBuffers`]).
+    bounce_map: BounceBuffers,
+    /// Its host-visible copy, one buffer (a copy's size is not limited by a descriptor's
+    /// reach), record `i` at `i × 32` bytes.
     readback: Buffer,
     bounce_pass: BounceMapPass,
     /// The photon map: staging and device buffers of at most `per_buffer` photons each, and
@@ -188,26 +192,12 @@ impl PhotonFrame {
             (views * size_of::<crate::layout::BounceView>()) as u64,
             vk::BufferUsageFlags::STORAGE_BUFFER,
         )?;
+        // Hard case "more photons than fit in one buffer": split over buffers of at most one
+        // storage buffer's reach.
+        let range = storage_buffer_range(gpu, settings);
+        let bounce_map = BounceBuffers::new(gpu, texels, range)
+            .with_context(|| format!("{} photons", settings.photons))?;
         let bounce_bytes = (texels * size_of::<BounceMapPhoton>()) as u64;
-        // Hard case "more photons than fit in one buffer": the bounce map is one storage
-        // buffer, read through one descriptor; past its reach, a clear error, not a device fault.
-        let reach = u64::from(gpu.properties.max_storage_buffer_range);
-        anyhow::ensure!(
-            bounce_bytes <= reach,
-            "{} photons need a bounce map of {texels} texels ({bounce_bytes} bytes), more than \
-             one storage buffer reaches on this device ({reach} bytes): ask for fewer photons",
-            settings.photons
-        );
-        // TRANSFER_DST: the value check's test seam writes into it (`passes/value_check.rs`).
-        let bounce_map = Buffer::new(
-            gpu,
-            "bounce_map",
-            bounce_bytes,
-            vk::BufferUsageFlags::STORAGE_BUFFER
-                | vk::BufferUsageFlags::TRANSFER_SRC
-                | vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuOnly,
-        )?;
         let readback = Buffer::new(
             gpu,
             "bounce_map.readback",
@@ -221,7 +211,8 @@ impl PhotonFrame {
                 materials: &gpu_scene.materials,
                 views: &view_buffer,
                 light_gbuffer: &light_gbuffer,
-                bounce_map: &bounce_map,
+                bounce_map: &bounce_map.device,
+                split: bounce_map.split,
             },
             settings.bsdf_variant,
         )?;
@@ -405,7 +396,8 @@ impl PhotonFrame {
             }
             self.photons_on_graphics = false;
         }
-        // The re-traced lights' views, consecutive ones in one batch.
+        // The re-traced lights' views, consecutive ones in one batch, cut where the bounce map's
+        // buffers end (`passes/bounce_map.rs`).
         let mut ranges: Vec<Range<usize>> = Vec::new();
         for views in (0..lights)
             .filter(|&l| self.retrace[l])
@@ -417,15 +409,12 @@ impl PhotonFrame {
                 _ => ranges.push(views),
             }
         }
+        let view_records = |v: usize| plan.texel_range(v..v + 1);
+        let extent = |v: usize| plan.extents[v];
+        let split = self.bounce_map.split;
         self.batches = ranges
             .iter()
-            .map(|r| ViewBatch {
-                first: r.start as u32,
-                count: r.len() as u32,
-                extent: plan.extents[r.clone()]
-                    .iter()
-                    .fold((0, 0), |(w, h), &(x, y)| (w.max(x), h.max(y))),
-            })
+            .flat_map(|r| ViewBatch::split(r.clone(), view_records, extent, split))
             .collect();
         if self.batches.is_empty() {
             return; // every light's photons are kept: nothing to draw, read back or trace
@@ -458,11 +447,14 @@ impl PhotonFrame {
             materials: &scene.materials,
             views: &self.views,
             light_gbuffer: &self.light_gbuffer,
-            bounce_map: &self.bounce_map,
+            bounce_map: &self.bounce_map.device,
+            split: self.bounce_map.split,
         };
         self.bounce_pass
             .record(cmd, &io, &self.batches, self.trace.seed);
-        cmd.release_buffer(&self.bounce_map, QueueRole::Transfer);
+        for buffer in &self.bounce_map.device {
+            cmd.release_buffer(buffer, QueueRole::Transfer);
+        }
     }
 
     /// The GPU→CPU copy of the bounce map's records this frame made (on the transfer queue),
@@ -473,19 +465,29 @@ impl PhotonFrame {
         }
         let _scope = cmd.scope("readback");
         let record = size_of::<BounceMapPhoton>() as u64;
-        let ranges: Vec<Range<u64>> = self
-            .batches
-            .iter()
-            .map(|b| {
-                let views = b.first as usize..(b.first + b.count) as usize;
-                let texels = self.plan.texel_range(views);
-                texels.start as u64 * record..texels.end as u64 * record
-            })
-            .collect();
-        cmd.acquire_buffer(&self.bounce_map, QueueRole::Graphics, Access::TransferSrc);
-        cmd.copy_buffer_ranges(&self.bounce_map, &self.readback, &ranges);
+        let split = self.bounce_map.split;
+        for buffer in &self.bounce_map.device {
+            cmd.acquire_buffer(buffer, QueueRole::Graphics, Access::TransferSrc);
+        }
+        // Each buffer's new records to their places in the one readback buffer.
+        for (b, buffer) in self.bounce_map.device.iter().enumerate() {
+            let base = split.records_of(b).start;
+            let regions: Vec<(Range<u64>, u64)> = self
+                .batches
+                .iter()
+                .filter(|batch| batch.records.start / split.per_buffer == b)
+                .map(|batch| {
+                    let r = &batch.records;
+                    let within = (r.start - base) as u64 * record..(r.end - base) as u64 * record;
+                    (within, r.start as u64 * record)
+                })
+                .collect();
+            cmd.copy_buffer_regions(buffer, &self.readback, &regions);
+        }
         cmd.transition_buffer(&self.readback, Access::HostRead);
-        cmd.release_buffer(&self.bounce_map, QueueRole::Graphics);
+        for buffer in &self.bounce_map.device {
+            cmd.release_buffer(buffer, QueueRole::Graphics);
+        }
     }
 
     /// Box C, on the host once the readback has completed: traces the re-traced lights'
@@ -535,7 +537,14 @@ impl PhotonFrame {
         let lights = self.traced.lights().iter().map(|l| l.photons.as_slice());
         timing::timed("upload write", || self.buffers.write(lights))?;
         stats.photon_buffers = self.buffers.counts.iter().filter(|&&n| n > 0).count();
+        stats.bounce_map_buffers = self.bounce_map_buffers();
         Ok(stats)
+    }
+
+    /// Buffers of the bounce map holding this frame's records.
+    fn bounce_map_buffers(&self) -> usize {
+        let split = self.bounce_map.split;
+        split.pieces(0..self.plan.texels).count()
     }
 
     /// Whether [`Self::trace`] left photons to upload and draw.

@@ -72,6 +72,10 @@ pub fn frame_json(
         "lights_retraced": s.lights_retraced,
         "lights_reused": s.lights_reused,
         "traced_bounce_map_photons": s.traced_bounce_map_photons,
+        // Buffers the bounce map and photon map were split over (more than 1 past one storage
+        // buffer's reach, `maxStorageBufferRange`).
+        "bounce_map_buffers": s.bounce_map_buffers,
+        "photon_buffers": s.photon_buffers,
         // `--check-values`: per buffer, the NaN/±Inf and negative values counted on the GPU.
         "value_check": s.value_check.as_ref().map(|c| json!({
             "per_buffer": c.per_buffer,

@@ -168,3 +168,54 @@ fn views_of_the_photon_part_refuse_a_frame_without_indirect_light() {
     }
     common::assert_validation_clean(&gpu);
 }
+
+#[test]
+fn the_bounce_map_and_photon_views_of_maps_split_over_buffers_show_every_buffer() {
+    // Buffers bound with at most 9 600 bytes: 200 photons or 300 bounce-map records each, so
+    // the first light view's records straddle buffers and the photon map spans many.
+    let gpu = common::gpu();
+    let scene = ispm::scene::bundled::resolve(Some("cornell-box")).expect("scene");
+    // The frame with `view` shown, and the records of the first light view.
+    let view_of = |settings: RenderSettings, view: DebugView| {
+        let mut renderer = Renderer::new(&gpu, &scene, settings).expect("renderer");
+        renderer.set_debug_view(Some(view)).expect("view");
+        let frame = renderer.render().expect("frame with a debug view");
+        let plan = renderer.photons().expect("photon part").plan();
+        (frame, plan.texel_range(0..1))
+    };
+    let split = RenderSettings {
+        storage_buffer_range: Some(9_600),
+        ..settings()
+    };
+    let (one, _) = view_of(settings(), DebugView::BounceMap);
+    let (many, first_view) = view_of(split.clone(), DebugView::BounceMap);
+    eprintln!(
+        "bounce map: {} records in {} buffers, the first view's {first_view:?}",
+        many.stats.emitted_photons, many.stats.bounce_map_buffers
+    );
+    assert!(first_view.len() > 600, "the first view spans three buffers");
+    save("BounceMap-split", &many);
+    assert_eq!(differing(&pixels(&many), &pixels(&one)), 0);
+
+    // Photons are Turbo colours over a grey backdrop: where a photon landed is exact, which of
+    // the photons landing on one pixel wins is a race (its colour is not compared).
+    let photon_pixels = |f: &FrameImage| -> Vec<bool> {
+        let chroma = |p: &[u8; 3]| p.iter().max().unwrap() - p.iter().min().unwrap();
+        pixels(f).iter().map(|p| chroma(p) > 3).collect()
+    };
+    let (one, _) = view_of(settings(), DebugView::PhotonPositions);
+    let (many, _) = view_of(split, DebugView::PhotonPositions);
+    save("PhotonPositions-split", &many);
+    let (a, b) = (photon_pixels(&many), photon_pixels(&one));
+    let shown = a.iter().filter(|&&p| p).count();
+    let unlike = a.iter().zip(&b).filter(|(p, q)| p != q).count();
+    eprintln!(
+        "photon positions: {} photons in {} buffers, {shown} pixels show photons, {unlike} \
+         unlike one buffer's",
+        many.stats.stored_photons, many.stats.photon_buffers
+    );
+    assert!(many.stats.photon_buffers >= 10);
+    assert!(shown > a.len() / 10, "{shown} pixels show photons");
+    assert_eq!(unlike, 0);
+    common::assert_validation_clean(&gpu);
+}

@@ -221,12 +221,34 @@ fn the_unmoved_lights_photons_are_kept_bit_for_bit_after_the_moved_ones() {
 fn moving_two_non_adjacent_lights_retraces_both_and_matches_a_fresh_renderer() {
     // Lights 0 and 2 move, light 1 (between them) is kept: two bounce-map dispatches and two
     // readback ranges, the second starting after a gap.
+    let frame = move_lights_0_and_2(settings(Effects::Auto));
+    assert_eq!(frame.stats.bounce_map_buffers, 1);
+}
+
+#[test]
+fn with_the_bounce_map_split_over_buffers_moving_two_lights_matches_an_unsplit_fresh_renderer() {
+    // The same over a bounce map of buffers of 700 records (views straddle them): the moved
+    // lights' records are written and read back buffer by buffer around the kept light's, bit
+    // for bit as a fresh renderer with the map in one buffer makes them.
+    let frame = move_lights_0_and_2(RenderSettings {
+        storage_buffer_range: Some(700 * 32),
+        ..settings(Effects::Auto)
+    });
+    let (records, buffers) = (frame.stats.emitted_photons, frame.stats.bounce_map_buffers);
+    eprintln!("{records} records in {buffers} buffers");
+    assert!(buffers >= 4, "{records} records in {buffers} buffers");
+    assert_eq!(buffers, records.div_ceil(700));
+}
+
+/// Three lights with `settings`; lights 0 and 2 move, and the second frame is checked against a
+/// fresh (unsplit) renderer's. Returns the second frame.
+fn move_lights_0_and_2(settings: RenderSettings) -> FrameImage {
     let mut scene = two_lights();
     let mut third = point_light(Vec3::new(0.5, 0.3, -0.3), Vec3::splat(0.8));
     third.name = "back".into();
     scene.lights.push(third);
     let gpu = common::gpu();
-    let mut r = Renderer::new(&gpu, &scene, settings(Effects::Auto)).expect("renderer");
+    let mut r = Renderer::new(&gpu, &scene, settings).expect("renderer");
     r.render().expect("frame 0");
     let kept = light_photons(&r, 1);
     let lights = moved(
@@ -249,6 +271,7 @@ fn moving_two_non_adjacent_lights_retraces_both_and_matches_a_fresh_renderer() {
     assert_as_fresh(&r, &second, &moved_scene);
     drop(r);
     common::assert_validation_clean(&gpu);
+    second
 }
 
 #[test]

@@ -249,16 +249,19 @@ fn an_injected_nan_and_negative_are_counted_in_every_kind_of_buffer() {
 }
 
 #[test]
-fn every_buffer_of_a_split_photon_map_is_checked_and_a_nan_in_the_last_is_counted() {
-    // Buffers of at most 2000 photons: the map of 20 000 emitted photons spans several, each
-    // checked into the one `photon_map` count (12 floats a photon: power at 0..3).
+fn every_buffer_of_a_split_bounce_map_and_photon_map_is_checked_and_a_nan_in_the_last_is_counted() {
+    // Buffers of at most 96 000 bytes: 2000 photons (48 bytes) or 3000 bounce-map records (32
+    // bytes). The maps of 20 000 photons span several, each checked into the one count of its
+    // map (12 floats a photon, 8 a record: power at 0..3 in both).
+    const RANGE: u64 = 96_000;
     const PER_BUFFER: usize = 2000;
+    const RECORDS_PER_BUFFER: usize = 3000;
     let gpu = common::gpu();
     let mut renderer = Renderer::new(
         &gpu,
         &cornell_box(),
         RenderSettings {
-            photons_per_buffer: Some(PER_BUFFER),
+            storage_buffer_range: Some(RANGE),
             // Every frame traces and uploads again, so the injected photons are gone next frame.
             effects: Effects::All,
             ..settings(1)
@@ -267,22 +270,27 @@ fn every_buffer_of_a_split_photon_map_is_checked_and_a_nan_in_the_last_is_counte
     .expect("renderer");
     let clean = renderer.render().expect("render");
     let (stored, buffers) = (clean.stats.stored_photons, clean.stats.photon_buffers);
-    eprintln!("{stored} photons in {buffers} buffers");
+    let (records, bounce_buffers) = (clean.stats.emitted_photons, clean.stats.bounce_map_buffers);
+    eprintln!(
+        "{stored} photons in {buffers} buffers, {records} records in {bounce_buffers} buffers"
+    );
     assert!(buffers >= 3, "{stored} photons in {buffers} buffers");
     assert_eq!(buffers, stored.div_ceil(PER_BUFFER));
+    assert!(bounce_buffers >= 3, "{records} records in {bounce_buffers}");
+    assert_eq!(bounce_buffers, records.div_ceil(RECORDS_PER_BUFFER));
     let c = check(&clean);
     assert_eq!(c.total_bad(), 0, "{c:?}");
     assert_eq!(counts(c, Checked::PhotonMap), (0, 0, 12 * stored as u64));
-    let listed = c
-        .per_buffer
-        .iter()
-        .filter(|b| b.name == "photon_map")
-        .count();
-    assert_eq!(listed, 1, "listed once however many buffers: {c:?}");
+    assert_eq!(counts(c, Checked::BounceMap), (0, 0, 8 * records as u64));
+    for name in ["photon_map", "bounce_map"] {
+        let listed = c.per_buffer.iter().filter(|b| b.name == name).count();
+        assert_eq!(listed, 1, "{name} listed once however many buffers: {c:?}");
+    }
 
     // A NaN in the power of the last buffer's first photon and a -1 in the power of the map's
     // last photon (both in the last buffer), a -5 in the position of the second buffer's
-    // first photon (no error): the indices count over the whole map.
+    // first photon (no error): the indices count over the whole map. The same in the bounce
+    // map, whose -5 lands in a packed direction.
     let last_first = ((buffers - 1) * PER_BUFFER) as u64;
     let last = stored as u64 - 1;
     for (photon, field, value) in [
@@ -292,6 +300,17 @@ fn every_buffer_of_a_split_photon_map_is_checked_and_a_nan_in_the_last_is_counte
     ] {
         renderer
             .inject_value(Checked::PhotonMap, 12 * photon + field, value)
+            .unwrap();
+    }
+    let last_first = ((bounce_buffers - 1) * RECORDS_PER_BUFFER) as u64;
+    let last = records as u64 - 1;
+    for (record, field, value) in [
+        (last_first, 1, f32::NAN),
+        (last, 0, -1.0),
+        (RECORDS_PER_BUFFER as u64, 4, -5.0),
+    ] {
+        renderer
+            .inject_value(Checked::BounceMap, 8 * record + field, value)
             .unwrap();
     }
     let frame = renderer.render().expect("render");
@@ -304,6 +323,11 @@ fn every_buffer_of_a_split_photon_map_is_checked_and_a_nan_in_the_last_is_counte
     assert_eq!(
         counts(c, Checked::PhotonMap),
         (1, 1, 12 * stored as u64),
+        "{c:?}"
+    );
+    assert_eq!(
+        counts(c, Checked::BounceMap),
+        (1, 1, 8 * records as u64),
         "{c:?}"
     );
     assert_eq!(

@@ -652,18 +652,26 @@ impl<'a> Cmd<'a> {
         };
     }
 
-    /// Copies the byte ranges `ranges` of `src` to the same offsets in `dst` (empty ranges and
-    /// the parts past either buffer's end are left out).
-    pub fn copy_buffer_ranges(&self, src: &Buffer, dst: &Buffer, ranges: &[Range<u64>]) {
-        let end = src.size.min(dst.size);
-        let regions: Vec<vk::BufferCopy> = ranges
+    /// Copies each byte range `r` of `src` to `dst`, starting at `at` there, for every
+    /// `(r, at)` of `regions` (empty ranges are left out; each must lie in both buffers).
+    pub fn copy_buffer_regions(&self, src: &Buffer, dst: &Buffer, regions: &[(Range<u64>, u64)]) {
+        let regions: Vec<vk::BufferCopy> = regions
             .iter()
-            .map(|r| r.start.min(end)..r.end.min(end))
-            .filter(|r| r.end > r.start)
-            .map(|r| vk::BufferCopy {
-                src_offset: r.start,
-                dst_offset: r.start,
-                size: r.end - r.start,
+            .filter(|(r, _)| r.end > r.start)
+            .map(|(r, at)| {
+                assert!(
+                    r.end <= src.size && at + (r.end - r.start) <= dst.size,
+                    "copy of {r:?} from {} ({} bytes) to {at} of {} ({} bytes) overflows",
+                    src.name,
+                    src.size,
+                    dst.name,
+                    dst.size
+                );
+                vk::BufferCopy {
+                    src_offset: r.start,
+                    dst_offset: *at,
+                    size: r.end - r.start,
+                }
             })
             .collect();
         if regions.is_empty() {
@@ -671,7 +679,8 @@ impl<'a> Cmd<'a> {
         }
         self.transition_buffer(src, Access::TransferSrc);
         self.transition_buffer(dst, Access::TransferDst);
-        // SAFETY: recording state; both buffers are live and every region lies in both.
+        // SAFETY: recording state; both buffers are live and every region lies in both
+        // (asserted above).
         unsafe {
             self.device()
                 .cmd_copy_buffer(self.raw, src.raw, dst.raw, &regions)

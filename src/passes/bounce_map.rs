@@ -1,12 +1,31 @@
 //! Bounce map (compute): the first bounce of every photon, one per light G-buffer texel, in
 //! the record layout of DESIGN.md §2.1 (`photon::types::BounceMapPhoton`, 32 bytes). The map
 //! is then copied to a host-visible buffer for the CPU trace.
+//!
+//! The map may be split over several buffers (hard case "more photons than fit in one
+//! buffer", docs/stability.md): a storage buffer is read through one descriptor, which reaches
+//! `maxStorageBufferRange` bytes at most (128 MiB on lavapipe: 4.2 M records). Record `i` of
+//! the map is record `i − base` of buffer `i / per_buffer` ([`Split`]); the pass has one
+//! descriptor set per buffer and one dispatch per [`ViewBatch`], each batch's records in one
+//! buffer:
+//!
+//! ```text
+//!   records  0 ……………………………………………………………………………………………………………… texels
+//!   views    |── view 0 ──|──── view 1 ────|── view 2 ──|
+//!   buffers  |──── buffer 0 ────|──── buffer 1 ────|── 2 ──|
+//!   batches  |─ views 0-1 in 0 ─|─ views 1-2 in 1 ─|─ 2 ─|   (a view may straddle two)
+//! ```
 
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
 use crate::gpu::{Access, BindingKind, Buffer, Cmd, Filter, Gpu, Sampler, Write};
 use crate::photon::bsdf::BsdfVariant;
+use crate::photon::types::BounceMapPhoton;
+use std::ops::Range;
 use std::sync::Arc;
+
+/// Most buffers a bounce map is split over (64 × 128 MiB on lavapipe: 268 M records).
+pub const MAX_BOUNCE_BUFFERS: usize = 64;
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
@@ -14,16 +33,111 @@ struct Push {
     seed: u32,
     /// The first view of the dispatch (`gl_GlobalInvocationID.z` counts from it).
     first_view: u32,
-    pad: [u32; 2],
+    /// The records the dispatch writes (map indices `first_record..first_record + records`),
+    /// and the map index of the bound buffer's first record.
+    first_record: u32,
+    records: u32,
+    base: u32,
+    pad: [u32; 3],
+}
+
+/// How a bounce map of `records` records is split over buffers of `per_buffer` records each:
+/// record `i` of the map is record `i % per_buffer` of buffer `i / per_buffer`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Split {
+    pub records: usize,
+    pub per_buffer: usize,
+}
+
+impl Split {
+    /// `records` records over buffers of the most records one storage buffer reaches,
+    /// `range` bytes.
+    pub fn new(records: usize, range: u64) -> Self {
+        let per_buffer = (range / size_of::<BounceMapPhoton>() as u64).max(1);
+        Self {
+            records,
+            per_buffer: usize::try_from(per_buffer).unwrap_or(usize::MAX),
+        }
+    }
+
+    /// Buffers the map spans (at least one).
+    pub fn buffers(self) -> usize {
+        self.records.div_ceil(self.per_buffer).max(1)
+    }
+
+    /// The map indices of buffer `buffer`'s records.
+    pub fn records_of(self, buffer: usize) -> Range<usize> {
+        let start = (buffer * self.per_buffer).min(self.records);
+        start..(start + self.per_buffer).min(self.records)
+    }
+
+    /// `records` (map indices) cut where buffers end: (buffer, its part of `records`), in
+    /// order, empty parts left out.
+    pub fn pieces(self, records: Range<usize>) -> impl Iterator<Item = (usize, Range<usize>)> {
+        let buffers = if records.is_empty() {
+            0..0
+        } else {
+            records.start / self.per_buffer..(records.end - 1) / self.per_buffer + 1
+        };
+        buffers.map(move |b| {
+            let own = self.records_of(b);
+            (b, own.start.max(records.start)..own.end.min(records.end))
+        })
+    }
 }
 
 /// Consecutive views the bounce map is made for in one dispatch: views
-/// `first..first + count`, of up to `extent` = (width, height) texels.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// `first..first + count`, of up to `extent` = (width, height) texels, writing their records
+/// `records` (map indices), which lie in one buffer of the map.
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct ViewBatch {
     pub first: u32,
     pub count: u32,
     pub extent: (u32, u32),
+    pub records: Range<usize>,
+}
+
+impl ViewBatch {
+    /// The batches making the records of views `views` of a plan, with `view_records(v)` the
+    /// records of view `v` and `extent(v)` its texels, split as `split` says: one per buffer the
+    /// views' records touch, of the views with records in it.
+    pub fn split(
+        views: Range<usize>,
+        view_records: impl Fn(usize) -> Range<usize>,
+        extent: impl Fn(usize) -> (u32, u32),
+        split: Split,
+    ) -> Vec<ViewBatch> {
+        if views.is_empty() {
+            return Vec::new();
+        }
+        let all = view_records(views.start).start..view_records(views.end - 1).end;
+        split
+            .pieces(all)
+            .map(|(_, records)| {
+                // The views whose records meet the piece: consecutive, since views' records are
+                // (views with no texels in between are dispatched too, and write nothing).
+                let first = views
+                    .clone()
+                    .find(|&v| view_records(v).end > records.start)
+                    .unwrap_or(views.start);
+                let last = views
+                    .clone()
+                    .rev()
+                    .find(|&v| view_records(v).start < records.end)
+                    .unwrap_or(first)
+                    .max(first);
+                let extent = (first..=last)
+                    .map(&extent)
+                    .fold((0, 0), |(w, h), (x, y)| (w.max(x), h.max(y)));
+                ViewBatch {
+                    first: first as u32,
+                    count: (last + 1 - first) as u32,
+                    extent,
+                    records,
+                }
+            })
+            .collect()
+    }
 }
 
 pub struct BounceMapPass {
@@ -36,8 +150,9 @@ pub struct BounceMapIo<'a> {
     pub materials: &'a Buffer,
     pub views: &'a Buffer,
     pub light_gbuffer: &'a GBuffer,
-    /// `BounceMapPhoton[texels]`, device-local.
-    pub bounce_map: &'a Buffer,
+    /// `BounceMapPhoton[texels]`, device-local, over one or more buffers as `split` says.
+    pub bounce_map: &'a [Buffer],
+    pub split: Split,
 }
 
 impl BounceMapPass {
@@ -58,21 +173,29 @@ impl BounceMapPass {
             image,
             sampler: &sampler,
         };
-        let kernel = ComputeKernel::new(
+        // One set per buffer of the map, the same but for the last binding.
+        let sets: Vec<[Write; 7]> = io
+            .bounce_map
+            .iter()
+            .map(|buffer| {
+                [
+                    Write::Buffer(io.materials),
+                    Write::Buffer(io.views),
+                    image(&g.position),
+                    image(&g.normal),
+                    image(&g.albedo),
+                    image(&g.material),
+                    Write::Buffer(buffer),
+                ]
+            })
+            .collect();
+        let sets: Vec<&[Write]> = sets.iter().map(|s| s.as_slice()).collect();
+        let kernel = ComputeKernel::with_sets(
             gpu,
             "bounce_map",
             &crate::gpu::shader_table::BOUNCE_MAP_COMP,
-            &kinds,
-            size_of::<Push>() as u32,
-            &[
-                Write::Buffer(io.materials),
-                Write::Buffer(io.views),
-                image(&g.position),
-                image(&g.normal),
-                image(&g.albedo),
-                image(&g.material),
-                Write::Buffer(io.bounce_map),
-            ],
+            (&kinds, size_of::<Push>() as u32),
+            &sets,
             &super::bsdf_constants(variant),
         )?;
         Ok(Self {
@@ -89,18 +212,104 @@ impl BounceMapPass {
         for image in [&g.position, &g.normal, &g.albedo, &g.material] {
             cmd.transition(image, Access::ComputeSampledRead);
         }
-        for batch in batches.iter().filter(|b| b.count > 0) {
-            // Each dispatch writes its own views' records only, but binds the whole map: the
-            // barrier orders the writes for synchronization validation.
-            cmd.transition_buffer(io.bounce_map, Access::ComputeStorageWrite);
+        for batch in batches
+            .iter()
+            .filter(|b| b.count > 0 && !b.records.is_empty())
+        {
+            // Each dispatch writes its own records only, but binds a whole buffer: the barrier
+            // orders the writes for synchronization validation.
+            let buffer = batch.records.start / io.split.per_buffer;
+            cmd.transition_buffer(&io.bounce_map[buffer], Access::ComputeStorageWrite);
             let (w, h) = batch.extent;
+            // Map indices fit in u32: the plan's views address records with u32 offsets.
             let push = Push {
                 seed,
                 first_view: batch.first,
-                pad: [0; 2],
+                first_record: batch.records.start as u32,
+                records: batch.records.len() as u32,
+                base: io.split.records_of(buffer).start as u32,
+                pad: [0; 3],
             };
             let groups = [super::groups(w), super::groups(h), batch.count];
-            self.kernel.dispatch_with(cmd, &push, groups);
+            self.kernel.dispatch_set_with(cmd, buffer, &push, groups);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pieces_cut_a_range_where_buffers_end_and_cover_it_once() {
+        let split = Split {
+            records: 25,
+            per_buffer: 10,
+        };
+        assert_eq!(split.buffers(), 3);
+        assert_eq!(split.records_of(2), 20..25);
+        let pieces: Vec<_> = split.pieces(7..23).collect();
+        assert_eq!(pieces, vec![(0, 7..10), (1, 10..20), (2, 20..23)]);
+        assert_eq!(split.pieces(10..20).collect::<Vec<_>>(), vec![(1, 10..20)]);
+        assert_eq!(split.pieces(4..4).count(), 0);
+        // Every range of every map: pieces in order, each in its buffer, covering it once.
+        for per_buffer in 1..7 {
+            for records in 0..20 {
+                let split = Split {
+                    records,
+                    per_buffer,
+                };
+                for start in 0..=records {
+                    for end in start..=records {
+                        let mut next = start;
+                        for (b, piece) in split.pieces(start..end) {
+                            assert_eq!(piece.start, next, "{split:?} {start}..{end}");
+                            assert!(piece.end > piece.start);
+                            let own = split.records_of(b);
+                            assert!(own.start <= piece.start && piece.end <= own.end);
+                            next = piece.end;
+                        }
+                        assert_eq!(next, end, "{split:?} {start}..{end}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn view_batches_hold_the_views_with_records_in_their_buffer() {
+        // Views of 6, 0, 9 and 4 records (14..20, 20..20, 20..29, 29..33) over buffers of 8:
+        // view 0 straddles buffers 1 and 2, view 2 buffers 2 and 3, view 3 buffers 3 and 4; the
+        // empty view 1 sits between views 0 and 2 and is dispatched with them.
+        let sizes = [6usize, 0, 9, 4];
+        let starts: Vec<usize> = sizes
+            .iter()
+            .scan(14, |at, &n| {
+                let start = *at;
+                *at += n;
+                Some(start)
+            })
+            .collect();
+        let records = |v: usize| starts[v]..starts[v] + sizes[v];
+        let extent = |v: usize| (sizes[v] as u32, 1);
+        let split = Split {
+            records: 40,
+            per_buffer: 8,
+        };
+        let batches = ViewBatch::split(0..4, records, extent, split);
+        let got: Vec<_> = batches
+            .iter()
+            .map(|b| (b.first, b.count, b.extent.0, b.records.clone()))
+            .collect();
+        assert_eq!(
+            got,
+            vec![
+                (0, 1, 6, 14..16),
+                (0, 3, 9, 16..24),
+                (2, 2, 9, 24..32),
+                (3, 1, 4, 32..33),
+            ]
+        );
+        assert!(ViewBatch::split(2..2, records, extent, split).is_empty());
     }
 }

@@ -6,16 +6,19 @@
 //! |---|---|---|
 //! | `eye-normals` | eye G-buffer normal | normal xyz → rgb, background black |
 //! | `light-gbuffer` | light G-buffer, first light view (layer 0) | its normals, stretched over the image |
-//! | `bounce-map` | bounce map records of the first light view | power, log scale (Turbo) |
-//! | `photon-positions` | photon map | one pixel per visible photon, power on a log scale, over the dimmed frame |
+//! | `bounce-map` | bounce map records of the first light view (every buffer they lie in) | power, log scale (Turbo) |
+//! | `photon-positions` | photon map (every buffer of it) | one pixel per visible photon, power on a log scale, over the dimmed frame |
 //! | `photon-overdraw` | indirect image's alpha (volumes that shaded a pixel) | count, log scale (Turbo) |
 //! | `indirect-only` | indirect image (before composite) | tonemapped like the frame |
 //! | `direct-only` | — | the frame without the composite step (`frame.rs`), no pass here |
 //!
 //! Each view is its own shader (`glsl/debug/`) with only the bindings it reads, so a
 //! [`DebugViewPass`] is made for one view and one set of inputs; `frame.rs` makes a new one when
-//! the view or the photon buffer changes (the old one retires through the graveyard).
+//! the view or the photon buffers change (the old one retires through the graveyard). The
+//! views of a map split over several buffers (`photon_frame/buffers.rs`) have one descriptor
+//! set per buffer and a dispatch for each.
 
+use super::bounce_map::Split;
 use super::eye_gbuffer::GBuffer;
 use super::tonemap::Tonemap;
 use super::ComputeKernel;
@@ -84,11 +87,16 @@ pub struct PhotonSources<'a> {
     /// Texels of the first light view ((0, 0): no light view this frame).
     pub first_view_extent: (u32, u32),
     pub views: &'a Buffer,
-    pub bounce_map: &'a Buffer,
+    /// The bounce map's buffers, and how the map is split over them.
+    pub bounce_map: &'a [Buffer],
+    pub bounce_split: Split,
+    /// The first light view's records (map indices).
+    pub first_view_records: std::ops::Range<usize>,
     /// The brightest record of the first view's bounce map (luminance; 0: none).
     pub bounce_peak: f32,
-    pub photons: &'a Buffer,
-    pub count: u32,
+    /// The photon map's buffers, and the photons in each this frame.
+    pub photons: &'a [Buffer],
+    pub counts: &'a [u32],
     /// The brightest stored photon (luminance; 0: none).
     pub photon_peak: f32,
     /// Photon map origin − eye.
@@ -119,7 +127,12 @@ struct ExtentPush {
 struct PeakPush {
     inv_peak: f32,
     view: u32,
-    pad: [u32; 2],
+    /// The records this dispatch shows (map indices `first_record..first_record + records`),
+    /// and the map index of the bound buffer's first record.
+    first_record: u32,
+    records: u32,
+    base: u32,
+    pad: [u32; 3],
 }
 
 #[repr(C)]
@@ -142,8 +155,9 @@ struct ScalePush {
 /// One debug view's kernels, bound to one set of inputs.
 pub struct DebugViewPass {
     view: DebugView,
-    /// The photon buffer the kernels were bound to (it is replaced when the map outgrows it).
-    photons: Option<vk::Buffer>,
+    /// The photon buffers the kernels were bound to (they are replaced when the map outgrows
+    /// them).
+    photons: Option<Vec<vk::Buffer>>,
     kernels: Vec<ComputeKernel>,
     _sampler: Sampler,
 }
@@ -205,22 +219,45 @@ impl DebugViewPass {
             }
             DebugView::BounceMap => {
                 let p = need()?;
-                vec![ComputeKernel::new(
+                let sets: Vec<[Write; 3]> = p
+                    .bounce_map
+                    .iter()
+                    .map(|buffer| {
+                        [
+                            Write::StorageImage(display),
+                            Write::Buffer(p.views),
+                            Write::Buffer(buffer),
+                        ]
+                    })
+                    .collect();
+                let sets: Vec<&[Write]> = sets.iter().map(|s| s.as_slice()).collect();
+                vec![ComputeKernel::with_sets(
                     gpu,
                     name,
                     &shader_table::DEBUG_BOUNCE_MAP_COMP,
-                    &[StorageImage, StorageBuffer, StorageBuffer],
-                    push(size_of::<PeakPush>()),
-                    &[
-                        Write::StorageImage(display),
-                        Write::Buffer(p.views),
-                        Write::Buffer(p.bounce_map),
-                    ],
+                    (
+                        &[StorageImage, StorageBuffer, StorageBuffer],
+                        push(size_of::<PeakPush>()),
+                    ),
+                    &sets,
                     &[],
                 )?]
             }
             DebugView::PhotonPositions => {
                 let p = need()?;
+                // One set per photon buffer, the same but for the photons.
+                let photon_sets: Vec<[Write; 4]> = p
+                    .photons
+                    .iter()
+                    .map(|buffer| {
+                        [
+                            Write::StorageImage(display),
+                            Write::Buffer(inputs.frame),
+                            Write::Buffer(buffer),
+                            image(&inputs.gbuffer.position),
+                        ]
+                    })
+                    .collect();
                 vec![
                     ComputeKernel::new(
                         gpu,
@@ -231,18 +268,15 @@ impl DebugViewPass {
                         &[Write::StorageImage(display)],
                         &[],
                     )?,
-                    ComputeKernel::new(
+                    ComputeKernel::with_sets(
                         gpu,
                         name,
                         &shader_table::DEBUG_PHOTON_POSITIONS_COMP,
-                        &[StorageImage, UniformBuffer, StorageBuffer, SampledImage],
-                        push(size_of::<PhotonPush>()),
-                        &[
-                            Write::StorageImage(display),
-                            Write::Buffer(inputs.frame),
-                            Write::Buffer(p.photons),
-                            image(&inputs.gbuffer.position),
-                        ],
+                        (
+                            &[StorageImage, UniformBuffer, StorageBuffer, SampledImage],
+                            push(size_of::<PhotonPush>()),
+                        ),
+                        &photon_sets.iter().map(|s| s.as_slice()).collect::<Vec<_>>(),
                         &[],
                     )?,
                 ]
@@ -267,7 +301,7 @@ impl DebugViewPass {
         };
         Ok(Self {
             view,
-            photons: photons.map(|p| p.photons.raw()),
+            photons: photons.map(|p| raw_buffers(p.photons)),
             kernels,
             _sampler: sampler,
         })
@@ -275,7 +309,7 @@ impl DebugViewPass {
 
     /// Whether this pass shows `view` of `inputs` (else make a new one).
     pub fn fits(&self, view: DebugView, inputs: &DebugInputs) -> bool {
-        self.view == view && self.photons == inputs.photons.as_ref().map(|p| p.photons.raw())
+        self.view == view && self.photons == inputs.photons.as_ref().map(|p| raw_buffers(p.photons))
     }
 
     /// Writes the view into `display` (after the tonemapping, in the same command buffer).
@@ -308,33 +342,45 @@ impl DebugViewPass {
             }
             (DebugView::BounceMap, Some(p)) => {
                 cmd.transition_buffer(p.views, Access::ComputeStorageRead);
-                cmd.transition_buffer(p.bounce_map, Access::ComputeStorageRead);
-                cmd.transition(display, Access::ComputeStorageWrite);
-                let push = PeakPush {
-                    inv_peak: inverse(p.bounce_peak),
-                    view: 0,
-                    pad: [0; 2],
-                };
-                if p.first_view_extent.0 * p.first_view_extent.1 > 0 {
-                    self.kernels[0].dispatch_with(cmd, &push, groups);
+                let split = p.bounce_split;
+                // Each buffer holding the first view's records shows its pixels of it.
+                for (b, records) in split.pieces(p.first_view_records.clone()) {
+                    cmd.transition_buffer(&p.bounce_map[b], Access::ComputeStorageRead);
+                    // After the previous buffer's pixels: a write-after-write barrier.
+                    cmd.transition(display, Access::ComputeStorageWrite);
+                    let push = PeakPush {
+                        inv_peak: inverse(p.bounce_peak),
+                        view: 0,
+                        first_record: records.start as u32,
+                        records: records.len() as u32,
+                        base: split.records_of(b).start as u32,
+                        pad: [0; 3],
+                    };
+                    self.kernels[0].dispatch_set_with(cmd, b, &push, groups);
                 }
             }
             (DebugView::PhotonPositions, Some(p)) => {
                 cmd.transition(display, Access::ComputeStorageWrite);
                 self.kernels[0].dispatch(cmd, groups);
-                if p.count > 0 {
-                    sampled(&inputs.gbuffer.position);
-                    cmd.transition_buffer(inputs.frame, Access::AnyShaderUniformRead);
-                    cmd.transition_buffer(p.photons, Access::ComputeStorageRead);
-                    // After the backdrop: a write-after-write barrier on the display.
+                sampled(&inputs.gbuffer.position);
+                cmd.transition_buffer(inputs.frame, Access::AnyShaderUniformRead);
+                // Every buffer of the photon map with photons this frame, in turn.
+                for (i, (photons, &count)) in p.photons.iter().zip(p.counts).enumerate() {
+                    if count == 0 {
+                        continue;
+                    }
+                    cmd.transition_buffer(photons, Access::ComputeStorageRead);
+                    // After the backdrop or the previous buffer's photons: a write-after-write
+                    // barrier on the display.
                     cmd.transition(display, Access::ComputeStorageWrite);
                     let push = PhotonPush {
                         offset: p.offset.extend(0.0).to_array(),
-                        count: p.count,
+                        count,
                         inv_peak: inverse(p.photon_peak),
                         pad: [0; 2],
                     };
-                    self.kernels[1].dispatch_with(cmd, &push, [p.count.div_ceil(64), 1, 1]);
+                    let groups = [count.div_ceil(64), 1, 1];
+                    self.kernels[1].dispatch_set_with(cmd, i, &push, groups);
                 }
             }
             (DebugView::PhotonOverdraw | DebugView::IndirectOnly, Some(p)) => {
@@ -361,6 +407,11 @@ impl DebugViewPass {
             (DebugView::DirectOnly, _) | (_, None) => {}
         }
     }
+}
+
+/// The raw handles of `buffers` (what a pass was bound to).
+fn raw_buffers(buffers: &[Buffer]) -> Vec<vk::Buffer> {
+    buffers.iter().map(Buffer::raw).collect()
 }
 
 /// 1 / `peak`, or 1 for no peak.

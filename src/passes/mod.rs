@@ -66,14 +66,14 @@ pub(crate) fn vertex_attributes() -> [crate::gpu::VertexAttribute; 3] {
     ]
 }
 
-/// What every compute pass owns: its pipeline and its one descriptor set, whose bindings are
-/// 0, 1, 2… in the order of `kinds` (the order the shader declares them in), and the
-/// pipeline's specialisation constants. The pass keeps its samplers itself, since the writes
-/// borrow them.
+/// What every compute pass owns: its pipeline and its descriptor sets (one, or one per buffer
+/// of a map split over several: [`ComputeKernel::with_sets`]), whose bindings are 0, 1, 2… in
+/// the order of `kinds` (the order the shader declares them in), and the pipeline's
+/// specialisation constants. The pass keeps its samplers itself, since the writes borrow them.
 pub(crate) struct ComputeKernel {
     pipeline: crate::gpu::Pipeline,
     _layout: crate::gpu::DescriptorLayout,
-    set: crate::gpu::DescriptorSet,
+    sets: Vec<crate::gpu::DescriptorSet>,
 }
 
 impl ComputeKernel {
@@ -86,10 +86,28 @@ impl ComputeKernel {
         writes: &[crate::gpu::Write],
         specialization: &[crate::gpu::SpecConstant],
     ) -> anyhow::Result<Self> {
+        let shape = (kinds, push_constant_size);
+        Self::with_sets(gpu, name, shader, shape, &[writes], specialization)
+    }
+
+    /// The kernel with one descriptor set per entry of `sets` (e.g. one per buffer of a bounce
+    /// map or photon map split over several), chosen at each dispatch
+    /// ([`ComputeKernel::dispatch_set_with`]).
+    pub(crate) fn with_sets(
+        gpu: &std::sync::Arc<crate::gpu::Gpu>,
+        name: &str,
+        shader: &crate::gpu::Shader,
+        (kinds, push_constant_size): (&[crate::gpu::BindingKind], u32),
+        sets: &[&[crate::gpu::Write]],
+        specialization: &[crate::gpu::SpecConstant],
+    ) -> anyhow::Result<Self> {
         use crate::gpu::{vk, Binding, ComputeDesc, DescriptorLayout, Pipeline};
         let bindings = Binding::sequence(kinds, vk::ShaderStageFlags::COMPUTE);
-        let layout = DescriptorLayout::new(gpu, name, &bindings, 1)?;
-        let set = layout.allocate(writes)?;
+        let layout = DescriptorLayout::new(gpu, name, &bindings, sets.len().max(1) as u32)?;
+        let sets = sets
+            .iter()
+            .map(|writes| layout.allocate(writes))
+            .collect::<Result<Vec<_>, _>>()?;
         let pipeline = Pipeline::compute(
             gpu,
             &ComputeDesc {
@@ -103,14 +121,14 @@ impl ComputeKernel {
         Ok(Self {
             pipeline,
             _layout: layout,
-            set,
+            sets,
         })
     }
 
     /// Binds the kernel and dispatches `groups` workgroups.
     pub(crate) fn dispatch(&self, cmd: &crate::gpu::Cmd, groups: [u32; 3]) {
         cmd.bind_pipeline(&self.pipeline);
-        cmd.bind_sets(&self.pipeline, 0, &[self.set]);
+        cmd.bind_sets(&self.pipeline, 0, &self.sets[..1]);
         cmd.dispatch(groups[0], groups[1], groups[2]);
     }
 
@@ -121,8 +139,19 @@ impl ComputeKernel {
         push: &T,
         groups: [u32; 3],
     ) {
+        self.dispatch_set_with(cmd, 0, push, groups);
+    }
+
+    /// [`ComputeKernel::dispatch_with`] with descriptor set `set` of [`ComputeKernel::with_sets`].
+    pub(crate) fn dispatch_set_with<T: bytemuck::Pod>(
+        &self,
+        cmd: &crate::gpu::Cmd,
+        set: usize,
+        push: &T,
+        groups: [u32; 3],
+    ) {
         cmd.bind_pipeline(&self.pipeline);
-        cmd.bind_sets(&self.pipeline, 0, &[self.set]);
+        cmd.bind_sets(&self.pipeline, 0, &self.sets[set..=set]);
         cmd.push_constants(&self.pipeline, push);
         cmd.dispatch(groups[0], groups[1], groups[2]);
     }

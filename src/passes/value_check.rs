@@ -22,15 +22,16 @@
 //! `FRAMES_IN_FLIGHT` frames earlier, has retired by then (`Renderer::submit_frame`), so a
 //! photon buffer that grew is simply bound the next time.
 //!
-//! A photon map split over several buffers (`photon_frame/buffers.rs`) is checked buffer by
-//! buffer into the one `photon_map` counter, so its `values` is the whole map's. A set must not
-//! be rewritten while a command buffer that bound it is recording or pending, so each check of
-//! a kind in a frame takes the next set of its own: the record kernel has
-//! [`MAX_PHOTON_BUFFERS`] sets per frame in flight for the photon map (the renderer refuses a
-//! map needing more buffers, `PhotonBuffers::new`, and the photon volumes bind no more), every
-//! other kind one. The sets are allocated up front from a pool sized for that bound rather than
-//! from pools grown on demand: `FRAMES_IN_FLIGHT` × (6 + 64) sets of two storage-buffer
-//! descriptors is a small pool, and nothing is allocated while frames are recorded.
+//! A bounce map or photon map split over several buffers (`photon_frame/buffers.rs`) is checked
+//! buffer by buffer into the one counter of its map, so its `values` is the whole map's. A set
+//! must not be rewritten while a command buffer that bound it is recording or pending, so each
+//! check of a kind in a frame takes the next set of its own: the record kernel has
+//! [`MAX_PHOTON_BUFFERS`] sets per frame in flight for the photon map and
+//! [`MAX_BOUNCE_BUFFERS`] for the bounce map (the renderer refuses a map needing more buffers,
+//! `PhotonBuffers::new`, `BounceBuffers::new`, and the passes bind no more), every other kind
+//! one. The sets are allocated up front from a pool sized for that bound rather than from pools
+//! grown on demand: `FRAMES_IN_FLIGHT` × (5 + 64 + 64) sets of two storage-buffer descriptors
+//! is a small pool, and nothing is allocated while frames are recorded.
 //!
 //! **Test seam**: [`ValueCheckPass::inject`] writes a chosen value into a buffer just before
 //! the check reads it (an image texel by a copy, a record's float by `vkCmdUpdateBuffer`), so
@@ -42,6 +43,7 @@ use crate::gpu::{
     Filter, Gpu, Image, MemoryLocation, Pipeline, Sampler, Write,
 };
 use crate::layout::ValueCounters;
+use crate::passes::bounce_map::MAX_BOUNCE_BUFFERS;
 use crate::passes::photon_volumes::MAX_PHOTON_BUFFERS;
 use std::ops::Range;
 use std::sync::Arc;
@@ -189,13 +191,8 @@ impl Kernel {
         name: &str,
         shader: &crate::gpu::Shader,
         (source, push_size): (BindingKind, usize),
-        (frames, photon_map_sets): (usize, usize),
+        (frames, parts): (usize, fn(Checked) -> usize),
     ) -> anyhow::Result<Self> {
-        // Sets per frame in flight for the checks of each kind in one frame (module docs).
-        let parts = |which: Checked| match which {
-            Checked::PhotonMap => photon_map_sets,
-            _ => 1,
-        };
         let bindings = Binding::sequence(
             &[BindingKind::StorageBuffer, source],
             vk::ShaderStageFlags::COMPUTE,
@@ -280,14 +277,19 @@ impl ValueCheckPass {
             "value_check",
             &crate::gpu::shader_table::VALUE_CHECK_COMP,
             (BindingKind::SampledImage, size_of::<ImagePush>()),
-            (frames, 1),
+            (frames, |_| 1),
         )?;
         let records = Kernel::new(
             gpu,
             "value_check.records",
             &crate::gpu::shader_table::VALUE_CHECK_RECORDS_COMP,
             (BindingKind::StorageBuffer, size_of::<RecordPush>()),
-            (frames, MAX_PHOTON_BUFFERS),
+            // Sets per frame in flight for the checks of each kind in one frame (module docs).
+            (frames, |which| match which {
+                Checked::PhotonMap => MAX_PHOTON_BUFFERS,
+                Checked::BounceMap => MAX_BOUNCE_BUFFERS,
+                _ => 1,
+            }),
         )?;
         let counters = Buffer::new(
             gpu,
@@ -432,9 +434,10 @@ impl ValueCheckPass {
 
     /// Test seam: at the next check of `buffer`, once, writes `value` at float `index` of it
     /// just before the check reads it (module docs). An image texel gets `value` in channel
-    /// `index % 4` and 0 in the others. In a photon map split over buffers, `index` counts over
-    /// the whole map (`record·stride + field`, records in map order): the value lands in the
-    /// buffer holding that record. An index past the records checked waits, unused.
+    /// `index % 4` and 0 in the others. In a bounce map or photon map split over buffers,
+    /// `index` counts over the whole map (`record·stride + field`, records in map order): the
+    /// value lands in the buffer holding that record. An index past the records checked waits,
+    /// unused.
     pub fn inject(&mut self, buffer: Checked, index: u64, value: f32) {
         self.injections.push(Injection {
             buffer,

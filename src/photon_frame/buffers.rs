@@ -1,13 +1,53 @@
-//! The photon map on the GPU over one or more buffers (hard case "more photons than fit in one
-//! buffer", docs/stability.md): a storage buffer is read through one descriptor, which reaches
-//! `maxStorageBufferRange` bytes at most (128 MiB on lavapipe: 2.8 M photons), so a larger map
-//! is split, and the photon volumes draw each buffer in turn (`passes/photon_volumes.rs`).
+//! The bounce map and photon map on the GPU, each over one or more buffers (hard case "more
+//! photons than fit in one buffer", docs/stability.md): a storage buffer is read through one
+//! descriptor, which reaches `maxStorageBufferRange` bytes at most (128 MiB on lavapipe: 4.2 M
+//! bounce-map records, 2.8 M photons), so a larger map is split. The bounce map pass writes
+//! each buffer of its map with a dispatch of its own (`passes/bounce_map.rs`), and the photon
+//! volumes draw each photon buffer in turn (`passes/photon_volumes.rs`).
 
 use crate::frame::RenderSettings;
 use crate::gpu::{vk, Buffer, Gpu, MemoryLocation};
+use crate::passes::bounce_map::{Split, MAX_BOUNCE_BUFFERS};
 use crate::passes::photon_volumes;
-use crate::photon::types::Photon;
+use crate::photon::types::{BounceMapPhoton, Photon};
 use std::sync::Arc;
+
+/// The bounce map on the GPU: `split.records` records over buffers of `split.per_buffer`.
+pub(super) struct BounceBuffers {
+    pub(super) device: Vec<Buffer>,
+    pub(super) split: Split,
+}
+
+impl BounceBuffers {
+    /// Buffers for `records` bounce-map records, each bound with at most `range` bytes.
+    pub(super) fn new(gpu: &Arc<Gpu>, records: usize, range: u64) -> anyhow::Result<Self> {
+        let split = Split::new(records, range);
+        anyhow::ensure!(
+            split.buffers() <= MAX_BOUNCE_BUFFERS,
+            "a bounce map of {records} records ({} bytes) needs {} buffers of {range} bytes, \
+             more than the {MAX_BOUNCE_BUFFERS} the bounce map pass binds",
+            records * size_of::<BounceMapPhoton>(),
+            split.buffers()
+        );
+        let device = (0..split.buffers())
+            .map(|b| {
+                let records = split.records_of(b).len().max(1);
+                Buffer::new(
+                    gpu,
+                    &format!("bounce_map[{b}]"),
+                    (records * size_of::<BounceMapPhoton>()) as u64,
+                    // TRANSFER_DST: the value check's test seam writes into it
+                    // (`passes/value_check.rs`).
+                    vk::BufferUsageFlags::STORAGE_BUFFER
+                        | vk::BufferUsageFlags::TRANSFER_SRC
+                        | vk::BufferUsageFlags::TRANSFER_DST,
+                    MemoryLocation::GpuOnly,
+                )
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(Self { device, split })
+    }
+}
 
 /// The photon map on the GPU, split over buffers of at most `per_buffer` photons (hard case
 /// "more photons than fit in one buffer": a storage buffer is read through one descriptor,
@@ -102,11 +142,18 @@ impl PhotonBuffers {
     }
 }
 
-/// The most photons one photon buffer holds: what one storage-buffer descriptor reaches on the
-/// device, or fewer where `RenderSettings::photons_per_buffer` says so.
-pub(super) fn photons_per_buffer(gpu: &Gpu, settings: &RenderSettings) -> usize {
-    let device = (gpu.properties.max_storage_buffer_range as usize / size_of::<Photon>()).max(1);
+/// The most bytes one storage buffer of the bounce map or photon map is bound with: what one
+/// storage-buffer descriptor reaches on the device (`maxStorageBufferRange`), or less where
+/// `RenderSettings::storage_buffer_range` says so.
+pub(super) fn storage_buffer_range(gpu: &Gpu, settings: &RenderSettings) -> u64 {
+    let device = u64::from(gpu.properties.max_storage_buffer_range);
     settings
-        .photons_per_buffer
+        .storage_buffer_range
         .map_or(device, |n| n.clamp(1, device))
+}
+
+/// The most photons one photon buffer holds ([`storage_buffer_range`]; at least one).
+pub(super) fn photons_per_buffer(gpu: &Gpu, settings: &RenderSettings) -> usize {
+    let range = storage_buffer_range(gpu, settings) / size_of::<Photon>() as u64;
+    usize::try_from(range).unwrap_or(usize::MAX).max(1)
 }

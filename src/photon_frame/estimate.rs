@@ -52,11 +52,9 @@ impl PhotonFrame {
         }
         if !self.batches.is_empty() {
             // Back from the readback, for the next frame's bounce map.
-            cmd.acquire_buffer(
-                &self.bounce_map,
-                QueueRole::Transfer,
-                Access::ComputeStorageWrite,
-            );
+            for buffer in &self.bounce_map.device {
+                cmd.acquire_buffer(buffer, QueueRole::Transfer, Access::ComputeStorageWrite);
+            }
         }
         if let Some(check) = check.as_deref_mut() {
             self.check_photon_records(cmd, check)?;
@@ -103,18 +101,19 @@ impl PhotonFrame {
     }
 
     /// The value check of the bounce map (the records the plan's texels filled, once it is
-    /// back on this queue) and of the photon map (the photons drawn, every buffer of it into
-    /// the one `photon_map` count).
+    /// back on this queue) and of the photon map (the photons drawn), every buffer of each
+    /// into the one count of its map.
     fn check_photon_records(&self, cmd: &Cmd, check: &mut ValueCheckPass) -> anyhow::Result<()> {
         const FLOAT: usize = size_of::<f32>();
-        if self.plan.texels > 0 {
+        let split = self.bounce_map.split;
+        for (b, records) in split.pieces(0..self.plan.texels) {
             let records = Records {
-                first: 0,
-                count: self.plan.texels as u32,
+                first: records.start as u64,
+                count: records.len() as u32,
                 stride: (size_of::<BounceMapPhoton>() / FLOAT) as u32,
                 power_offset: (std::mem::offset_of!(BounceMapPhoton, power) / FLOAT) as u32,
             };
-            check.records(cmd, Checked::BounceMap, &self.bounce_map, records)?;
+            check.records(cmd, Checked::BounceMap, &self.bounce_map.device[b], records)?;
         }
         // Buffers hold the map in photon order, each full but the last used one
         // (`PhotonBuffers::write`); the first is checked even when empty, so the photon map is
@@ -146,32 +145,30 @@ impl PhotonFrame {
     pub fn debug_sources(&self) -> PhotonSources<'_> {
         let lum = |c: glam::Vec3| c.dot(glam::Vec3::new(0.2126, 0.7152, 0.0722));
         let first = self.plan.views.first().map(|v| (v.texels.x, v.texels.y));
-        let (offset, records) = self.plan.views.first().map_or((0, 0), |v| {
-            (v.texels.z as usize, (v.texels.x * v.texels.y) as usize)
-        });
+        let first_view_records = self.plan.texel_range(0..self.plan.views.len().min(1));
         let bounce_peak = self
             .traced
             .bounce_map()
+            .get(first_view_records.clone())
+            .unwrap_or_default()
             .iter()
-            .skip(offset)
-            .take(records)
             .map(|p| lum(p.power))
             .fold(0.0, f32::max);
         let photon_peak = self
             .traced
             .photons()
-            .take(self.buffers.counts[0] as usize)
             .map(|p| lum(p.power))
             .fold(0.0, f32::max);
         PhotonSources {
             light_gbuffer: &self.light_gbuffer,
             first_view_extent: first.unwrap_or((0, 0)),
             views: &self.views,
-            bounce_map: &self.bounce_map,
+            bounce_map: &self.bounce_map.device,
+            bounce_split: self.bounce_map.split,
+            first_view_records,
             bounce_peak,
-            // The debug views show the first photon buffer's photons.
-            photons: &self.buffers.device[0],
-            count: self.buffers.counts[0],
+            photons: &self.buffers.device,
+            counts: &self.buffers.counts,
             photon_peak,
             offset: self.eye_offset(),
             indirect: &self.indirect,
