@@ -291,27 +291,33 @@ fn every_buffer_of_a_split_bounce_map_and_photon_map_is_checked_and_a_nan_in_the
     // last photon (both in the last buffer), a -5 in the position of the second buffer's
     // first photon (no error): the indices count over the whole map. The same in the bounce
     // map, whose -5 lands in a packed direction.
-    let last_first = ((buffers - 1) * PER_BUFFER) as u64;
-    let last = stored as u64 - 1;
-    for (photon, field, value) in [
-        (last_first, 0, f32::NAN),
-        (last, 2, -1.0),
-        (PER_BUFFER as u64, 7, -5.0),
-    ] {
-        renderer
-            .inject_value(Checked::PhotonMap, 12 * photon + field, value)
-            .unwrap();
-    }
-    let last_first = ((bounce_buffers - 1) * RECORDS_PER_BUFFER) as u64;
-    let last = records as u64 - 1;
-    for (record, field, value) in [
-        (last_first, 1, f32::NAN),
-        (last, 0, -1.0),
-        (RECORDS_PER_BUFFER as u64, 4, -5.0),
-    ] {
-        renderer
-            .inject_value(Checked::BounceMap, 8 * record + field, value)
-            .unwrap();
+    let maps = [
+        (
+            Checked::PhotonMap,
+            12,
+            buffers,
+            PER_BUFFER,
+            stored,
+            [0, 2, 7],
+        ),
+        (
+            Checked::BounceMap,
+            8,
+            bounce_buffers,
+            RECORDS_PER_BUFFER,
+            records,
+            [1, 0, 4],
+        ),
+    ];
+    for (map, stride, buffers, per_buffer, len, fields) in maps {
+        let last_first = ((buffers - 1) * per_buffer) as u64;
+        let last = len as u64 - 1;
+        let places = [last_first, last, per_buffer as u64];
+        for ((record, field), value) in places.into_iter().zip(fields).zip([f32::NAN, -1.0, -5.0]) {
+            renderer
+                .inject_value(map, stride * record + field, value)
+                .unwrap();
+        }
     }
     let frame = renderer.render().expect("render");
     assert_eq!(
