@@ -85,7 +85,7 @@ void main() {
     }
     vec3 p = pos.xyz;
     vec2 ndc = (vec2(xy) + 0.5) / vec2(size) * 2.0 - 1.0;
-    vec4 near_h = view.inv_view_proj * vec4(ndc, 0.0, 1.0);
+    vec4 near_h = view.inv_view_proj * vec4(ndc, LIGHT_VIEW_NEAR_Z, 1.0);
     vec3 near_point = near_h.xyz / near_h.w;
     photon.depth = length(p - near_point);
 
@@ -138,7 +138,7 @@ void main() {
             emitted = normalize(parent_hit.xyz - view.light.xyz);
         } else {
             vec2 parent_ndc = (vec2(at) + 0.5) / vec2(parent.texels.xy) * 2.0 - 1.0;
-            vec4 far_h = parent.inv_view_proj * vec4(parent_ndc, 1.0, 1.0);
+            vec4 far_h = parent.inv_view_proj * vec4(parent_ndc, LIGHT_VIEW_FAR_Z, 1.0);
             emitted = normalize(far_h.xyz / far_h.w - view.light.xyz);
         }
     }

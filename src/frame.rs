@@ -480,8 +480,7 @@ impl Renderer {
         )?;
         let display = tonemap::output(gpu, settings.width, settings.height)?;
         let shadow_maps = ShadowMapPass::new(gpu)?;
-        let eye_gbuffer =
-            EyeGBufferPass::new(gpu, "eye_gbuffer", &gpu_scene, &[&frame_uniforms], true)?;
+        let eye_gbuffer = EyeGBufferPass::new(gpu, "eye_gbuffer", &gpu_scene, &[&frame_uniforms])?;
         let direct = DirectPass::new(
             gpu,
             &DirectInputs {

@@ -73,7 +73,9 @@ use crate::photon::rng::hash2;
 use crate::photon::trace::PhotonState;
 use crate::photon::types::BounceMapPhoton;
 use crate::scene::{Aabb, LightKind, Scene};
-use crate::shared_constants::{BOUNCE_VIEW_CAUSTIC, BOUNCE_VIEW_PARENT, BOUNCE_VIEW_WHOLE};
+use crate::shared_constants::{
+    BOUNCE_VIEW_CAUSTIC, BOUNCE_VIEW_PARENT, BOUNCE_VIEW_WHOLE, LIGHT_VIEW_FAR_Z, LIGHT_VIEW_NEAR_Z,
+};
 use glam::{DMat4, DVec2, DVec3, DVec4, UVec4, Vec4};
 use std::ops::Range;
 
@@ -157,6 +159,10 @@ impl Capacity {
             && plan.max_extent.1 <= self.extent.1
     }
 }
+
+/// Depth of a light view's near and far planes (reversed: `lighting.rs`).
+const NEAR: f64 = LIGHT_VIEW_NEAR_Z as f64;
+const FAR: f64 = LIGHT_VIEW_FAR_Z as f64;
 
 fn unproject(inverse: &DMat4, ndc: DVec2, z: f64) -> DVec3 {
     let h = *inverse * DVec4::new(ndc.x, ndc.y, z, 1.0);
@@ -397,7 +403,7 @@ impl BouncePlan {
         } = *lights;
         // Shadow views are the light G-buffer's views; with resolution 1 their texel parameter
         // is the full window: 2·tan(fov/2) (perspective) or 2·radius (orthographic).
-        let setup = LightSetup::new(&scene.lights, origin, bounds, 1, 0);
+        let setup = LightSetup::photon_views(&scene.lights, origin, bounds);
         let budget = photon_budget_among(scene, photons, active);
         let share = if share.is_finite() {
             f64::from(share.clamp(0.0, 0.95))
@@ -434,7 +440,7 @@ impl BouncePlan {
                 .map(|v| f64::from(setup.views[v].params.x) * 0.5)
                 .collect();
             let direction = |v: usize, ndc: DVec2| {
-                (unproject(&inverses[v], ndc, 1.0) - unproject(&inverses[v], ndc, 0.0)).normalize()
+                (unproject(&inverses[v], ndc, FAR) - unproject(&inverses[v], ndc, NEAR)).normalize()
             };
             let in_cone = |v: usize, ndc: DVec2| {
                 kind != LIGHT_SPOT || axis.dot(direction(v, ndc)) > f64::from(cos_outer)
@@ -811,8 +817,8 @@ impl BouncePlan {
                         continue;
                     }
                     let ndc = texel_ndc(x, y, width, height);
-                    let near = unproject(&inverse, ndc, 0.0);
-                    let dir = (unproject(&inverse, ndc, 1.0) - near).normalize();
+                    let near = unproject(&inverse, ndc, NEAR);
+                    let dir = (unproject(&inverse, ndc, FAR) - near).normalize();
                     let relative = near + dir * f64::from(p.depth);
                     let hit = relative + origin;
                     // The path is keyed by its texel, as the bounce map's own generator is, not
@@ -918,7 +924,7 @@ mod tests {
         for y in 0..h {
             for x in 0..w {
                 let ndc = texel_ndc(x, y, w, h);
-                let d = unproject(&inverse, ndc, 1.0) - unproject(&inverse, ndc, 0.0);
+                let d = unproject(&inverse, ndc, FAR) - unproject(&inverse, ndc, NEAR);
                 n += usize::from(d.normalize().dot(axis) > outer.cos());
             }
         }

@@ -11,6 +11,13 @@
 //! All matrices map *camera-relative* world space (world minus the camera position, computed
 //! in f64) to the light's clip space, so precision does not depend on the distance from the
 //! world origin.
+//!
+//! The shadow maps' views map the near plane to depth 0 and the far plane to 1, the near plane
+//! 10⁻⁴ of the scene's diagonal from the light. The photons' views ([`LightSetup::photon_views`]:
+//! light G-buffers, bounce map) are the same views with depth reversed (near 1, far 0,
+//! `LIGHT_VIEW_NEAR_Z`) and the near plane at 10⁻⁶ of the diagonal: with a D32F depth buffer the
+//! precision of reversed depth is relative to the distance, so a light 0.1 mm from a surface
+//! still sends its photons onto it (hard case "a light touching a surface", docs/stability.md).
 
 use crate::layout::{GpuLight, ShadowView, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
 use crate::scene::{Aabb, Light, LightKind};
@@ -36,8 +43,45 @@ fn any_perpendicular(d: DVec3) -> DVec3 {
     }
 }
 
-/// Near and far planes for a perspective view from `eye` that must see all of `bounds`.
-fn near_far(eye: DVec3, bounds: &Aabb) -> (f64, f64) {
+/// How a setup's views map depth.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Depth {
+    /// Near plane at depth 0, 10⁻⁴ of the scene's diagonal from the light (shadow maps).
+    Shadow,
+    /// Near plane at depth 1 (`LIGHT_VIEW_NEAR_Z`), 10⁻⁶ of the diagonal (photon views).
+    Photon,
+}
+
+impl Depth {
+    /// The near plane's distance from the light, as a fraction of the scene's diagonal.
+    fn near(self) -> f64 {
+        match self {
+            Depth::Shadow => 1e-4,
+            Depth::Photon => 1e-6,
+        }
+    }
+
+    /// `m` (to clip space with depth 0 at the near plane) with this depth mapping: for photon
+    /// views z' = w − z, which maps the near plane to 1 and the far plane to 0.
+    fn apply(self, m: DMat4) -> DMat4 {
+        match self {
+            Depth::Shadow => m,
+            Depth::Photon => {
+                let reverse = DMat4::from_cols(
+                    glam::DVec4::X,
+                    glam::DVec4::Y,
+                    glam::DVec4::new(0.0, 0.0, -1.0, 0.0),
+                    glam::DVec4::new(0.0, 0.0, 1.0, 1.0),
+                );
+                reverse * m
+            }
+        }
+    }
+}
+
+/// Near and far planes for a perspective view from `eye` that must see all of `bounds`, the near
+/// plane `near` of its diagonal from `eye`.
+fn near_far(eye: DVec3, bounds: &Aabb, near: f64) -> (f64, f64) {
     let min = bounds.min.as_dvec3();
     let max = bounds.max.as_dvec3();
     let diag = (max - min).length().max(1e-6);
@@ -50,8 +94,8 @@ fn near_far(eye: DVec3, bounds: &Aabb) -> (f64, f64) {
         );
         far = far.max((c - eye).length());
     }
-    // The near plane follows the scene's scale: a light touching a surface still sees it.
-    let near = diag * 1e-4;
+    // The near plane follows the scene's scale.
+    let near = diag * near;
     (near, (far * 1.01).max(near * 2.0))
 }
 
@@ -82,6 +126,15 @@ impl LightSetup {
         )
     }
 
+    /// The views photons start from (the bounce map's light views, `ispm.rs`): [`LightSetup::new`]
+    /// with one texel (each view's texel parameter is its whole window) and no margin (a cube's
+    /// faces tile the sphere exactly once), with reversed depth and a near plane 10⁻⁶ of the
+    /// scene's diagonal from the light (module docs).
+    pub fn photon_views(lights: &[Light], origin: DVec3, bounds: &Aabb) -> LightSetup {
+        let active = vec![true; lights.len()];
+        Self::with_depth(lights, &active, origin, bounds, (1, 0), Depth::Photon)
+    }
+
     /// [`LightSetup::new`] for the lights with `active[i]` only (the effects plan's direct-light
     /// mask, `plan::EffectsPlan::direct_mask`): the others get no [`GpuLight`] and no shadow
     /// views, so the shadow pass draws nothing for them and the direct pass does not loop over
@@ -93,6 +146,18 @@ impl LightSetup {
         bounds: &Aabb,
         resolution: u32,
         margin: u32,
+    ) -> LightSetup {
+        let texels = (resolution, margin);
+        Self::with_depth(lights, active, camera, bounds, texels, Depth::Shadow)
+    }
+
+    fn with_depth(
+        lights: &[Light],
+        active: &[bool],
+        camera: DVec3,
+        bounds: &Aabb,
+        (resolution, margin): (u32, u32),
+        depth: Depth,
     ) -> LightSetup {
         let mut setup = LightSetup::default();
         let res = f64::from(resolution.max(1));
@@ -119,14 +184,14 @@ impl LightSetup {
                     outer_cone_angle, ..
                 } if outer_cone_angle <= MAX_SINGLE_VIEW_CONE => {
                     let fov = (2.0 * f64::from(outer_cone_angle) * 1.05).max(1e-3);
-                    let (near, far) = near_far(pos, bounds);
+                    let (near, far) = near_far(pos, bounds, depth.near());
                     let view =
                         glam::dcamera::rh::view::look_to_mat4(pos, dir, any_perpendicular(dir));
-                    let m = perspective(fov, near, far) * view * to_relative;
+                    let m = depth.apply(perspective(fov, near, far) * view * to_relative);
                     setup.push_view(m, (2.0 * (fov * 0.5).tan() / res) as f32, false);
                 }
                 LightKind::Point | LightKind::Spot { .. } => {
-                    let (near, far) = near_far(pos, bounds);
+                    let (near, far) = near_far(pos, bounds, depth.near());
                     let half = (1.0 + 2.0 * f64::from(margin) / res).atan();
                     let proj = perspective(2.0 * half, near, far);
                     let faces = [
@@ -140,7 +205,7 @@ impl LightSetup {
                     for (forward, up) in faces {
                         let view = glam::dcamera::rh::view::look_to_mat4(pos, forward, up);
                         setup.push_view(
-                            proj * view * to_relative,
+                            depth.apply(proj * view * to_relative),
                             (2.0 * half.tan() / res) as f32,
                             false,
                         );
@@ -160,7 +225,8 @@ impl LightSetup {
                         radius * 1e-3,
                         radius * 4.0,
                     );
-                    setup.push_view(proj * view * to_relative, (2.0 * radius / res) as f32, true);
+                    let m = depth.apply(proj * view * to_relative);
+                    setup.push_view(m, (2.0 * radius / res) as f32, true);
                 }
             }
             let count = setup.views.len() as u32 - first;
@@ -254,6 +320,34 @@ mod tests {
         assert_eq!(some.view_matrices[1], all.view_matrices[7]);
         let none = LightSetup::active(&lights, &[], DVec3::ZERO, &unit_bounds(), 256, 3);
         assert!(none.lights.is_empty() && none.views.is_empty());
+    }
+
+    #[test]
+    fn photon_views_reverse_depth_and_see_a_surface_a_hundred_thousandth_of_the_scene_away() {
+        // The unit box's diagonal is 2√3: 10⁻⁵ of it is 35 µm, inside the shadow views' near
+        // plane (10⁻⁴) and outside the photon views' (10⁻⁶).
+        let lights = [light(LightKind::Spot {
+            inner_cone_angle: 0.3,
+            outer_cone_angle: 0.5,
+        })];
+        let bounds = unit_bounds();
+        let diagonal = f64::from((bounds.max - bounds.min).length());
+        let ndc_z = |s: &LightSetup, distance: f64| {
+            let p = lights[0].position.as_dvec3() + DVec3::NEG_Y * distance;
+            let clip = s.view_matrices[0] * p.extend(1.0);
+            clip.z / clip.w
+        };
+        let shadow = LightSetup::new(&lights, DVec3::ZERO, &bounds, 256, 0);
+        let photon = LightSetup::photon_views(&lights, DVec3::ZERO, &bounds);
+        let close = 1e-5 * diagonal;
+        assert!(ndc_z(&shadow, close) < 0.0, "clipped by the shadow view");
+        let (near, far) = (ndc_z(&photon, close), ndc_z(&photon, 1.5));
+        assert!(near > 0.0 && near <= 1.0, "{near}");
+        assert!(far > 0.0 && far < near, "reversed: {far} beyond {near}");
+        // The same x and y: only depth differs.
+        let p = DVec3::new(0.1, -0.5, 0.2).extend(1.0);
+        let (a, b) = (shadow.view_matrices[0] * p, photon.view_matrices[0] * p);
+        assert!((a.x / a.w - b.x / b.w).abs() < 1e-12 && (a.y / a.w - b.y / b.w).abs() < 1e-12);
     }
 
     #[test]

@@ -47,3 +47,10 @@ pub const BOUNCE_VIEW_PARENT: u32 = 1;
 // A caustic view: a texel carries 1/k² of its parent texel's power if its own first hit or its
 // parent's is a delta material.
 pub const BOUNCE_VIEW_CAUSTIC: u32 = 2;
+
+// Depth of the near and far planes in the light views the photons start from (light G-buffers,
+// bounce map, `BouncePlan`): reversed Z, so that the near plane can lie a millionth of the
+// scene's size from the light (a light touching a surface still sees it, `lighting.rs`) and a
+// D32F depth buffer keeps its relative precision to the far plane.
+pub const LIGHT_VIEW_NEAR_Z: f32 = 1.0;
+pub const LIGHT_VIEW_FAR_Z: f32 = 0.0;

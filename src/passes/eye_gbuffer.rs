@@ -7,7 +7,8 @@
 //!   normal    RGBA16F   unit shading normal turned towards the viewer; w = ±1: the mesh side
 //!   albedo    RGBA16F   Lambertian reflectance × base-colour texture (linear)
 //!   material  R32_UINT  index into the material buffer
-//!   depth     D32F      reversed-Z (1 at the near plane, 0 at infinity)
+//!   depth     D32F      reversed-Z (1 at the near plane, 0 at infinity; the light views: 0 at
+//!                       their far plane, `lighting.rs`)
 //! ```
 
 use crate::gpu::{
@@ -94,8 +95,6 @@ pub struct GBufferPass {
     _texture_layout: DescriptorLayout,
     /// One set per view: its `FrameUniforms` and the materials.
     frame_sets: Vec<DescriptorSet>,
-    /// Depth the attachment is cleared to: 0 with reversed-Z (the eye), 1 otherwise (lights).
-    depth_clear: f32,
     /// One set per material (its base-colour texture, or white).
     material_sets: Vec<DescriptorSet>,
 }
@@ -105,14 +104,14 @@ pub type EyeGBufferPass = GBufferPass;
 
 impl GBufferPass {
     /// A raster named `name` with one view per buffer in `frames` (each a `FrameUniforms`).
-    /// `reversed_z`: the views' projections map the near plane to depth 1 (the eye's infinite
-    /// reversed-Z projection) rather than 0 (the lights' finite projections).
+    /// Every view's projection reverses depth: the near plane at depth 1 (the eye's infinite
+    /// reversed-Z projection, the photon light views' finite one, `lighting.rs`), so the depth
+    /// test keeps the greater depth and the attachment is cleared to 0.
     pub fn new(
         gpu: &Arc<Gpu>,
         name: &'static str,
         scene: &GpuScene,
         frames: &[&Buffer],
-        reversed_z: bool,
     ) -> anyhow::Result<Self> {
         let graphics = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         let frame_layout = DescriptorLayout::new(
@@ -152,11 +151,7 @@ impl GBufferPass {
                     format: DEPTH,
                     test: true,
                     write: true,
-                    compare: if reversed_z {
-                        vk::CompareOp::GREATER
-                    } else {
-                        vk::CompareOp::LESS
-                    },
+                    compare: vk::CompareOp::GREATER,
                     bias: None,
                 }),
                 // Surfaces are shaded from the side the viewer sees (the fragment shader turns
@@ -173,7 +168,6 @@ impl GBufferPass {
             _frame_layout: frame_layout,
             _texture_layout: texture_layout,
             frame_sets,
-            depth_clear: if reversed_z { 0.0 } else { 1.0 },
             material_sets,
         })
     }
@@ -196,7 +190,7 @@ impl GBufferPass {
             Some(&Attachment {
                 image: &gbuffer.depth,
                 layer: view.layer,
-                load: Load::Clear([self.depth_clear; 4]),
+                load: Load::Clear([0.0; 4]), // reversed depth: 0 is the far end
             }),
         );
         cmd.set_viewport(view.extent.0, view.extent.1);

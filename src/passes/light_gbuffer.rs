@@ -30,7 +30,8 @@ impl LightGBufferPass {
             })
             .collect::<Result<Vec<_>, _>>()?;
         let refs: Vec<&Buffer> = frames.iter().collect();
-        let raster = GBufferPass::new(gpu, "light_gbuffer", scene, &refs, false)?;
+        // The light views reverse depth as the eye's does (`lighting.rs`).
+        let raster = GBufferPass::new(gpu, "light_gbuffer", scene, &refs)?;
         Ok(Self { raster, frames })
     }
 
