@@ -378,4 +378,7 @@ fn render_check_values_writes_the_counts_into_the_stats_json() {
     for name in ["bounce_map", "photon_map", "indirect", "final"] {
         assert!(buffers.iter().any(|b| b["name"] == name), "{name}: {check}");
     }
+    // How the maps were split: one buffer each at 5000 photons.
+    assert_eq!(json["bounce_map_buffers"], 1, "{json}");
+    assert_eq!(json["photon_buffers"], 1, "{json}");
 }
