@@ -33,7 +33,7 @@ layout(push_constant) uniform Push {
     uint first_record;
     uint records;
     uint base;
-    uint pad0;
+    uint first_row;     // the first row of the views' texels (gl_GlobalInvocationID.y counts from it)
     uint pad1;
     uint pad2;
 } push;
@@ -66,7 +66,7 @@ void main() {
     uint v = push.first_view + gl_GlobalInvocationID.z;
     BounceView view = views[v];
     uvec2 size = view.texels.xy;
-    uvec2 xy = gl_GlobalInvocationID.xy;
+    uvec2 xy = gl_GlobalInvocationID.xy + uvec2(0, push.first_row);
     if (xy.x >= size.x || xy.y >= size.y) {
         return;
     }

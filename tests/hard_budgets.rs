@@ -122,9 +122,9 @@ fn a_bounce_map_past_one_storage_buffers_reach_is_split_at_the_devices_own_limit
     // 5 M photons from one point light: six views of 913² texels, 160 MB of bounce map, past
     // one storage buffer's reach on lavapipe (128 MiB), with the device's own limit (not a
     // lowered one). The map is split (on a device that reaches further it is one buffer) and
-    // carries exactly the light's flux (walls of albedo 1): no buffer's records were lost,
-    // doubled or misplaced on the way back. One bounce keeps the photon map (and the test)
-    // small.
+    // carries exactly the light's flux (walls of albedo 1): no buffer's records were lost or
+    // doubled on the way back (a misplaced record is caught bit for bit at small sizes, above).
+    // One bounce keeps the photon map (and the test) small.
     let case = "a_bounce_map_past_one_storage_buffers_reach";
     let gpu = common::gpu();
     let reach = u64::from(gpu.properties.max_storage_buffer_range);
@@ -143,7 +143,8 @@ fn a_bounce_map_past_one_storage_buffers_reach_is_split_at_the_devices_own_limit
         "{case}: {records} records, {bytes} bytes in {buffers} buffers of at most {reach} \
          bytes; bounce map {power:.6} W of {flux:.6} W"
     );
-    assert_eq!(buffers as u64, bytes.div_ceil(reach));
+    let per_buffer = reach / size_of::<ispm::photon::types::BounceMapPhoton>() as u64;
+    assert_eq!(buffers as u64, (records as u64).div_ceil(per_buffer));
     if reach <= 128 << 20 {
         assert!(buffers >= 2, "{bytes} bytes in {buffers} buffer");
     }

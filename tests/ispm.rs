@@ -11,6 +11,7 @@ use ispm::photon::kernel::{kernel_radius, kernel_weight, KernelSettings};
 use ispm::photon::types::{unpack_direction, Photon};
 use ispm::reference::scenes;
 use ispm::scene::{Camera, Light, LightKind, Scene};
+use ispm::shared_constants::{LIGHT_VIEW_FAR_Z, LIGHT_VIEW_NEAR_Z};
 
 fn settings(size: u32, photons: usize) -> RenderSettings {
     RenderSettings {
@@ -386,7 +387,10 @@ fn bounce_map_power_of_the_sun_is_its_irradiance_times_the_texels_it_lights_with
     for y in 0..res {
         for x in 0..res {
             let ndc = |t: u32| (f64::from(t) + 0.5) / f64::from(res) * 2.0 - 1.0;
-            let (near, far) = (point(ndc(x), ndc(y), 0.0), point(ndc(x), ndc(y), 1.0));
+            let (near, far) = (
+                point(ndc(x), ndc(y), f64::from(LIGHT_VIEW_NEAR_Z)),
+                point(ndc(x), ndc(y), f64::from(LIGHT_VIEW_FAR_Z)),
+            );
             let ray =
                 ispm::photon::ray::Ray::new(near.as_vec3(), (far - near).normalize().as_vec3());
             lit += usize::from(bvh.intersect(&ray).is_some());

@@ -12,8 +12,9 @@
 //! ```text
 //!   records  0 ……………………………………………………………………………………………………………… texels
 //!   views    |── view 0 ──|──── view 1 ────|── view 2 ──|
-//!   buffers  |──── buffer 0 ────|──── buffer 1 ────|── 2 ──|
-//!   batches  |─ views 0-1 in 0 ─|─ views 1-2 in 1 ─|─ 2 ─|   (a view may straddle two)
+//!   buffers  |──── buffer 0 ────|──── buffer 1 ────| 2 ─|
+//!   batches  |──── 0 ─────|─ 1 ─|─── 1 ────|── 2 ──| 2 ─|  (a view a buffer cuts: its rows in
+//!                                                           each buffer, a batch of its own)
 //! ```
 
 use super::eye_gbuffer::GBuffer;
@@ -38,7 +39,10 @@ struct Push {
     first_record: u32,
     records: u32,
     base: u32,
-    pad: [u32; 3],
+    /// The first row of the views' texels the dispatch covers (`gl_GlobalInvocationID.y`
+    /// counts from it).
+    first_row: u32,
+    pad: [u32; 2],
 }
 
 /// How a bounce map of `records` records is split over buffers of `per_buffer` records each:
@@ -71,9 +75,14 @@ impl Split {
         start..(start + self.per_buffer).min(self.records)
     }
 
-    /// `records` (map indices) cut where buffers end: (buffer, its part of `records`), in
-    /// order, empty parts left out.
+    /// `records` (map indices, within the map) cut where buffers end: (buffer, its part of
+    /// `records`), in order, empty parts left out.
     pub fn pieces(self, records: Range<usize>) -> impl Iterator<Item = (usize, Range<usize>)> {
+        assert!(
+            records.is_empty() || records.end <= self.records,
+            "records {records:?} past the end of a map of {}",
+            self.records
+        );
         let buffers = if records.is_empty() {
             0..0
         } else {
@@ -86,21 +95,25 @@ impl Split {
     }
 }
 
-/// Consecutive views the bounce map is made for in one dispatch: views
-/// `first..first + count`, of up to `extent` = (width, height) texels, writing their records
-/// `records` (map indices), which lie in one buffer of the map.
+/// Consecutive views the bounce map is made for in one dispatch: rows `first_row..` of views
+/// `first..first + count`, `extent` = (width, rows) texels at most, writing their records
+/// `records` (map indices), which lie in one buffer of the map. `first_row` is 0 but for a
+/// view cut by a buffer's end, which gets a batch of its own.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct ViewBatch {
     pub first: u32,
     pub count: u32,
+    pub first_row: u32,
     pub extent: (u32, u32),
     pub records: Range<usize>,
 }
 
 impl ViewBatch {
     /// The batches making the records of views `views` of a plan, with `view_records(v)` the
-    /// records of view `v` and `extent(v)` its texels, split as `split` says: one per buffer the
-    /// views' records touch, of the views with records in it.
+    /// records of view `v` and `extent(v)` its texels, split as `split` says: per buffer the
+    /// views' records touch, one batch for each run of views whose records all lie in it, and
+    /// one for each view cut by the buffer's ends, of its rows in the buffer only (so that no
+    /// dispatch runs over texels another buffer holds but for the rows a cut passes through).
     pub fn split(
         views: Range<usize>,
         view_records: impl Fn(usize) -> Range<usize>,
@@ -111,32 +124,53 @@ impl ViewBatch {
             return Vec::new();
         }
         let all = view_records(views.start).start..view_records(views.end - 1).end;
-        split
-            .pieces(all)
-            .map(|(_, records)| {
-                // The views whose records meet the piece: consecutive, since views' records are
-                // (views with no texels in between are dispatched too, and write nothing).
-                let first = views
-                    .clone()
-                    .find(|&v| view_records(v).end > records.start)
-                    .unwrap_or(views.start);
-                let last = views
-                    .clone()
-                    .rev()
-                    .find(|&v| view_records(v).start < records.end)
-                    .unwrap_or(first)
-                    .max(first);
-                let extent = (first..=last)
-                    .map(&extent)
-                    .fold((0, 0), |(w, h), (x, y)| (w.max(x), h.max(y)));
-                ViewBatch {
-                    first: first as u32,
-                    count: (last + 1 - first) as u32,
-                    extent,
-                    records,
+        let mut batches = Vec::new();
+        for (_, piece) in split.pieces(all) {
+            // The views with records in the piece (views without texels have none).
+            let meets = views.clone().filter(|&v| {
+                let r = view_records(v);
+                !r.is_empty() && r.start < piece.end && r.end > piece.start
+            });
+            let mut run: Option<ViewBatch> = None;
+            for v in meets {
+                let (r, (w, h)) = (view_records(v), extent(v));
+                let part = r.start.max(piece.start)..r.end.min(piece.end);
+                if part == r {
+                    // Whole: joins the run of whole views.
+                    match &mut run {
+                        Some(b) => {
+                            // Over any empty views in between (they write nothing).
+                            b.count = v as u32 + 1 - b.first;
+                            b.extent = (b.extent.0.max(w), b.extent.1.max(h));
+                            b.records.end = part.end;
+                        }
+                        None => {
+                            run = Some(ViewBatch {
+                                first: v as u32,
+                                count: 1,
+                                first_row: 0,
+                                extent: (w, h),
+                                records: part,
+                            })
+                        }
+                    }
+                    continue;
                 }
-            })
-            .collect()
+                // Cut by the piece's ends: its own batch, of the rows holding the part.
+                batches.extend(run.take());
+                let width = w.max(1) as usize;
+                let rows = (part.start - r.start) / width..(part.end - r.start).div_ceil(width);
+                batches.push(ViewBatch {
+                    first: v as u32,
+                    count: 1,
+                    first_row: rows.start as u32,
+                    extent: (w, rows.len() as u32),
+                    records: part,
+                });
+            }
+            batches.extend(run);
+        }
+        batches
     }
 }
 
@@ -228,7 +262,8 @@ impl BounceMapPass {
                 first_record: batch.records.start as u32,
                 records: batch.records.len() as u32,
                 base: io.split.records_of(buffer).start as u32,
-                pad: [0; 3],
+                first_row: batch.first_row,
+                pad: [0; 2],
             };
             let groups = [super::groups(w), super::groups(h), batch.count];
             self.kernel.dispatch_set_with(cmd, buffer, &push, groups);
@@ -277,10 +312,68 @@ mod tests {
     }
 
     #[test]
+    fn view_batches_cover_every_record_once_in_the_buffer_holding_it() {
+        // Views of assorted sizes (some empty) over buffers of assorted sizes: the texels the
+        // batches' dispatches cover and keep (in their `records`) are each record exactly once.
+        let sizes = [
+            (3u32, 2u32),
+            (0, 0),
+            (4, 4),
+            (1, 1),
+            (0, 0),
+            (5, 3),
+            (2, 7),
+            (1, 1),
+        ];
+        let starts: Vec<usize> = sizes
+            .iter()
+            .scan(5, |at, &(w, h)| {
+                let start = *at;
+                *at += (w * h) as usize;
+                Some(start)
+            })
+            .collect();
+        let end = starts[7] + 1;
+        let records = |v: usize| starts[v]..starts[v] + (sizes[v].0 * sizes[v].1) as usize;
+        for per_buffer in 1..=end {
+            let split = Split {
+                records: end,
+                per_buffer,
+            };
+            for first in 0..8 {
+                for last in first..=8 {
+                    let mut seen = vec![0u32; end];
+                    for b in ViewBatch::split(first..last, records, |v| sizes[v], split) {
+                        assert_eq!(
+                            b.records.start / per_buffer,
+                            (b.records.end - 1) / per_buffer
+                        );
+                        for v in b.first..b.first + b.count {
+                            let (w, h) = sizes[v as usize];
+                            for y in b.first_row..(b.first_row + b.extent.1).min(h) {
+                                for x in 0..w.min(b.extent.0) {
+                                    let r = starts[v as usize] + (y * w + x) as usize;
+                                    if b.records.contains(&r) {
+                                        seen[r] += 1;
+                                    }
+                                }
+                            }
+                        }
+                    }
+                    let want = |r: usize| u32::from((first..last).any(|v| records(v).contains(&r)));
+                    for (r, &n) in seen.iter().enumerate() {
+                        assert_eq!(n, want(r), "record {r}, views {first}..{last}, {split:?}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
     fn view_batches_hold_the_views_with_records_in_their_buffer() {
         // Views of 6, 0, 9 and 4 records (14..20, 20..20, 20..29, 29..33) over buffers of 8:
         // view 0 straddles buffers 1 and 2, view 2 buffers 2 and 3, view 3 buffers 3 and 4; the
-        // empty view 1 sits between views 0 and 2 and is dispatched with them.
+        // empty view 1 has no records and no batch.
         let sizes = [6usize, 0, 9, 4];
         let starts: Vec<usize> = sizes
             .iter()
@@ -299,15 +392,43 @@ mod tests {
         let batches = ViewBatch::split(0..4, records, extent, split);
         let got: Vec<_> = batches
             .iter()
-            .map(|b| (b.first, b.count, b.extent.0, b.records.clone()))
+            .map(|b| (b.first, b.count, b.first_row, b.extent, b.records.clone()))
+            .collect();
+        // Views of one row: a cut view's batch is its one row.
+        assert_eq!(
+            got,
+            vec![
+                (0, 1, 0, (6, 1), 14..16),
+                (0, 1, 0, (6, 1), 16..20),
+                (2, 1, 0, (9, 1), 20..24),
+                (2, 1, 0, (9, 1), 24..29),
+                (3, 1, 0, (4, 1), 29..32),
+                (3, 1, 0, (4, 1), 32..33),
+            ]
+        );
+        // Views of 3×2, 4×4, 2×1 and 2×2 texels (records 0..6, 6..22, 22..24, 24..28) over
+        // buffers of 10: view 1's rows 0–1 in buffer 0, rows 1–3 in buffer 1 (its row 1 in
+        // both, each writing its own records); views 2 and 3 whole in buffer 2.
+        let sizes = [(3u32, 2u32), (4, 4), (2, 1), (2, 2)];
+        let starts = [0usize, 6, 22, 24];
+        let records = |v: usize| starts[v]..starts[v] + (sizes[v].0 * sizes[v].1) as usize;
+        let extent = |v: usize| sizes[v];
+        let split = Split {
+            records: 28,
+            per_buffer: 10,
+        };
+        let got: Vec<_> = ViewBatch::split(0..4, records, extent, split)
+            .iter()
+            .map(|b| (b.first, b.count, b.first_row, b.extent, b.records.clone()))
             .collect();
         assert_eq!(
             got,
             vec![
-                (0, 1, 6, 14..16),
-                (0, 3, 9, 16..24),
-                (2, 2, 9, 24..32),
-                (3, 1, 4, 32..33),
+                (0, 1, 0, (3, 2), 0..6),
+                (1, 1, 0, (4, 1), 6..10),
+                (1, 1, 1, (4, 3), 10..20),
+                (1, 1, 3, (4, 1), 20..22),
+                (2, 2, 0, (2, 2), 22..28),
             ]
         );
         assert!(ViewBatch::split(2..2, records, extent, split).is_empty());
