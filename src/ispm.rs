@@ -125,6 +125,9 @@ pub struct BouncePlan {
     /// the photon map is then the same whatever the camera, so moving the camera never
     /// re-traces it (docs/overview.md, "The camera").
     pub origin: DVec3,
+    /// The lights (indices in `scene.lights`) whose budget asked for main views larger than
+    /// [`MAX_RESOLUTION`]² texels: they emit fewer photons than their budget.
+    pub lights_at_max_resolution: Vec<usize>,
     /// What the plan's lights may need when they move: see [`BouncePlan::capacity`].
     reserve: Capacity,
 }
@@ -470,12 +473,17 @@ impl BouncePlan {
             }
             let probes = (count as u32 * PROBE * PROBE).max(1) as f64;
             let useful = (inside.max(1) as f64 / probes).min(1.0);
+            // The main views' side for the share `s` of the budget spent elsewhere, before the
+            // cap at MAX_RESOLUTION.
+            let main_side = |s: f64| {
+                let texels = (1.0 - s) * n as f64 / (useful * count.max(1) as f64);
+                texels.sqrt().ceil()
+            };
             let main_res = |s: f64| {
                 if n == 0 || count == 0 {
                     0
                 } else {
-                    let texels = (1.0 - s) * n as f64 / (useful * count as f64);
-                    (texels.sqrt().ceil() as u32).clamp(1, MAX_RESOLUTION)
+                    (main_side(s) as u32).clamp(1, MAX_RESOLUTION)
                 }
             };
             let wanted = if rects.iter().any(Option::is_some) {
@@ -484,6 +492,7 @@ impl BouncePlan {
                 0.0
             };
             let mut res = main_res(wanted);
+            let mut main_share = wanted;
             // Each rectangle as whole texels of its view at `res`; windows holding no texel
             // inside the cone are dropped (the casters are outside the light's reach).
             let mut windows: Vec<Window> = Vec::new();
@@ -524,7 +533,11 @@ impl BouncePlan {
                 windows.clear();
                 if max_k > 0 {
                     res = main_res(0.0);
+                    main_share = 0.0;
                 }
+            }
+            if n > 0 && count > 0 && main_side(main_share) > f64::from(MAX_RESOLUTION) {
+                plan.lights_at_max_resolution.push(index);
             }
 
             // The main views' per-texel weights, summed for the exact-flux normalisation.
@@ -914,6 +927,21 @@ mod tests {
         // No mirror or glass: no caustic view, every view keeps all of its texels.
         assert_eq!(plan.caustic_texels, 0);
         assert!(plan.views.iter().all(|v| v.kind.y == BOUNCE_VIEW_WHOLE));
+    }
+
+    #[test]
+    fn a_budget_past_the_largest_light_view_is_capped_and_said() {
+        // The spot gets about a third of the budget in one view: 12 M photons ask for more
+        // than 2048² texels there (5 M: 1369²), while the point light's six views stay below
+        // the cap (5 M: 785² each).
+        let scene = point_and_spot();
+        let origin = DVec3::new(0.0, 0.0, 5.0);
+        let plan = BouncePlan::new(&scene, origin, &scene.bounds(), 12_000_000);
+        assert_eq!(plan.lights_at_max_resolution, vec![1]);
+        assert_eq!(plan.extents[6], (MAX_RESOLUTION, MAX_RESOLUTION));
+        assert!(plan.extents[..6].iter().all(|&(w, _)| w < MAX_RESOLUTION));
+        let plan = BouncePlan::new(&scene, origin, &scene.bounds(), 60_000);
+        assert!(plan.lights_at_max_resolution.is_empty());
     }
 
     /// Texels of view `v` of `plan` whose centre direction lies inside the spot's outer cone.

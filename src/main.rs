@@ -219,7 +219,8 @@ struct QualityArgs {
     #[arg(long, value_enum)]
     quality: Option<ispm::quality::Quality>,
     /// Photons emitted per frame, split over the lights by power (default 100000, or the
-    /// --quality preset's).
+    /// --quality preset's). A light view holds at most 2048x2048 texels: a light whose share
+    /// asks for more emits fewer photons, and `render` says so.
     #[arg(long)]
     photons: Option<usize>,
     /// Estimate indirect light at 1/N resolution and upsample it (--upsample; N is clamped to
@@ -755,6 +756,21 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
                 b.name, b.non_finite, b.negative, b.values
             );
         }
+    }
+    let capped = &frame.stats.lights_at_max_resolution;
+    if !capped.is_empty() {
+        let names: Vec<&str> = capped
+            .iter()
+            .map(|&l| scene.lights[l].name.as_str())
+            .collect();
+        let side = ispm::ispm::MAX_RESOLUTION;
+        eprintln!(
+            "note: the photon budget of light {} asks for light views past the largest \
+             ({side}x{side} texels): the frame emits {} photons of the {} asked",
+            names.join(", light "),
+            frame.stats.emitted_photons,
+            knobs.photons
+        );
     }
     eprintln!(
         "wrote {} ({}x{}, {} triangles, {} lights, {} photons stored)",

@@ -498,6 +498,7 @@ impl PhotonFrame {
         let plan = &self.plan;
         let mut stats = FrameStats {
             emitted_photons: plan.texels,
+            lights_at_max_resolution: plan.lights_at_max_resolution.clone(),
             ..Default::default()
         };
         if plan.texels == 0 {

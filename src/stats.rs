@@ -75,6 +75,8 @@ pub fn frame_json(
         // Buffers the bounce map and photon map were split over (more than 1 past one storage
         // buffer's reach, `maxStorageBufferRange`).
         "bounce_map_buffers": s.bounce_map_buffers,
+        // Lights whose budget asked for views past the largest light view (they emit less).
+        "lights_at_max_resolution": s.lights_at_max_resolution,
         "photon_buffers": s.photon_buffers,
         // `--check-values`: per buffer, the NaN/±Inf and negative values counted on the GPU.
         "value_check": s.value_check.as_ref().map(|c| json!({
