@@ -61,25 +61,16 @@ fn frames(bencher: Bencher, moving: &[usize]) {
         r.set_lights(lights).expect("move");
         let frame = r.render().expect("frame");
         assert_eq!(frame.stats.lights_retraced, moving);
-        let gpu_ms = |name: &str| -> f64 {
-            frame
-                .gpu_spans
-                .iter()
-                .filter(|s| s.name == name)
-                .map(ispm::gpu::Span::ms)
-                .sum()
-        };
         stages.push([
             frame.stats.cpu_trace_ms,
-            gpu_ms("light_gbuffers"),
-            gpu_ms("bounce_map"),
-            gpu_ms("readback"),
+            frame.gpu_ms("light_gbuffers"),
+            frame.gpu_ms("bounce_map"),
+            frame.gpu_ms("readback"),
         ]);
     });
     let median = |k: usize| {
-        let mut v: Vec<f64> = stages.iter().map(|s| s[k]).collect();
-        v.sort_by(f64::total_cmp);
-        v.get(v.len() / 2).copied().unwrap_or(0.0)
+        let v: Vec<f64> = stages.iter().map(|s| s[k]).collect();
+        ispm::bench::quantile(&v, 0.5)
     };
     println!(
         "lights {moving:?} moving: median cpu_trace {:.2} ms, light_gbuffers {:.2} ms, \

@@ -40,26 +40,17 @@ fn frames(bencher: Bencher, range: Option<u64>) {
     let mut stages: Vec<[f64; 5]> = Vec::new();
     bencher.bench_local(|| {
         let frame = r.render().expect("frame");
-        let gpu_ms = |name: &str| -> f64 {
-            frame
-                .gpu_spans
-                .iter()
-                .filter(|s| s.name == name)
-                .map(ispm::gpu::Span::ms)
-                .sum()
-        };
         stages.push([
             frame.stats.frame_ms,
-            gpu_ms("bounce_map"),
-            gpu_ms("readback"),
-            gpu_ms("upload"),
-            gpu_ms("photon_volumes"),
+            frame.gpu_ms("bounce_map"),
+            frame.gpu_ms("readback"),
+            frame.gpu_ms("upload"),
+            frame.gpu_ms("photon_volumes"),
         ]);
     });
     let median = |k: usize| {
-        let mut v: Vec<f64> = stages.iter().map(|s| s[k]).collect();
-        v.sort_by(f64::total_cmp);
-        v.get(v.len() / 2).copied().unwrap_or(0.0)
+        let v: Vec<f64> = stages.iter().map(|s| s[k]).collect();
+        ispm::bench::quantile(&v, 0.5)
     };
     println!(
         "(bounce map, photon map) in {buffers:?} buffers: median frame {:.1} ms, bounce_map \

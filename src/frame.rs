@@ -169,6 +169,17 @@ pub struct FrameImage {
     pub stats: FrameStats,
 }
 
+impl FrameImage {
+    /// GPU milliseconds of the frame's passes named `name` (timestamp scopes), summed: 0 for
+    /// none (a fold from +0.0: `Sum` of no f64 is -0.0, which JSON would print).
+    pub fn gpu_ms(&self, name: &str) -> f64 {
+        self.gpu_spans
+            .iter()
+            .filter(|s| s.name == name)
+            .fold(0.0, |sum, s| sum + s.ms())
+    }
+}
+
 /// The paper's Table 2 numbers for one frame.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct FrameStats {

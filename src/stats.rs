@@ -42,13 +42,8 @@ pub fn frame_json(
             // Host-side spans (timing::span guards) of the frame.
             "cpu_trace" => frame.stats.cpu_trace_ms,
             "frame" => frame.stats.frame_ms,
-            // GPU timestamp scopes; a fold from +0.0: `Sum` of no f64 is -0.0, which the JSON
-            // would print.
-            _ => frame
-                .gpu_spans
-                .iter()
-                .filter(|s| s.name == *stage)
-                .fold(0.0, |sum, s| sum + s.ms()),
+            // GPU timestamp scopes.
+            _ => frame.gpu_ms(stage),
         };
         ms.insert((*stage).to_string(), json!(value));
     }
