@@ -22,7 +22,9 @@ use glam::{Mat4, Quat, Vec3};
 use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
 use ispm::gpu::Gpu;
 use ispm::photon::types::{BounceMapPhoton, Photon};
-use ispm::scene::authoring::{cuboid, icosphere, quad, Geometry, GltfWriter, MaterialSpec};
+use ispm::scene::authoring::{
+    cornell_room, cuboid, icosphere, quad, Geometry, GltfWriter, MaterialSpec,
+};
 use ispm::scene::{Camera, Instance, Mesh, Scene};
 
 /// Spot intensity of the unit-scale box, W/sr.
@@ -43,7 +45,7 @@ pub fn lit_box(scale: f32, offset: Vec3) -> Scene {
 pub fn lit_box_with(scale: f32, offset: Vec3, glass: bool) -> Scene {
     let mut w = GltfWriter::default();
     let at = |p: Vec3| offset + p * scale;
-    let white = room(&mut w, scale, offset);
+    let white = cornell_room(&mut w, scale, offset);
     let block = w.mesh("block", &cuboid(Vec3::new(0.3, 0.6, 0.3) * scale), white);
     w.mesh_node(
         "block",
@@ -86,7 +88,7 @@ pub fn lit_box_with(scale: f32, offset: Vec3, glass: bool) -> Scene {
 pub fn two_rooms() -> Scene {
     let mut w = GltfWriter::default();
     for (x, name) in [(-1.25f32, "spot-left"), (1.25, "spot-right")] {
-        let white = room(&mut w, 1.0, Vec3::new(x, 0.0, 0.0));
+        let white = cornell_room(&mut w, 1.0, Vec3::new(x, 0.0, 0.0));
         let block = w.mesh("block", &cuboid(Vec3::new(0.3, 0.6, 0.3)), white);
         w.mesh_node(
             "block",
@@ -111,27 +113,6 @@ pub fn two_rooms() -> Scene {
         0.7,
     );
     load(w, 1.0)
-}
-
-/// The five walls of a 2 m room (module docs of [`lit_box`]), scaled and moved; returns the
-/// white material.
-fn room(w: &mut GltfWriter, scale: f32, offset: Vec3) -> usize {
-    let white = w.material(&MaterialSpec::diffuse("white", [0.75, 0.75, 0.75]));
-    let red = w.material(&MaterialSpec::diffuse("red", [0.63, 0.065, 0.05]));
-    let green = w.material(&MaterialSpec::diffuse("green", [0.14, 0.45, 0.091]));
-    let walls = [
-        ("floor", Vec3::ZERO, Vec3::Y, white),
-        ("ceiling", Vec3::new(0.0, 2.0, 0.0), Vec3::NEG_Y, white),
-        ("back", Vec3::new(0.0, 1.0, -1.0), Vec3::Z, white),
-        ("left", Vec3::new(-1.0, 1.0, 0.0), Vec3::X, red),
-        ("right", Vec3::new(1.0, 1.0, 0.0), Vec3::NEG_X, green),
-    ];
-    for (name, c, n, m) in walls {
-        // Centred on the node, so the vertices stay small and the node carries the offset.
-        let mesh = w.mesh(name, &quad(Vec3::ZERO, n, scale, scale), m);
-        w.mesh_node(name, mesh, offset + c * scale, Quat::IDENTITY);
-    }
-    white
 }
 
 /// The scene `w` wrote, its cameras' near and far planes scaled by `scale`.

@@ -9,7 +9,7 @@ use glam::{Quat, Vec3};
 /// leak through the divider, so the right half stays black.
 pub fn thin_walls() -> Vec<u8> {
     let mut w = GltfWriter::default();
-    let white = cornell_room(&mut w);
+    let white = cornell_room(&mut w, 1.0, Vec3::ZERO);
     for (name, n) in [("divider-left", Vec3::NEG_X), ("divider-right", Vec3::X)] {
         let mesh = w.mesh(name, &quad(Vec3::new(0.0, 1.0, 0.0), n, 1.0, 1.0), white);
         w.mesh_node(name, mesh, Vec3::ZERO, Quat::IDENTITY);

@@ -32,8 +32,10 @@ pub fn all() -> Vec<(&'static str, Vec<u8>)> {
 const WHITE: [f32; 3] = [0.75, 0.75, 0.75];
 
 /// The Cornell room both Cornell boxes share: white, red and green diffuse materials (white is
-/// the first, so its index is returned) and five 2 m walls, open towards the camera at +Z.
-fn cornell_room(w: &mut GltfWriter) -> usize {
+/// the first, so its index is returned) and five 2 m walls, open towards the camera at +Z,
+/// scaled by `scale` about the floor's centre and moved by `offset` (the nodes carry the offset,
+/// so the vertices stay as small as the room: the hard cases' scale and position tests).
+pub fn cornell_room(w: &mut GltfWriter, scale: f32, offset: Vec3) -> usize {
     let white = w.material(&MaterialSpec::diffuse("white", WHITE));
     let red = w.material(&MaterialSpec::diffuse("red", [0.63, 0.065, 0.05]));
     let green = w.material(&MaterialSpec::diffuse("green", [0.14, 0.45, 0.091]));
@@ -45,8 +47,8 @@ fn cornell_room(w: &mut GltfWriter) -> usize {
         ("right", Vec3::new(1.0, 1.0, 0.0), Vec3::NEG_X, green),
     ];
     for (name, c, n, m) in walls {
-        let mesh = w.mesh(name, &quad(c, n, 1.0, 1.0), m);
-        w.mesh_node(name, mesh, Vec3::ZERO, Quat::IDENTITY);
+        let mesh = w.mesh(name, &quad(c * scale, n, scale, scale), m);
+        w.mesh_node(name, mesh, offset, Quat::IDENTITY);
     }
     white
 }
@@ -55,7 +57,7 @@ fn cornell_room(w: &mut GltfWriter) -> usize {
 /// sphere, a glass sphere (η = 1.3), a white box and two spot lights (white, blue) aiming down.
 pub fn cornell_box() -> Vec<u8> {
     let mut w = GltfWriter::default();
-    let white = cornell_room(&mut w);
+    let white = cornell_room(&mut w, 1.0, Vec3::ZERO);
     let purple = w.material(&MaterialSpec {
         base_color: [0.45, 0.15, 0.55],
         roughness: 0.376,
@@ -185,7 +187,7 @@ pub fn glass_sphere() -> Vec<u8> {
 /// optional lobes out and runs no translucent pass (docs/effects.md).
 pub fn diffuse_box() -> Vec<u8> {
     let mut w = GltfWriter::default();
-    let white = cornell_room(&mut w);
+    let white = cornell_room(&mut w, 1.0, Vec3::ZERO);
     let tall = w.mesh("tall-block", &cuboid(Vec3::new(0.3, 0.6, 0.3)), white);
     w.mesh_node(
         "tall-block",
