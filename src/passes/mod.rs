@@ -72,7 +72,7 @@ pub(crate) fn vertex_attributes() -> [crate::gpu::VertexAttribute; 3] {
 /// specialisation constants. The pass keeps its samplers itself, since the writes borrow them.
 pub(crate) struct ComputeKernel {
     pipeline: crate::gpu::Pipeline,
-    _layout: crate::gpu::DescriptorLayout,
+    layout: crate::gpu::DescriptorLayout,
     sets: Vec<crate::gpu::DescriptorSet>,
 }
 
@@ -120,9 +120,15 @@ impl ComputeKernel {
         )?;
         Ok(Self {
             pipeline,
-            _layout: layout,
+            layout,
             sets,
         })
+    }
+
+    /// Points descriptor set `set` at `writes` (bindings 0, 1, 2… in order). No command buffer
+    /// that bound the set may be recording or pending.
+    pub(crate) fn rewrite(&self, set: usize, writes: &[crate::gpu::Write]) {
+        self.layout.update(self.sets[set], writes);
     }
 
     /// Binds the kernel and dispatches `groups` workgroups.

@@ -38,9 +38,9 @@
 //! the tests prove the counter sees a bad value in every kind of buffer, and that what later
 //! passes make of it is seen too.
 
+use super::ComputeKernel;
 use crate::gpu::{
-    vk, Access, Binding, BindingKind, Buffer, Cmd, ComputeDesc, DescriptorLayout, DescriptorSet,
-    Filter, Gpu, Image, MemoryLocation, Pipeline, Sampler, Write,
+    vk, Access, BindingKind, Buffer, Cmd, Filter, Gpu, Image, MemoryLocation, Sampler, Write,
 };
 use crate::layout::ValueCounters;
 use crate::passes::bounce_map::MAX_BOUNCE_BUFFERS;
@@ -176,13 +176,12 @@ struct Injection {
     value: f32,
 }
 
-/// A compute pipeline, its descriptor layout and sets per frame in flight and slot.
+/// A compute kernel with descriptor sets per frame in flight and slot.
 struct Kernel {
-    pipeline: Pipeline,
-    layout: DescriptorLayout,
-    /// `[frame][slot][part]`: a set for each check of a slot in one frame (module docs);
+    kernel: ComputeKernel,
+    /// `[frame][slot]`: the kernel's sets for the checks of a slot in one frame (module docs);
     /// written before each use.
-    sets: Vec<Vec<Vec<DescriptorSet>>>,
+    sets: Vec<Vec<Range<usize>>>,
 }
 
 impl Kernel {
@@ -193,35 +192,23 @@ impl Kernel {
         (source, push_size): (BindingKind, usize),
         (frames, parts): (usize, fn(Checked) -> usize),
     ) -> anyhow::Result<Self> {
-        let bindings = Binding::sequence(
-            &[BindingKind::StorageBuffer, source],
-            vk::ShaderStageFlags::COMPUTE,
-        );
-        let per_frame: usize = Checked::ALL.iter().map(|&c| parts(c)).sum();
-        let layout = DescriptorLayout::new(gpu, name, &bindings, (frames * per_frame) as u32)?;
-        let pipeline = Pipeline::compute(
-            gpu,
-            &ComputeDesc {
-                name,
-                shader,
-                set_layouts: &[&layout],
-                push_constant_size: push_size as u32,
-                specialization: &[],
-            },
-        )?;
-        let sets = (0..frames)
+        let mut next = 0;
+        let sets: Vec<Vec<Range<usize>>> = (0..frames)
             .map(|_| {
                 Checked::ALL
                     .iter()
-                    .map(|&c| (0..parts(c)).map(|_| layout.allocate(&[])).collect())
+                    .map(|&c| {
+                        next += parts(c);
+                        next - parts(c)..next
+                    })
                     .collect()
             })
-            .collect::<Result<Vec<Vec<Vec<_>>>, _>>()?;
-        Ok(Self {
-            pipeline,
-            layout,
-            sets,
-        })
+            .collect();
+        let kinds = [BindingKind::StorageBuffer, source];
+        let unwritten: Vec<&[Write]> = vec![&[]; next];
+        let shape = (&kinds[..], push_size as u32);
+        let kernel = ComputeKernel::with_sets(gpu, name, shader, shape, &unwritten, &[])?;
+        Ok(Self { kernel, sets })
     }
 
     /// Points the set of (`frame`, `which`, `part`) at `writes` and dispatches `groups` with
@@ -234,8 +221,8 @@ impl Kernel {
         push: &T,
         groups: [u32; 3],
     ) -> anyhow::Result<()> {
-        let sets = &self.sets[frame][which.slot()];
-        let Some(&set) = sets.get(part) else {
+        let sets = self.sets[frame][which.slot()].clone();
+        let Some(set) = sets.clone().nth(part) else {
             anyhow::bail!(
                 "value check: {} checked {} times in one frame, more than its {} descriptor sets",
                 which.name(),
@@ -243,11 +230,8 @@ impl Kernel {
                 sets.len()
             );
         };
-        self.layout.update(set, writes);
-        cmd.bind_pipeline(&self.pipeline);
-        cmd.bind_sets(&self.pipeline, 0, &[set]);
-        cmd.push_constants(&self.pipeline, push);
-        cmd.dispatch(groups[0], groups[1], groups[2]);
+        self.kernel.rewrite(set, writes);
+        self.kernel.dispatch_set_with(cmd, set, push, groups);
         Ok(())
     }
 }
