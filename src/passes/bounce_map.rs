@@ -311,6 +311,38 @@ mod tests {
         }
     }
 
+    /// The records of views of `sizes` texels laid out one after another from record `first`.
+    fn laid_out(first: usize, sizes: &[(u32, u32)]) -> Vec<Range<usize>> {
+        let mut at = first;
+        let mut views = Vec::new();
+        for &(w, h) in sizes {
+            views.push(at..at + (w * h) as usize);
+            at += (w * h) as usize;
+        }
+        views
+    }
+
+    /// A batch as (first, count, first_row, extent, records).
+    type Batch = (u32, u32, u32, (u32, u32), Range<usize>);
+
+    /// `ViewBatch::split` of views `range` of `sizes` laid out from record `first`, over a map
+    /// of `records` records in buffers of `per_buffer`.
+    fn batches(
+        (first, sizes): (usize, &[(u32, u32)]),
+        range: Range<usize>,
+        (records, per_buffer): (usize, usize),
+    ) -> Vec<Batch> {
+        let views = laid_out(first, sizes);
+        let split = Split {
+            records,
+            per_buffer,
+        };
+        ViewBatch::split(range, |v| views[v].clone(), |v| sizes[v], split)
+            .into_iter()
+            .map(|b| (b.first, b.count, b.first_row, b.extent, b.records))
+            .collect()
+    }
+
     #[test]
     fn view_batches_cover_every_record_once_in_the_buffer_holding_it() {
         // Views of assorted sizes (some empty) over buffers of assorted sizes: the texels the
@@ -325,44 +357,36 @@ mod tests {
             (2, 7),
             (1, 1),
         ];
-        let starts: Vec<usize> = sizes
-            .iter()
-            .scan(5, |at, &(w, h)| {
-                let start = *at;
-                *at += (w * h) as usize;
-                Some(start)
-            })
-            .collect();
-        let end = starts[7] + 1;
-        let records = |v: usize| starts[v]..starts[v] + (sizes[v].0 * sizes[v].1) as usize;
+        let views = laid_out(5, &sizes);
+        let end = views[7].end;
         for per_buffer in 1..=end {
-            let split = Split {
-                records: end,
-                per_buffer,
-            };
             for first in 0..8 {
                 for last in first..=8 {
                     let mut seen = vec![0u32; end];
-                    for b in ViewBatch::split(first..last, records, |v| sizes[v], split) {
-                        assert_eq!(
-                            b.records.start / per_buffer,
-                            (b.records.end - 1) / per_buffer
-                        );
-                        for v in b.first..b.first + b.count {
-                            let (w, h) = sizes[v as usize];
-                            for y in b.first_row..(b.first_row + b.extent.1).min(h) {
-                                for x in 0..w.min(b.extent.0) {
-                                    let r = starts[v as usize] + (y * w + x) as usize;
-                                    if b.records.contains(&r) {
+                    for (v0, count, row, extent, records) in
+                        batches((5, &sizes), first..last, (end, per_buffer))
+                    {
+                        assert_eq!(records.start / per_buffer, (records.end - 1) / per_buffer);
+                        for v in (v0..v0 + count).map(|v| v as usize) {
+                            let (w, h) = sizes[v];
+                            for y in row..(row + extent.1).min(h) {
+                                for x in 0..w.min(extent.0) {
+                                    let r = views[v].start + (y * w + x) as usize;
+                                    if records.contains(&r) {
                                         seen[r] += 1;
                                     }
                                 }
                             }
                         }
                     }
-                    let want = |r: usize| u32::from((first..last).any(|v| records(v).contains(&r)));
+                    let want =
+                        |r: usize| u32::from(views[first..last].iter().any(|v| v.contains(&r)));
                     for (r, &n) in seen.iter().enumerate() {
-                        assert_eq!(n, want(r), "record {r}, views {first}..{last}, {split:?}");
+                        assert_eq!(
+                            n,
+                            want(r),
+                            "record {r}, views {first}..{last}, {per_buffer}"
+                        );
                     }
                 }
             }
@@ -371,32 +395,13 @@ mod tests {
 
     #[test]
     fn view_batches_hold_the_views_with_records_in_their_buffer() {
-        // Views of 6, 0, 9 and 4 records (14..20, 20..20, 20..29, 29..33) over buffers of 8:
-        // view 0 straddles buffers 1 and 2, view 2 buffers 2 and 3, view 3 buffers 3 and 4; the
-        // empty view 1 has no records and no batch.
-        let sizes = [6usize, 0, 9, 4];
-        let starts: Vec<usize> = sizes
-            .iter()
-            .scan(14, |at, &n| {
-                let start = *at;
-                *at += n;
-                Some(start)
-            })
-            .collect();
-        let records = |v: usize| starts[v]..starts[v] + sizes[v];
-        let extent = |v: usize| (sizes[v] as u32, 1);
-        let split = Split {
-            records: 40,
-            per_buffer: 8,
-        };
-        let batches = ViewBatch::split(0..4, records, extent, split);
-        let got: Vec<_> = batches
-            .iter()
-            .map(|b| (b.first, b.count, b.first_row, b.extent, b.records.clone()))
-            .collect();
-        // Views of one row: a cut view's batch is its one row.
+        // Views of 6, 0, 9 and 4 records in one row each (14..20, 20..20, 20..29, 29..33) over
+        // buffers of 8: view 0 straddles buffers 1 and 2, view 2 buffers 2 and 3, view 3
+        // buffers 3 and 4; the empty view 1 has no records and no batch. A cut view's batch is
+        // its one row.
+        let rows = [(6, 1), (0, 1), (9, 1), (4, 1)];
         assert_eq!(
-            got,
+            batches((14, &rows), 0..4, (40, 8)),
             vec![
                 (0, 1, 0, (6, 1), 14..16),
                 (0, 1, 0, (6, 1), 16..20),
@@ -406,23 +411,13 @@ mod tests {
                 (3, 1, 0, (4, 1), 32..33),
             ]
         );
+        assert!(batches((14, &rows), 2..2, (40, 8)).is_empty());
         // Views of 3×2, 4×4, 2×1 and 2×2 texels (records 0..6, 6..22, 22..24, 24..28) over
         // buffers of 10: view 1's rows 0–1 in buffer 0, rows 1–3 in buffer 1 (its row 1 in
         // both, each writing its own records); views 2 and 3 whole in buffer 2.
-        let sizes = [(3u32, 2u32), (4, 4), (2, 1), (2, 2)];
-        let starts = [0usize, 6, 22, 24];
-        let records = |v: usize| starts[v]..starts[v] + (sizes[v].0 * sizes[v].1) as usize;
-        let extent = |v: usize| sizes[v];
-        let split = Split {
-            records: 28,
-            per_buffer: 10,
-        };
-        let got: Vec<_> = ViewBatch::split(0..4, records, extent, split)
-            .iter()
-            .map(|b| (b.first, b.count, b.first_row, b.extent, b.records.clone()))
-            .collect();
+        let grids = [(3, 2), (4, 4), (2, 1), (2, 2)];
         assert_eq!(
-            got,
+            batches((0, &grids), 0..4, (28, 10)),
             vec![
                 (0, 1, 0, (3, 2), 0..6),
                 (1, 1, 0, (4, 1), 6..10),
@@ -431,6 +426,5 @@ mod tests {
                 (2, 2, 0, (2, 2), 22..28),
             ]
         );
-        assert!(ViewBatch::split(2..2, records, extent, split).is_empty());
     }
 }
