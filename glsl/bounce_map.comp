@@ -34,7 +34,7 @@ layout(push_constant) uniform Push {
     uint records;
     uint base;
     uint first_row;     // the first row of the views' texels (gl_GlobalInvocationID.y counts from it)
-    uint pad1;
+    uint sample_index;  // the frame's photon sample (texel_jitter; 0 unless accumulating)
     uint pad2;
 } push;
 
@@ -62,6 +62,28 @@ uint texel_key(BounceView view, uvec2 xy) {
     return hash2(hash2(hash2(view.texels.w, view.kind.w), g.x), g.y);
 }
 
+// Where inside its texel the photon of sample `sample_index` passes, in texels from its corner:
+// the twin of ispm::texel_jitter (src/ispm.rs), bit for bit (32-bit fixed point).
+vec2 texel_jitter(uint key, uint sample_index) {
+    uint x = hash2(key, JITTER_STREAM_X) + sample_index * JITTER_R2_X;
+    uint y = hash2(key, JITTER_STREAM_Y) + sample_index * JITTER_R2_Y;
+    return vec2(uvec2(x, y) >> 8u) * (1.0 / 16777216.0);
+}
+
+// Whether light G-buffer texel `t` continues the surface of the texel at `p` with normal `n`
+// and material `material`: it saw a surface of the same material whose normal is within about
+// 25 degrees and which lies within about 15 degrees of the tangent plane at `p` (a crease or a
+// silhouette is not interpolated across).
+bool same_surface(ivec3 t, vec3 p, vec3 n, uint material) {
+    vec4 q = texelFetch(g_position, t, 0);
+    if (q.w == 0.0 || texelFetch(g_material, t, 0).x != material) {
+        return false;
+    }
+    vec3 d = q.xyz - p;
+    vec3 m = normalize(texelFetch(g_normal, t, 0).xyz);
+    return dot(m, n) > 0.9 && abs(dot(d, n)) <= 0.25 * length(d);
+}
+
 void main() {
     uint v = push.first_view + gl_GlobalInvocationID.z;
     BounceView view = views[v];
@@ -83,19 +105,57 @@ void main() {
         bounce_map[index] = bounce_map_photon_store(photon);
         return;
     }
-    vec3 p = pos.xyz;
-    vec2 ndc = (vec2(xy) + 0.5) / vec2(size) * 2.0 - 1.0;
+    // The photon passes through a jittered point of its texel (texel_jitter): its hit is where
+    // that ray meets the tangent plane of the surface the texel saw, and its normal is the
+    // bilinear interpolation of the neighbouring texels' normals on the same surface, so a
+    // curved mirror reflects a continuous fan of directions, not one per texel.
+    vec3 centre = pos.xyz;
+    vec4 nrm = texelFetch(g_normal, texel, 0);
+    vec3 n_centre = normalize(nrm.xyz);
+    uint material = texelFetch(g_material, texel, 0).x;
+    vec2 jitter = texel_jitter(texel_key(view, xy), push.sample_index);
+    vec2 ndc = (vec2(xy) + jitter) / vec2(size) * 2.0 - 1.0;
     vec4 near_h = view.inv_view_proj * vec4(ndc, LIGHT_VIEW_NEAR_Z, 1.0);
+    vec4 far_h = view.inv_view_proj * vec4(ndc, LIGHT_VIEW_FAR_Z, 1.0);
     vec3 near_point = near_h.xyz / near_h.w;
-    photon.depth = length(p - near_point);
+    vec3 ray = normalize(far_h.xyz / far_h.w - near_point);
+    float facing = dot(ray, n_centre);
+    // Grazing rays (within about 6 degrees of the plane) take the point nearest the texel's.
+    float depth = facing * facing > 0.01 ? dot(centre - near_point, n_centre) / facing
+                                         : dot(centre - near_point, ray);
+    if (!(depth > 0.0) || isinf(depth)) {
+        depth = length(centre - near_point);
+    }
+    photon.depth = depth;
+    vec3 p = near_point + ray * depth;
+    // Bilinear weights of the four texel centres around the jittered point.
+    vec2 f = vec2(xy) + jitter - 0.5;
+    ivec2 base = ivec2(floor(f));
+    vec2 w = f - vec2(base);
+    vec3 n_sum = vec3(0.0);
+    for (int j = 0; j < 2; j++) {
+        for (int i = 0; i < 2; i++) {
+            ivec2 c = base + ivec2(i, j);
+            float weight = (i == 0 ? 1.0 - w.x : w.x) * (j == 0 ? 1.0 - w.y : w.y);
+            if (c == ivec2(xy)) {
+                n_sum += weight * n_centre;
+            } else if (all(greaterThanEqual(c, ivec2(0))) && all(lessThan(c, ivec2(size)))
+                       && same_surface(ivec3(c, int(v)), centre, n_centre, material)) {
+                n_sum += weight * normalize(texelFetch(g_normal, ivec3(c, int(v)), 0).xyz);
+            }
+        }
+    }
+    vec3 n_interp = normalize(n_sum);
 
     // The texel centre on the view's plane (unit distance, or metres for orthographic views).
     float side = view.params.x;
     vec2 q = view.params.zw + (vec2(xy) + 0.5) * side;
     vec3 travel = view.kind.x == LIGHT_DIRECTIONAL ? view.axis.xyz : normalize(p - view.light.xyz);
     // Where the texel's solid angle and spot falloff are evaluated: its centre, or for a caustic
-    // view its parent texel's centre (q, and the direction to the parent's first hit).
-    vec3 emitted = travel;
+    // view its parent texel's centre (q, and the direction to the parent's first hit), so that
+    // the powers still sum to the light's flux exactly.
+    vec3 emitted = view.kind.x == LIGHT_DIRECTIONAL ? view.axis.xyz
+                                                    : normalize(centre - view.light.xyz);
     // The part of the texel's power it carries: every direction counted once (src/ispm.rs,
     // "Caustic views").
     float part = 1.0;
@@ -160,11 +220,10 @@ void main() {
         }
     }
 
-    vec4 nrm = texelFetch(g_normal, texel, 0);
     // The mesh's own side: refraction needs to know whether the photon enters or leaves.
-    vec3 n = normalize(nrm.xyz) * (nrm.w < 0.0 ? -1.0 : 1.0);
+    vec3 n = n_interp * (nrm.w < 0.0 ? -1.0 : 1.0);
     vec3 albedo = texelFetch(g_albedo, texel, 0).rgb;
-    GpuMaterial m = materials[texelFetch(g_material, texel, 0).x];
+    GpuMaterial m = materials[material];
     Bsdf bsdf = material_bsdf(m, albedo);
     Rng rng = rng_new(hash2(texel_key(view, xy), push.seed));
     BsdfSample s;

@@ -39,6 +39,7 @@ use crate::gpu::{
 use crate::gpu_scene::GpuScene;
 use crate::layout::FrameUniforms;
 use crate::lighting::LightSetup;
+use crate::passes::accumulate::AccumulatePass;
 use crate::passes::debug_view::{DebugInputs, DebugView, DebugViewPass};
 use crate::passes::direct::{DirectInputs, DirectPass};
 use crate::passes::eye_gbuffer::{EyeGBufferPass, GBuffer, View};
@@ -128,6 +129,12 @@ pub struct RenderSettings {
     /// (`--check-values`, `FrameStats::value_check`; `passes/value_check.rs`). Off: the pass
     /// is neither made nor recorded.
     pub check_values: bool,
+    /// Progressive accumulation: while nothing moves, each frame traces an independent photon
+    /// map with smaller kernels and the displayed image is the mean of the frames since the
+    /// last change (`passes/accumulate.rs`; `ispm render --frames N` returns the mean of N).
+    /// Off: every frame stands alone and a still frame reuses the photon map (real-time
+    /// frames, `ispm bench`).
+    pub accumulate: bool,
 }
 
 impl Default for RenderSettings {
@@ -151,6 +158,7 @@ impl Default for RenderSettings {
             caustic_share: crate::ispm::CAUSTIC_SHARE,
             storage_buffer_range: None,
             check_values: false,
+            accumulate: false,
         }
     }
 }
@@ -228,6 +236,11 @@ pub struct FrameStats {
     /// The NaN, ±Inf and negative values in the frame's buffers, counted on the GPU
     /// (`RenderSettings::check_values`; `None` when off).
     pub value_check: Option<ValueCheck>,
+    /// Frames in the image's mean (`RenderSettings::accumulate`; 1 for a frame that stands
+    /// alone).
+    pub accumulated_frames: u32,
+    /// The photon sample the frame's photon map was traced with (0: the frame-coherent one).
+    pub photon_sample: u32,
 }
 
 /// A light whose photons a frame kept, and why.
@@ -338,6 +351,15 @@ pub struct Renderer {
     photons: Option<PhotonFrame>,
     /// Glass and mirrors (scenes with delta materials only).
     translucent: Option<TranslucentFrame>,
+    /// `RenderSettings::accumulate`: the running mean of still frames.
+    accumulate: Option<AccumulatePass>,
+    /// Frames in the accumulation after the last submitted frame.
+    accumulated: u32,
+    /// Nothing that changes the image has changed since the last submitted frame: the next
+    /// one may join its accumulation.
+    still: bool,
+    /// The last photon sample drawn for an accumulated frame (`PhotonFrame::set_sample`).
+    last_sample: u32,
     slots: Vec<FrameSlot>,
     /// Frames submitted so far.
     frame_index: u64,
@@ -493,6 +515,11 @@ impl Renderer {
             },
         )?;
         let display = tonemap::output(gpu, settings.width, settings.height)?;
+        let accumulate = if settings.accumulate && settings.method == Method::Ispm {
+            Some(AccumulatePass::new(gpu, &radiance)?)
+        } else {
+            None
+        };
         let shadow_maps = ShadowMapPass::new(gpu)?;
         let eye_gbuffer = EyeGBufferPass::new(gpu, "eye_gbuffer", &gpu_scene, &[&frame_uniforms])?;
         let direct = DirectPass::new(
@@ -581,6 +608,10 @@ impl Renderer {
             value_check,
             photons,
             translucent,
+            accumulate,
+            accumulated: 0,
+            still: false,
+            last_sample: 0,
             slots,
             frame_index: 0,
             broken: false,
@@ -656,7 +687,27 @@ impl Renderer {
         self.lights = lights.to_vec();
         self.plan = plan;
         self.photon_map = None;
+        self.restart_accumulation(true);
         Ok(())
+    }
+
+    /// The next frame starts a new accumulation (`RenderSettings::accumulate`): something that
+    /// changes the image changed. When lights or objects `moved`, the photons go back to sample
+    /// 0, the frame-coherent one, so a moving scene keeps its random numbers from frame to
+    /// frame and does not shimmer (docs/stability.md); a camera move keeps the photon map.
+    pub(crate) fn restart_accumulation(&mut self, moved: bool) {
+        self.still = false;
+        if moved {
+            self.last_sample = 0;
+            if let Some(photons) = &mut self.photons {
+                photons.set_sample(0);
+            }
+        }
+    }
+
+    /// Frames in the image the last submitted frame shows (1 without accumulation).
+    pub fn accumulated_frames(&self) -> u32 {
+        self.accumulated.max(1)
     }
 
     /// The plan for `self.source` with `lights` already in it, and the photon part moved to
@@ -739,6 +790,7 @@ impl Renderer {
         self.camera = camera;
         self.source.camera = camera;
         self.plan = plan;
+        self.restart_accumulation(false);
         Ok(())
     }
 
@@ -802,6 +854,8 @@ impl Renderer {
         let timestamps = self.slots[slot].timestamps.clone();
         timestamps.reset(self.frame_index);
         let frame = self.prepare();
+        // Progressive accumulation: a still frame joins the mean with a new photon sample.
+        let accumulated = self.next_accumulation();
         // Nothing moved and no light changed since the photon map was traced: draw it again
         // (issue #9), without light G-buffers, bounce map, readback, trace or upload.
         let reuse = match &self.photon_map {
@@ -889,6 +943,8 @@ impl Renderer {
             .collect();
         let d_done = self.submit(d, &waits)?;
         let _ = b_done;
+        stats.accumulated_frames = accumulated + 1;
+        stats.photon_sample = self.photons.as_ref().map_or(0, PhotonFrame::sample);
 
         self.last_frame_done = Some(d_done);
         self.slots[slot].pending = Some(PendingFrame {
@@ -901,6 +957,31 @@ impl Renderer {
         self.broken = false;
         drop(frame_span);
         Ok(())
+    }
+
+    /// How many frames the next frame's accumulation already holds (0: it starts one), and
+    /// the photon sample and kernel scale for it: a still frame after the first of an
+    /// accumulation gets a new, independent photon map (sample `last_sample + 1`) and kernels
+    /// shrunk as probabilistic progressive photon mapping shrinks them
+    /// ([`crate::photon::progressive::progressive_scale`]).
+    fn next_accumulation(&mut self) -> u32 {
+        let Some(photons) = self.photons.as_mut().filter(|_| self.accumulate.is_some()) else {
+            self.accumulated = 0;
+            return 0;
+        };
+        let frames = if self.still && self.plan.accumulate {
+            self.accumulated
+        } else {
+            0
+        };
+        if frames > 0 {
+            self.last_sample = self.last_sample.wrapping_add(1).max(1);
+            photons.set_sample(self.last_sample);
+            self.photon_map = None;
+        }
+        photons.set_radius_scale(crate::photon::progressive::progressive_scale(frames));
+        self.accumulated = frames;
+        frames
     }
 
     /// Waits for every frame in flight and reads back the last one.
@@ -1134,6 +1215,11 @@ impl Renderer {
                 &mut self.radiance,
             );
         }
+        if let (Some(accumulate), true) = (&mut self.accumulate, self.plan.accumulate) {
+            accumulate.record(cmd, &mut self.radiance, self.accumulated);
+            self.accumulated += 1;
+            self.still = true;
+        }
         if let Some(check) = &mut self.value_check {
             check.image(cmd, Checked::Final, &self.radiance)?;
             check.end(cmd);
@@ -1198,6 +1284,8 @@ impl Renderer {
         }
         if view != self.debug_view.as_ref().map(|(v, _)| *v) {
             self.debug_view = view.map(|v| (v, None));
+            // The direct-only view leaves the estimate out of the radiance.
+            self.restart_accumulation(false);
         }
         Ok(())
     }

@@ -74,7 +74,8 @@ use crate::photon::trace::PhotonState;
 use crate::photon::types::BounceMapPhoton;
 use crate::scene::{Aabb, LightKind, Scene};
 use crate::shared_constants::{
-    BOUNCE_VIEW_CAUSTIC, BOUNCE_VIEW_PARENT, BOUNCE_VIEW_WHOLE, LIGHT_VIEW_FAR_Z, LIGHT_VIEW_NEAR_Z,
+    BOUNCE_VIEW_CAUSTIC, BOUNCE_VIEW_PARENT, BOUNCE_VIEW_WHOLE, JITTER_R2_X, JITTER_R2_Y,
+    JITTER_STREAM_X, JITTER_STREAM_Y, LIGHT_VIEW_FAR_Z, LIGHT_VIEW_NEAR_Z,
 };
 use glam::{DMat4, DVec2, DVec3, DVec4, UVec4, Vec4};
 use std::ops::Range;
@@ -178,6 +179,34 @@ fn texel_ndc(x: u32, y: u32, width: u32, height: u32) -> DVec2 {
     DVec2::new(
         (f64::from(x) + 0.5) / f64::from(width) * 2.0 - 1.0,
         (f64::from(y) + 0.5) / f64::from(height) * 2.0 - 1.0,
+    )
+}
+
+/// Where inside texel (`x`, `y`) the photon of sample `sample` passes, in texels from its
+/// corner, each in [0, 1): the twin of `texel_jitter` in `bounce_map.comp`. A random offset per
+/// texel (two hashes of its `key`, [`BouncePlan::texel_key`]) rotated by point `sample` of the R2
+/// sequence (Cranley–Patterson rotation), all in 32-bit fixed point so both sides compute the
+/// same bits: within a frame every texel has its own offset, so the photons are stratified and
+/// jittered over the view (no lattice in a caustic), and over the frames of an accumulation
+/// each texel's offsets are a low-discrepancy sequence (`shared_constants.rs`, `JITTER_*`).
+pub fn texel_jitter(key: u32, sample: u32) -> DVec2 {
+    let fixed = |stream: u32, step: u32| {
+        let bits = hash2(key, stream).wrapping_add(sample.wrapping_mul(step));
+        // The top 24 bits, as the GLSL side takes them: exact in f32.
+        f64::from(bits >> 8) * (1.0 / 16_777_216.0)
+    };
+    DVec2::new(
+        fixed(JITTER_STREAM_X, JITTER_R2_X),
+        fixed(JITTER_STREAM_Y, JITTER_R2_Y),
+    )
+}
+
+/// NDC of the point `jitter` (texels from the corner, in [0, 1)) of texel (x, y) of a
+/// `width`×`height` view.
+fn jittered_ndc(x: u32, y: u32, jitter: DVec2, width: u32, height: u32) -> DVec2 {
+    DVec2::new(
+        (f64::from(x) + jitter.x) / f64::from(width) * 2.0 - 1.0,
+        (f64::from(y) + jitter.y) / f64::from(height) * 2.0 - 1.0,
     )
 }
 
@@ -770,10 +799,11 @@ impl BouncePlan {
     }
 
     /// The photons to continue on the CPU: every bounce-map record with power, placed at the
-    /// hit point its texel ray and depth describe (in world space), and pushed along its
-    /// direction by the hit point's error bound.
-    pub fn photon_starts(&self, bounce_map: &[BounceMapPhoton]) -> Vec<PhotonState> {
-        self.starts(bounce_map, self.origin, 0..self.views.len())
+    /// hit point its texel ray (through the texel's jittered point of sample `sample`,
+    /// [`texel_jitter`]) and depth describe (in world space), and pushed along its direction by
+    /// the hit point's error bound.
+    pub fn photon_starts(&self, bounce_map: &[BounceMapPhoton], sample: u32) -> Vec<PhotonState> {
+        self.starts(bounce_map, self.origin, 0..self.views.len(), sample)
     }
 
     /// [`Self::photon_starts`] relative to the plan's origin (the renderer's CPU trace, whose
@@ -783,8 +813,9 @@ impl BouncePlan {
         &self,
         bounce_map: &[BounceMapPhoton],
         views: Range<usize>,
+        sample: u32,
     ) -> Vec<PhotonState> {
-        self.starts(bounce_map, DVec3::ZERO, views)
+        self.starts(bounce_map, DVec3::ZERO, views, sample)
     }
 
     /// The photon starts of the views `views`, placed in the frame whose origin is `origin` in
@@ -794,6 +825,7 @@ impl BouncePlan {
         bounce_map: &[BounceMapPhoton],
         origin: DVec3,
         views: Range<usize>,
+        sample: u32,
     ) -> Vec<PhotonState> {
         // The error of a hit point: 10⁻⁴ of its depth and origin-relative size (the light
         // G-buffer's interpolated position and f32 depth, generously), plus 4ε of its
@@ -829,14 +861,16 @@ impl BouncePlan {
                     {
                         continue;
                     }
-                    let ndc = texel_ndc(x, y, width, height);
+                    let texel_key = self.texel_key(v, x, y);
+                    let jitter = texel_jitter(texel_key, sample);
+                    let ndc = jittered_ndc(x, y, jitter, width, height);
                     let near = unproject(&inverse, ndc, NEAR);
                     let dir = (unproject(&inverse, ndc, FAR) - near).normalize();
                     let relative = near + dir * f64::from(p.depth);
                     let hit = relative + origin;
                     // The path is keyed by its texel, as the bounce map's own generator is, not
                     // by where it starts.
-                    let key = hash2(self.texel_key(v, x, y), CPU_PATH_STREAM);
+                    let key = hash2(texel_key, CPU_PATH_STREAM);
                     let error = error(relative, p.depth, hit);
                     if let Some(s) = PhotonState::from_bounce_map(p, hit.as_vec3(), error, key) {
                         starts.push(s);
@@ -1063,7 +1097,7 @@ mod tests {
             eta: 1.0,
             depth: 0.7,
         };
-        let starts = plan.photon_starts(&map);
+        let starts = plan.photon_starts(&map, 0);
         assert_eq!(starts.len(), 1);
         let from_light = starts[0].origin - Vec3::new(0.2, 0.1, -0.3);
         assert!(

@@ -326,10 +326,17 @@ struct RenderArgs {
     /// Eye samples per pixel (CPU references).
     #[arg(long, default_value_t = 16)]
     spp: u32,
-    /// GPU methods: frames to render, the image and stats are the last one's (default 1).
-    /// `progressive`: its iterations (default 16).
+    /// GPU methods: frames to render; the image is their mean (progressive accumulation: each
+    /// frame traces new photons with smaller kernels), the stats the last one's. Without it,
+    /// frames accumulate for --seconds. `progressive`: its iterations (default 16).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     frames: Option<u32>,
+    /// GPU methods without --frames: accumulate frames for this long (at least one frame).
+    #[arg(long, default_value_t = DEFAULT_RENDER_SECONDS, value_parser = parse_seconds)]
+    seconds: f64,
+    /// GPU methods: every frame stands alone (no accumulation); the image is the last frame.
+    #[arg(long)]
+    no_accumulate: bool,
     /// GPU methods: overlap the CPU photon trace with GPU work and keep frames in flight, or
     /// run every step strictly after the one before.
     #[arg(long, value_enum, default_value = "overlapped")]
@@ -410,6 +417,17 @@ fn parse_time(s: &str) -> Result<f32, String> {
     match s.trim().parse::<f32>() {
         Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
         _ => Err(format!("time {s:?} is not a number of seconds ≥ 0")),
+    }
+}
+
+/// How long `ispm render` accumulates by default (`--seconds`).
+const DEFAULT_RENDER_SECONDS: f64 = 4.0;
+
+/// A duration in seconds: finite and not negative.
+fn parse_seconds(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!("{s} is not a duration in seconds (a number ≥ 0)")),
     }
 }
 
@@ -705,6 +723,7 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
         effects: args.effects,
         caustic_share: args.caustic_share,
         check_values: args.check_values,
+        accumulate: !args.no_accumulate,
         ..Default::default()
     };
     if args.trace.is_some() {
@@ -715,8 +734,24 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
         renderer
             .set_debug_view(args.debug_view)
             .context("--debug-view")?;
-        for _ in 1..args.frames.unwrap_or(1) {
+        // --frames N: exactly N frames; otherwise as many as --seconds allows (one frame
+        // without accumulation, where more would only repeat it).
+        let start = std::time::Instant::now();
+        let mut submitted = 1;
+        loop {
+            let more = match args.frames {
+                Some(n) => submitted < n,
+                None => {
+                    !args.no_accumulate
+                        && renderer.plan().accumulate
+                        && start.elapsed().as_secs_f64() < args.seconds
+                }
+            };
+            if !more {
+                break;
+            }
             renderer.submit_frame()?;
+            submitted += 1;
         }
         (renderer.render()?, renderer.triangles())
     };
@@ -773,13 +808,19 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
         );
     }
     eprintln!(
-        "wrote {} ({}x{}, {} triangles, {} lights, {} photons stored)",
+        "wrote {} ({}x{}, {} triangles, {} lights, {} photons stored, mean of {} frame{})",
         args.output.display(),
         frame.width,
         frame.height,
         triangles,
         scene.lights.len(),
-        frame.stats.stored_photons
+        frame.stats.stored_photons,
+        frame.stats.accumulated_frames,
+        if frame.stats.accumulated_frames == 1 {
+            ""
+        } else {
+            "s"
+        }
     );
     Ok(())
 }

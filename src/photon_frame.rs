@@ -57,6 +57,14 @@ pub struct PhotonFrame {
     budget: (usize, f32),
     bounds: crate::scene::Aabb,
     trace: TraceSettings,
+    /// The renderer's `--seed`: photon sample 0's, from which every other sample's seed is
+    /// derived ([`Self::set_sample`]).
+    base_seed: u32,
+    /// The photon sample of the next traced map: its bounce-map seed, CPU path seed and the
+    /// texels' jittered points (`ispm::texel_jitter`).
+    sample: u32,
+    /// [`Self::set_radius_scale`].
+    radius_scale: f32,
     kernel: KernelSettings,
     light_gbuffer: GBuffer,
     light_pass: LightGBufferPass,
@@ -100,6 +108,16 @@ pub struct PhotonFrame {
 struct Subsampled {
     low: [Image; 2],
     upsample: UpsamplePass,
+}
+
+/// The random seed of photon sample `sample` of a renderer seeded `seed`: `seed` itself for
+/// sample 0 (the frame-coherent map), a hash of both for the others.
+pub fn sample_seed(seed: u32, sample: u32) -> u32 {
+    if sample == 0 {
+        seed
+    } else {
+        crate::photon::rng::hash2(seed, sample)
+    }
 }
 
 /// The subsample factor a frame uses: at least 1, at most the image's larger side (beyond it
@@ -272,6 +290,9 @@ impl PhotonFrame {
                 // The plan's lobes (`Renderer::new` narrowed the settings' variant to them).
                 variant: settings.bsdf_variant,
             },
+            base_seed: settings.seed,
+            sample: 0,
+            radius_scale: 1.0,
             // The footprint floor of the image the estimate is made at (the low one when
             // subsampling).
             kernel: kernel_clamp.for_view(scene.camera.yfov, estimate_height),
@@ -300,6 +321,31 @@ impl PhotonFrame {
             kernel_clamp,
             estimate_height,
         })
+    }
+
+    /// Makes the next traced photon map photon sample `sample`: an independent set of photons
+    /// (every light traced again, with seeds derived from `--seed` and `sample`, and its
+    /// texels' photons through other jittered points) for progressive accumulation. Sample 0
+    /// is the renderer's frame-coherent map, which moving lights keep using.
+    pub fn set_sample(&mut self, sample: u32) {
+        if sample == self.sample {
+            return;
+        }
+        self.sample = sample;
+        self.trace.seed = sample_seed(self.base_seed, sample);
+        self.traced.invalidate();
+    }
+
+    /// Scales every photon's kernel radius by `scale` from the next estimate on: the
+    /// progressive schedule of an accumulation (`photon::progressive`), applied after the
+    /// radius is chosen and before its clamp.
+    pub fn set_radius_scale(&mut self, scale: f32) {
+        self.radius_scale = scale;
+    }
+
+    /// The photon sample of the last traced map ([`Self::set_sample`]).
+    pub fn sample(&self) -> u32 {
+        self.sample
     }
 
     /// Moves the lights (same lights, new transforms or powers; `active`: the effects plan's
@@ -451,7 +497,7 @@ impl PhotonFrame {
             split: self.bounce_map.split,
         };
         self.bounce_pass
-            .record(cmd, &io, &self.batches, self.trace.seed);
+            .record(cmd, &io, &self.batches, (self.trace.seed, self.sample));
         for buffer in &self.bounce_map.device {
             cmd.release_buffer(buffer, QueueRole::Transfer);
         }
@@ -522,6 +568,7 @@ impl PhotonFrame {
             bvh: &self.bvh,
             trace: &self.trace,
             retrace: &self.retrace,
+            sample: self.sample,
         };
         self.traced.update(&frame, &mut read, &mut stats)?;
         let count = self.traced.photon_count();

@@ -202,6 +202,9 @@ pub struct EffectsPlan {
     pub max_bounces_reason: String,
     /// The subsample factor the frame uses (upsample runs above 1).
     pub subsample: u32,
+    /// Whether still frames are averaged (`RenderSettings::accumulate`, and only where the
+    /// frames differ: a frame with photon-mapped indirect light).
+    pub accumulate: bool,
     /// What moves, and what that costs per frame.
     pub motion: MotionPlan,
 }
@@ -525,6 +528,7 @@ impl SceneAnalysis {
         } else {
             (0, "no indirect light".to_string())
         };
+        let accumulate = settings.accumulate && indirect.needed;
         EffectsPlan {
             effects: Effects::Auto,
             translucent: self.translucent.clone(),
@@ -535,6 +539,7 @@ impl SceneAnalysis {
             max_bounces,
             max_bounces_reason,
             subsample: self.subsample,
+            accumulate,
             motion: MotionPlan::of(scene),
         }
     }
@@ -588,6 +593,7 @@ impl EffectsPlan {
             max_bounces: if ispm { settings.bounces.max(1) } else { 0 },
             max_bounces_reason: "--effects all: --bounces (at least 1)".to_string(),
             subsample,
+            accumulate: settings.accumulate && ispm,
             motion: MotionPlan::of(scene),
         }
     }
@@ -756,8 +762,37 @@ impl EffectsPlan {
             photon("composite"),
             translucent("environment"),
             translucent("translucent"),
+            self.accumulate_pass(),
             pass("tonemap", true, "every frame: the display image"),
         ]
+    }
+}
+
+impl EffectsPlan {
+    /// The accumulate pass: run when still frames are averaged.
+    fn accumulate_pass(&self) -> PassPlan {
+        if self.accumulate {
+            PassPlan {
+                name: "accumulate",
+                run: true,
+                reason: "progressive: still frames are averaged, each with new photons and \
+                         smaller kernels (reset when anything moves)"
+                    .to_string(),
+            }
+        } else if !self.indirect.needed {
+            PassPlan {
+                name: "accumulate",
+                run: false,
+                reason: "no indirect light: every frame is the same".to_string(),
+            }
+        } else {
+            PassPlan {
+                name: "accumulate",
+                run: false,
+                reason: "not accumulating: each frame stands alone (real-time frames, bench)"
+                    .to_string(),
+            }
+        }
     }
 }
 

@@ -54,3 +54,13 @@ pub const BOUNCE_VIEW_CAUSTIC: u32 = 2;
 // D32F depth buffer keeps its relative precision to the far plane.
 pub const LIGHT_VIEW_NEAR_Z: f32 = 1.0;
 pub const LIGHT_VIEW_FAR_Z: f32 = 0.0;
+
+// Where inside its texel a light-view photon passes (`ispm::texel_jitter`, `bounce_map.comp`):
+// a per-texel random offset (two hashes of the texel's key with these salts) rotated by point
+// `sample` of the R2 sequence, in 32-bit fixed point: `JITTER_R2_X/Y` are 2^32/g and 2^32/g²,
+// g = 1.3247179572 the plastic number (Roberts 2018), so a texel's offsets over the frames of
+// an accumulation are a low-discrepancy sequence and no two texels share one (no lattice).
+pub const JITTER_STREAM_X: u32 = 0x7e1a_91c3;
+pub const JITTER_STREAM_Y: u32 = 0x2b5d_06f7;
+pub const JITTER_R2_X: u32 = 3242174890;
+pub const JITTER_R2_Y: u32 = 2447445414;

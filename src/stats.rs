@@ -24,6 +24,7 @@ pub const STAGES: &[&str] = &[
     "composite",
     "environment",
     "translucent",
+    "accumulate",
     "tonemap",
     "frame",
 ];
@@ -54,6 +55,8 @@ pub fn frame_json(
         "emitted_photons": s.emitted_photons,
         "bounce_map_photons": s.bounce_map_photons,
         "stored_photons": s.stored_photons,
+        "accumulated_frames": s.accumulated_frames,
+        "photon_sample": s.photon_sample,
         "bounces": bounces,
         "attrition": s.attrition,
         "width": frame.width,

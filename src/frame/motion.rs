@@ -86,6 +86,7 @@ impl Renderer {
         self.analysis = analysis;
         self.plan = plan;
         self.photon_map = None;
+        self.restart_accumulation(true);
         Ok(())
     }
 

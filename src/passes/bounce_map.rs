@@ -42,7 +42,10 @@ struct Push {
     /// The first row of the views' texels the dispatch covers (`gl_GlobalInvocationID.y`
     /// counts from it).
     first_row: u32,
-    pad: [u32; 2],
+    /// The frame's photon sample: where in its texel each photon passes
+    /// (`ispm::texel_jitter`).
+    sample: u32,
+    pad: u32,
 }
 
 /// How a bounce map of `records` records is split over buffers of `per_buffer` records each:
@@ -240,7 +243,14 @@ impl BounceMapPass {
 
     /// Runs the first bounce over the views of `batches` (the others' records are left as
     /// they are: a frame that re-traces some lights only writes theirs).
-    pub fn record(&self, cmd: &Cmd, io: &BounceMapIo, batches: &[ViewBatch], seed: u32) {
+    /// `seed` keys the first bounce's random numbers and `sample` the texels' jittered points.
+    pub fn record(
+        &self,
+        cmd: &Cmd,
+        io: &BounceMapIo,
+        batches: &[ViewBatch],
+        (seed, sample): (u32, u32),
+    ) {
         let _scope = cmd.scope("bounce_map");
         let g = io.light_gbuffer;
         for image in [&g.position, &g.normal, &g.albedo, &g.material] {
@@ -263,7 +273,8 @@ impl BounceMapPass {
                 records: batch.records.len() as u32,
                 base: io.split.records_of(buffer).start as u32,
                 first_row: batch.first_row,
-                pad: [0; 2],
+                sample,
+                pad: 0,
             };
             let groups = [super::groups(w), super::groups(h), batch.count];
             self.kernel.dispatch_set_with(cmd, buffer, &push, groups);

@@ -20,6 +20,7 @@
 //! | [`value_check`] | graphics (compute) | the HDR images, bounce map and photon map (`--check-values`) | value counters (host-visible) |
 //! | [`debug_view`] | graphics (compute) | one intermediate buffer (G-buffers, bounce map, photons, indirect) | 8-bit display image (over) |
 
+pub mod accumulate;
 pub mod bounce_map;
 pub mod composite;
 pub mod debug_view;

@@ -5,6 +5,7 @@ pub mod bsdf;
 pub mod bvh;
 pub mod emit;
 pub mod kernel;
+pub mod progressive;
 pub mod ray;
 pub mod rng;
 pub mod sampling;

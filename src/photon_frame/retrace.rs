@@ -48,6 +48,8 @@ pub(super) struct Frame<'a> {
     pub trace: &'a TraceSettings,
     /// Per light: whether its photons are traced again ([`Traced::changed`]).
     pub retrace: &'a [bool],
+    /// The photon sample the bounce map was made with (its texels' jittered points).
+    pub sample: u32,
 }
 
 /// Reads the bounce-map records of a texel range (a re-traced light's) from this frame's
@@ -172,7 +174,7 @@ impl Traced {
             read(texels.clone(), &mut self.bounce_map[texels])?;
             traced.push((
                 light,
-                plan.photon_starts_from_origin(&self.bounce_map, views),
+                plan.photon_starts_from_origin(&self.bounce_map, views, frame.sample),
             ));
         }
         // One parallel trace of every re-traced light's starts; each light's photons are those

@@ -38,7 +38,7 @@ pub fn gpu_bounces(scene: &Scene, photons: usize, seed: u32) -> Vec<Bounced> {
         // `photon_starts` places every surviving record of this view (and only this view).
         let mut only_this_view = vec![ispm::photon::types::BounceMapPhoton::default(); map.len()];
         only_this_view[offset..offset + size].copy_from_slice(records);
-        let mut starts = plan.photon_starts(&only_this_view).into_iter();
+        let mut starts = plan.photon_starts(&only_this_view, 0).into_iter();
         for r in records {
             let (direction, rho_p) = ispm::photon::types::unpack_direction(r.direction);
             let alive = r.power.max_element() > 0.0 && direction != Vec3::ZERO;

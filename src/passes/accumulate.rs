@@ -1,0 +1,86 @@
+//! Accumulate (compute): progressive accumulation of a still view. Each frame's radiance (direct
+//! light, the photon-mapped estimate and the glass) joins the running mean of the frames since
+//! the last reset, and the mean replaces the radiance, so the tonemap, the PNG and the EXR show
+//! the average of every frame so far:
+//!
+//! ```text
+//!  radiance (this frame) ──┐
+//!                          ├─► mean = acc + (radiance − acc)/(n + 1) ──► accumulation (n + 1 frames)
+//!  accumulation (n frames)─┘                                         └─► radiance ──► tonemap
+//! ```
+//!
+//! The renderer decides `n` (`frame.rs`: 0 after anything but the exposure or tonemap changed)
+//! and gives each accumulated frame a new photon sample and a smaller kernel
+//! (`photon_frame.rs`, `PhotonFrame::set_sample`), so the mean converges (docs/accuracy.md,
+//! "Progressive accumulation").
+
+use super::ComputeKernel;
+use crate::gpu::{vk, Access, BindingKind, Cmd, Gpu, Image, ImageDesc, ViewKind, Write};
+use std::sync::Arc;
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Push {
+    width: u32,
+    height: u32,
+    /// Frames already in the accumulation image (0: this frame starts it).
+    frames: u32,
+    pad: u32,
+}
+
+pub struct AccumulatePass {
+    kernel: ComputeKernel,
+    /// The running mean, RGBA f32 like the radiance.
+    accumulation: Image,
+}
+
+impl AccumulatePass {
+    pub fn new(gpu: &Arc<Gpu>, radiance: &Image) -> anyhow::Result<Self> {
+        let accumulation = Image::new(
+            gpu,
+            &ImageDesc {
+                name: "accumulation",
+                format: vk::Format::R32G32B32A32_SFLOAT,
+                width: radiance.width,
+                height: radiance.height,
+                layers: 1,
+                usage: vk::ImageUsageFlags::STORAGE,
+                view: ViewKind::D2,
+            },
+        )?;
+        let kernel = ComputeKernel::new(
+            gpu,
+            "accumulate",
+            &crate::gpu::shader_table::ACCUMULATE_COMP,
+            &[BindingKind::StorageImage, BindingKind::StorageImage],
+            size_of::<Push>() as u32,
+            &[
+                Write::StorageImage(radiance),
+                Write::StorageImage(&accumulation),
+            ],
+            &[],
+        )?;
+        Ok(Self {
+            kernel,
+            accumulation,
+        })
+    }
+
+    /// Adds `radiance` to the mean of the `frames` frames before it and writes the mean back.
+    pub fn record(&mut self, cmd: &Cmd, radiance: &mut Image, frames: u32) {
+        let _scope = cmd.scope("accumulate");
+        cmd.transition(radiance, Access::ComputeStorageWrite);
+        cmd.transition(&self.accumulation, Access::ComputeStorageWrite);
+        let push = Push {
+            width: radiance.width,
+            height: radiance.height,
+            frames,
+            pad: 0,
+        };
+        self.kernel.dispatch_with(
+            cmd,
+            &push,
+            super::image_groups(radiance.width, radiance.height),
+        );
+    }
+}
