@@ -106,12 +106,13 @@ void main() {
         return;
     }
     // The photon passes through a jittered point of its texel (texel_jitter): its hit is where
-    // that ray meets the tangent plane of the surface the texel saw, and its normal is the
-    // bilinear interpolation of the neighbouring texels' normals on the same surface, so a
-    // curved mirror reflects a continuous fan of directions, not one per texel.
+    // that ray meets the plane of the triangle the texel saw (its face normal), and its shading
+    // normal is the bilinear interpolation of the neighbouring texels' normals on the same
+    // surface, so a curved mirror reflects a continuous fan of directions, not one per texel.
     vec3 centre = pos.xyz;
     vec4 nrm = texelFetch(g_normal, texel, 0);
     vec3 n_centre = normalize(nrm.xyz);
+    vec3 face = gbuffer_face_normal(nrm, texelFetch(g_albedo, texel, 0));
     uint material = texelFetch(g_material, texel, 0).x;
     vec2 jitter = texel_jitter(texel_key(view, xy), push.sample_index);
     vec2 ndc = (vec2(xy) + jitter) / vec2(size) * 2.0 - 1.0;
@@ -119,9 +120,9 @@ void main() {
     vec4 far_h = view.inv_view_proj * vec4(ndc, LIGHT_VIEW_FAR_Z, 1.0);
     vec3 near_point = near_h.xyz / near_h.w;
     vec3 ray = normalize(far_h.xyz / far_h.w - near_point);
-    float facing = dot(ray, n_centre);
+    float facing = dot(ray, face);
     // Grazing rays (within about 6 degrees of the plane) take the point nearest the texel's.
-    float depth = facing * facing > 0.01 ? dot(centre - near_point, n_centre) / facing
+    float depth = facing * facing > 0.01 ? dot(centre - near_point, face) / facing
                                          : dot(centre - near_point, ray);
     if (!(depth > 0.0) || isinf(depth)) {
         depth = length(centre - near_point);

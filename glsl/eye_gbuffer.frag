@@ -1,11 +1,16 @@
 #version 460
 // Eye G-buffer, fragment stage: what the later passes need to shade this pixel.
 //   position: camera-relative world position (w = 1 where geometry was drawn, 0 = background)
-//   normal:   unit shading normal turned towards the viewer; w = +1 if that is the side the
-//             mesh's normals face, -1 if it was turned (refraction needs the true side)
-//   albedo:   Lambertian reflectance times the base-colour texture (linear)
+//   normal:   unit shading normal turned towards the viewer; the sign of w is + if that is the
+//             side the mesh's normals face, - if it was turned (refraction needs the true
+//             side); |w| - 2 is the face normal's second octahedral coordinate
+//   albedo:   Lambertian reflectance times the base-colour texture (linear); a: the face
+//             normal's first octahedral coordinate. The face normal (the triangle's plane,
+//             turned towards the viewer: packing.glsl, gbuffer_face_normal) lets the bounce map
+//             place a photon anywhere inside its texel on the triangle itself.
 //   material: index into the material buffer
 #include "shared.glsl"
+#include "packing.glsl"
 
 layout(set = 0, binding = 0) uniform Frame { FrameUniforms frame; };
 layout(std430, set = 0, binding = 1) readonly buffer Materials { GpuMaterial materials[]; };
@@ -43,8 +48,14 @@ void main() {
     if ((m.flags.x & MATERIAL_TEXTURED) != 0u) {
         albedo *= texture(base_color, v_uv).rgb;
     }
+    float face_len = length(face);
+    vec3 f = face_len > 0.0 ? face / face_len : n;
+    if (dot(f, to_viewer) < 0.0) {
+        f = -f;
+    }
+    vec2 oct = oct_encode(f);
     out_position = vec4(v_position, 1.0);
-    out_normal = vec4(n, side);
-    out_albedo = vec4(albedo, 1.0);
+    out_normal = vec4(n, side * (2.0 + oct.y));
+    out_albedo = vec4(albedo, oct.x);
     out_material = draw.material.x;
 }

@@ -68,6 +68,7 @@
 
 use crate::layout::{BounceView, FrameUniforms, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
 use crate::lighting::LightSetup;
+use crate::photon::bvh::SceneBvh;
 use crate::photon::emit::{photon_budget_among, spot_falloff, spot_falloff_integral};
 use crate::photon::rng::hash2;
 use crate::photon::trace::PhotonState;
@@ -78,6 +79,7 @@ use crate::shared_constants::{
     JITTER_STREAM_X, JITTER_STREAM_Y, LIGHT_VIEW_FAR_Z, LIGHT_VIEW_NEAR_Z,
 };
 use glam::{DMat4, DVec2, DVec3, DVec4, UVec4, Vec4};
+use rayon::prelude::*;
 use std::ops::Range;
 
 /// Largest light-G-buffer resolution per view (texels per side).
@@ -803,19 +805,21 @@ impl BouncePlan {
     /// [`texel_jitter`]) and depth describe (in world space), and pushed along its direction by
     /// the hit point's error bound.
     pub fn photon_starts(&self, bounce_map: &[BounceMapPhoton], sample: u32) -> Vec<PhotonState> {
-        self.starts(bounce_map, self.origin, 0..self.views.len(), sample)
+        self.starts(bounce_map, self.origin, 0..self.views.len(), sample, None)
     }
 
     /// [`Self::photon_starts`] relative to the plan's origin (the renderer's CPU trace, whose
-    /// BVH is built relative to it: `photon_frame.rs`), of the views `views` only (e.g. one
-    /// light's, [`Self::light_views`]), in the same order.
+    /// BVH `surface` is built relative to it: `photon_frame.rs`), of the views `views` only
+    /// (e.g. one light's, [`Self::light_views`]), in the same order. Each start is snapped onto
+    /// the surface its jittered texel ray meets near the bounce map's depth (below).
     pub fn photon_starts_from_origin(
         &self,
         bounce_map: &[BounceMapPhoton],
         views: Range<usize>,
         sample: u32,
+        surface: &SceneBvh,
     ) -> Vec<PhotonState> {
-        self.starts(bounce_map, DVec3::ZERO, views, sample)
+        self.starts(bounce_map, DVec3::ZERO, views, sample, Some(surface))
     }
 
     /// The photon starts of the views `views`, placed in the frame whose origin is `origin` in
@@ -826,6 +830,7 @@ impl BouncePlan {
         origin: DVec3,
         views: Range<usize>,
         sample: u32,
+        surface: Option<&SceneBvh>,
     ) -> Vec<PhotonState> {
         // The error of a hit point: 10⁻⁴ of its depth and origin-relative size (the light
         // G-buffer's interpolated position and f32 depth, generously), plus 4ε of its
@@ -837,7 +842,7 @@ impl BouncePlan {
             (1e-4 * (relative.abs().max_element() + f64::from(depth))
                 + 4.0 * f64::from(f32::EPSILON) * hit.abs().max_element()) as f32
         };
-        let mut starts = Vec::new();
+        let mut rays = Vec::new();
         for (v, view) in self
             .views
             .iter()
@@ -866,19 +871,38 @@ impl BouncePlan {
                     let ndc = jittered_ndc(x, y, jitter, width, height);
                     let near = unproject(&inverse, ndc, NEAR);
                     let dir = (unproject(&inverse, ndc, FAR) - near).normalize();
-                    let relative = near + dir * f64::from(p.depth);
-                    let hit = relative + origin;
                     // The path is keyed by its texel, as the bounce map's own generator is, not
                     // by where it starts.
                     let key = hash2(texel_key, CPU_PATH_STREAM);
-                    let error = error(relative, p.depth, hit);
-                    if let Some(s) = PhotonState::from_bounce_map(p, hit.as_vec3(), error, key) {
-                        starts.push(s);
-                    }
+                    rays.push((p, near, dir, key));
                 }
             }
         }
-        starts
+        // The bounce map placed each photon on the plane of the triangle its texel's centre saw
+        // (`bounce_map.comp`); a jittered point past that triangle's edge lies on the plane
+        // extended, a hair off the surface (behind it inside a faceted sphere, so the photon
+        // would leave). With the BVH, the texel's ray is traced over ±5 % of that depth and the
+        // start moved onto the surface it meets there; a ray that meets none (it passes a
+        // silhouette) keeps the plane's point.
+        let place = |&(p, near, dir, key): &(&BounceMapPhoton, DVec3, DVec3, u32)| {
+            let depth = f64::from(p.depth);
+            let mut relative = near + dir * depth;
+            if let Some(bvh) = surface {
+                let from = near + dir * (0.95 * depth);
+                let ray = crate::photon::ray::Ray::with_t_max(
+                    from.as_vec3(),
+                    dir.as_vec3(),
+                    (0.1 * depth) as f32,
+                );
+                if let Some(h) = bvh.intersect(&ray) {
+                    relative = h.position.as_dvec3();
+                }
+            }
+            let hit = relative + origin;
+            let error = error(relative, p.depth, hit);
+            PhotonState::from_bounce_map(p, hit.as_vec3(), error, key)
+        };
+        rays.par_iter().filter_map(place).collect()
     }
 }
 

@@ -111,6 +111,9 @@ struct ViewArgs {
     /// exit (the viewer's smoke test).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     frames: Option<u32>,
+    /// Every frame stands alone: no progressive accumulation while the view stands still.
+    #[arg(long)]
+    no_accumulate: bool,
     /// Where --frames writes the last frame (PNG).
     #[arg(long, requires = "frames")]
     screenshot: Option<PathBuf>,
@@ -528,6 +531,7 @@ fn view(args: ViewArgs, device: Option<usize>) -> anyhow::Result<()> {
             height,
             subsample: knobs.subsample,
             upsample: knobs.upsample,
+            accumulate: !args.no_accumulate,
             ..Default::default()
         },
         device_index: device,

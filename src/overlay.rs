@@ -45,6 +45,8 @@ struct Sample {
     cpu_trace_ms: f64,
     /// Host time from the frame's start to its last GPU pass's end (ms).
     latency_ms: f64,
+    /// Frames in the image's mean (progressive accumulation while nothing moves).
+    accumulated: u32,
 }
 
 /// What the overlay shows of the renderer this frame.
@@ -189,6 +191,7 @@ impl Overlay {
             passes: input.last.map(|(s, _)| pass_times(s)).unwrap_or_default(),
             cpu_trace_ms: input.last.map_or(0.0, |(_, st)| st.cpu_trace_ms),
             latency_ms: input.last.map_or(0.0, |(_, st)| st.frame_ms),
+            accumulated: input.last.map_or(1, |(_, st)| st.accumulated_frames.max(1)),
         };
         if self.history.len() == HISTORY {
             self.history.pop_front();
@@ -257,6 +260,12 @@ impl Overlay {
         ui.label(format!(
             "frame {:.1} ms ({fps:.0} fps) · GPU {gpu:.2} ms · latency {:.1} ms",
             last.interval_ms, last.latency_ms
+        ));
+        // Progressive accumulation: how many still frames the image averages.
+        ui.label(format!(
+            "accumulated {} frame{} (resets when anything moves)",
+            last.accumulated,
+            if last.accumulated == 1 { "" } else { "s" }
         ));
         // The graph: stacked GPU pass times per frame; lines for the host interval and the
         // CPU trace.

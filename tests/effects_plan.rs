@@ -600,8 +600,12 @@ fn drain_reports_the_passes_and_variants_skipped_as_finish_does() {
             .map(|s| s.name.clone())
             .collect()
     };
-    // The first frame traces: the plan's skips only (full resolution, no glass).
-    assert_eq!(names(&drained), ["upsample", "environment", "translucent"]);
+    // The first frame traces: the plan's skips only (full resolution, no glass, frames that
+    // stand alone).
+    assert_eq!(
+        names(&drained),
+        ["upsample", "environment", "translucent", "accumulate"]
+    );
     assert_eq!(drained.variants_skipped.len(), 2);
     assert!(drained.passes_run.iter().any(|p| p == "bounce_map"));
     assert_eq!(drained.light_plan.len(), 1);
@@ -613,7 +617,7 @@ fn drain_reports_the_passes_and_variants_skipped_as_finish_does() {
     common::assert_validation_clean(&gpu);
     assert_eq!(
         drained.passes_skipped.len(),
-        8,
+        9,
         "{:?}",
         drained.passes_skipped
     );

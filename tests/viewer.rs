@@ -82,7 +82,15 @@ fn view_renders_sixty_frames_along_its_path_through_a_resize_and_ends_at_the_hea
     // viewer's (traced at frame 1, reused along the path) is the headless one; the glass
     // sphere's environment map was rendered at frame 1's pose and differs from the headless
     // one by rounding (tests/camera.rs: ≤ 2.2e-5 of the peak), below one step of 255.
-    let mut args = vec!["render", "cornell-box", "--camera-path-frame", "60"];
+    // One frame: the viewer's camera moves every frame, so it never accumulates.
+    let mut args = vec![
+        "render",
+        "cornell-box",
+        "--frames",
+        "1",
+        "--camera-path-frame",
+        "60",
+    ];
     args.extend(common);
     let end = headless(&args, &dir.path().join("end.png"));
     let differ = differing(&view, &end);
@@ -93,7 +101,7 @@ fn view_renders_sixty_frames_along_its_path_through_a_resize_and_ends_at_the_hea
     );
 
     // The camera did move: the path's first pose (the file's camera) is another image.
-    let mut args = vec!["render", "cornell-box"];
+    let mut args = vec!["render", "cornell-box", "--frames", "1"];
     args.extend(common);
     let start = headless(&args, &dir.path().join("start.png"));
     let moved = differing(&view, &start);
@@ -145,7 +153,7 @@ fn view_with_orbiting_lights_runs_120_clean_frames_and_ends_on_the_headless_rend
 
     let time = (119.0 * ispm::scene::FRAME_STEP_SECONDS).to_string();
     for (output, t) in [(&at, time.as_str()), (&start, "0")] {
-        let mut args = vec!["render"];
+        let mut args = vec!["render", "--frames", "1"];
         args.extend(common);
         // The camera of the viewer's 120th frame on its scripted path, at both times: only
         // the light differs between `at` and `start`.
@@ -254,7 +262,14 @@ fn view_with_overlay_and_debug_view_writes_screenshot_stats_and_a_30_frame_trace
 
     // The screenshot is frame 40's debug view: the headless render of that pose and view.
     let shot = image::open(&png).expect("screenshot PNG").to_rgba8();
-    let mut args = vec!["render", "cornell-box", "--camera-path-frame", "40"];
+    let mut args = vec![
+        "render",
+        "cornell-box",
+        "--frames",
+        "1",
+        "--camera-path-frame",
+        "40",
+    ];
     args.extend(common);
     let headless = headless(&args, &dir.path().join("headless.png"));
     let differ = differing(&shot, &headless);

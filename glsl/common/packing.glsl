@@ -83,4 +83,29 @@ PackedPhoton photon_store(Photon p) {
                         vec4(p.position.z, p.normal));
 }
 
+// Octahedral encoding of a unit vector into [-1, 1]^2 (Cigolle et al. 2014), for the face
+// normal the G-buffers keep in spare channels (eye_gbuffer.frag).
+vec2 sign_not_zero(vec2 v) {
+    return vec2(v.x >= 0.0 ? 1.0 : -1.0, v.y >= 0.0 ? 1.0 : -1.0);
+}
+
+vec2 oct_encode(vec3 n) {
+    vec2 p = n.xy / (abs(n.x) + abs(n.y) + abs(n.z));
+    return n.z >= 0.0 ? p : (1.0 - abs(p.yx)) * sign_not_zero(p);
+}
+
+vec3 oct_decode(vec2 p) {
+    vec3 n = vec3(p, 1.0 - abs(p.x) - abs(p.y));
+    if (n.z < 0.0) {
+        n.xy = (1.0 - abs(n.yx)) * sign_not_zero(n.xy);
+    }
+    return normalize(n);
+}
+
+// The face normal a G-buffer texel holds (turned towards the viewer, like its shading normal):
+// octahedral, x in albedo.a, y in |normal.w| - 2 (normal.w keeps the mesh side in its sign).
+vec3 gbuffer_face_normal(vec4 normal, vec4 albedo) {
+    return oct_decode(vec2(albedo.a, abs(normal.w) - 2.0));
+}
+
 #endif

@@ -174,7 +174,7 @@ impl Traced {
             read(texels.clone(), &mut self.bounce_map[texels])?;
             traced.push((
                 light,
-                plan.photon_starts_from_origin(&self.bounce_map, views, frame.sample),
+                plan.photon_starts_from_origin(&self.bounce_map, views, frame.sample, frame.bvh),
             ));
         }
         // One parallel trace of every re-traced light's starts; each light's photons are those

@@ -1,0 +1,304 @@
+//! Progressive accumulation and alias-free emission (issue #17), on lavapipe with validation on:
+//! - the mean of still frames converges to the CPU references: its error falls with the frames
+//!   on a closed diffuse room (against the path tracer) and on `caustic-ring` (against
+//!   progressive photon mapping);
+//! - no lattice survives in a caustic: the caustic photons' structure factor has no peak at the
+//!   light view's texel frequency;
+//! - accumulation restarts when anything moves, and `render --frames N` is the mean of N.
+//!
+//! `cargo test --test progressive -- --nocapture` prints every measured number.
+
+mod common;
+#[path = "ispm_accuracy/references.rs"]
+mod references;
+
+use common::golden::rel_mse;
+use glam::Vec3;
+use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
+use ispm::scene::Scene;
+use references::{path_traced, progressive_indirect, CONVERGENCE_BOUNCES, CONVERGENCE_SIZE};
+
+fn settings(photons: usize, accumulate: bool) -> RenderSettings {
+    RenderSettings {
+        method: Method::Ispm,
+        photons,
+        bounces: CONVERGENCE_BOUNCES,
+        seed: 1,
+        width: CONVERGENCE_SIZE,
+        height: CONVERGENCE_SIZE,
+        shadow_resolution: 256,
+        accumulate,
+        ..Default::default()
+    }
+}
+
+/// The mean image after each of `checkpoints` frames of one accumulation (the frame counts,
+/// ascending), with the renderer's direct light subtracted: the accumulated indirect light.
+fn accumulated_indirect(scene: &Scene, photons: usize, checkpoints: &[u32]) -> Vec<Vec<f32>> {
+    let gpu = common::gpu();
+    let direct = Renderer::new(
+        &gpu,
+        scene,
+        RenderSettings {
+            method: Method::Direct,
+            ..settings(photons, false)
+        },
+    )
+    .expect("direct renderer")
+    .render()
+    .expect("direct frame");
+    let mut renderer = Renderer::new(&gpu, scene, settings(photons, true)).expect("renderer");
+    let mut out = Vec::new();
+    let mut frames = 0;
+    for &n in checkpoints {
+        while frames + 1 < n {
+            renderer.submit_frame().expect("frame");
+            frames += 1;
+        }
+        let frame = renderer.render().expect("frame");
+        frames += 1;
+        assert_eq!(frame.stats.accumulated_frames, n, "{:?}", frame.stats);
+        out.push(minus(&frame, &direct));
+    }
+    common::assert_validation_clean(&gpu);
+    out
+}
+
+fn minus(a: &FrameImage, b: &FrameImage) -> Vec<f32> {
+    a.hdr
+        .iter()
+        .zip(&b.hdr)
+        .enumerate()
+        .map(|(i, (x, y))| if i % 4 == 3 { 1.0 } else { x - y })
+        .collect()
+}
+
+/// The error curve over `checkpoints` against `reference`, printed as a table.
+fn curve(name: &str, images: &[Vec<f32>], checkpoints: &[u32], reference: &[f32]) -> Vec<f64> {
+    let errors: Vec<f64> = images.iter().map(|i| rel_mse(i, reference)).collect();
+    let mut table = format!("{name}: frames | relMSE of the mean\n");
+    for (n, e) in checkpoints.iter().zip(&errors) {
+        table += &format!("{n} | {e:.5}\n");
+    }
+    eprintln!("{table}");
+    errors
+}
+
+const CHECKPOINTS: [u32; 4] = [1, 4, 16, 32];
+
+#[test]
+fn the_mean_of_still_frames_converges_to_the_path_tracer_in_a_closed_diffuse_room() {
+    let scene = ispm::reference::scenes::cornell(2);
+    let reference = path_traced(&scene, 256);
+    let images = accumulated_indirect(&scene, 10_000, &CHECKPOINTS);
+    let errors = curve(
+        &format!(
+            "cornell(2), 10k photons a frame, path tracer floor {:.5}",
+            reference.floor
+        ),
+        &images,
+        &CHECKPOINTS,
+        &reference.indirect,
+    );
+    for w in errors.windows(2) {
+        assert!(w[1] < w[0], "the error grew with the frames: {errors:?}");
+    }
+    // The reference's own noise is in every figure; the mean's error above it must fall to at
+    // most 0.3 of one frame's by 32 frames.
+    let above = |e: f64| e - reference.floor;
+    assert!(
+        above(errors[3]) <= 0.3 * above(errors[0]),
+        "32 frames: {:.5} above the floor, one frame {:.5}",
+        above(errors[3]),
+        above(errors[0])
+    );
+}
+
+/// Pixels whose camera ray first meets a surface without delta lobes (the ring's mirror is the
+/// translucent pass's).
+fn diffuse_pixels(scene: &Scene, size: u32) -> Vec<bool> {
+    let bvh = ispm::photon::bvh::SceneBvh::new(scene);
+    let cam = &scene.camera;
+    let t = (cam.yfov * 0.5).tan();
+    (0..size * size)
+        .map(|i| {
+            let (x, y) = (i % size, i / size);
+            let ndc_x = (x as f32 + 0.5) / size as f32 * 2.0 - 1.0;
+            let ndc_y = 1.0 - (y as f32 + 0.5) / size as f32 * 2.0;
+            let dir = cam
+                .transform
+                .transform_vector3(Vec3::new(ndc_x * t, ndc_y * t, -1.0));
+            bvh.intersect(&ispm::photon::ray::Ray::new(cam.position(), dir))
+                .is_some_and(|h| !scene.materials[h.material].has_delta_lobe())
+        })
+        .collect()
+}
+
+fn masked(image: &[f32], mask: &[bool]) -> Vec<f32> {
+    image
+        .chunks_exact(4)
+        .zip(mask)
+        .filter(|(_, &m)| m)
+        .flat_map(|(p, _)| p.iter().copied())
+        .collect()
+}
+
+#[test]
+fn the_mean_of_still_frames_converges_to_progressive_photon_mapping_on_the_caustic_ring() {
+    let scene = ispm::scene::bundled::resolve(Some("caustic-ring")).expect("bundled");
+    let reference = progressive_indirect(&scene);
+    let mask = diffuse_pixels(&scene, CONVERGENCE_SIZE);
+    let images = accumulated_indirect(&scene, 20_000, &CHECKPOINTS);
+    let images: Vec<Vec<f32>> = images.iter().map(|i| masked(i, &mask)).collect();
+    let errors = curve(
+        "caustic-ring, 20k photons a frame, against progressive 128 x 100k",
+        &images,
+        &CHECKPOINTS,
+        &masked(&reference, &mask),
+    );
+    for w in errors.windows(2) {
+        assert!(w[1] < w[0], "the error grew with the frames: {errors:?}");
+    }
+    assert!(
+        errors[3] <= 0.3 * errors[0],
+        "32 frames: {:.5}, one frame {:.5}",
+        errors[3],
+        errors[0]
+    );
+}
+
+/// The largest normalised structure factor `S(k) = |Σ exp(i k·x)|² / n` of `points` (2D) over
+/// wave vectors from a few times the patch's own scale (its shape's peak) out to twice the
+/// wave number of its mean spacing, and the wave number of that mean spacing. A lattice of
+/// spacing `a` puts a peak of height ~n at `|k| = 2π/a`; a jittered set has `S ≈ 1` there, and
+/// the largest of a few thousand exponentially distributed values stays near ten.
+fn structure_factor_peak(points: &[[f64; 2]]) -> (f64, f64) {
+    let n = points.len() as f64;
+    let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
+    for p in points {
+        for a in 0..2 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]);
+    let spacing = ((hi[0] - lo[0]) * (hi[1] - lo[1]) / n).sqrt();
+    let k_lattice = 2.0 * std::f64::consts::PI / spacing;
+    let k_min = 8.0 * 2.0 * std::f64::consts::PI / extent;
+    let steps = 96;
+    let mut peak = 0.0f64;
+    for iy in -steps..=steps {
+        for ix in 0..=steps {
+            let k = [
+                2.0 * k_lattice * ix as f64 / steps as f64,
+                2.0 * k_lattice * iy as f64 / steps as f64,
+            ];
+            if k[0].hypot(k[1]) < k_min {
+                continue;
+            }
+            let (mut re, mut im) = (0.0, 0.0);
+            for p in points {
+                let phase = k[0] * p[0] + k[1] * p[1];
+                re += phase.cos();
+                im += phase.sin();
+            }
+            peak = peak.max((re * re + im * im) / n);
+        }
+    }
+    (peak, k_lattice)
+}
+
+#[test]
+fn no_lattice_survives_in_the_caustic_ring() {
+    let scene = ispm::scene::bundled::resolve(Some("caustic-ring")).expect("bundled");
+    let gpu = common::gpu();
+    let mut renderer = Renderer::new(&gpu, &scene, settings(20_000, false)).expect("renderer");
+    renderer.render().expect("frame");
+    common::assert_validation_clean(&gpu);
+    let photons = renderer.photons().expect("ispm").photon_map();
+    // Caustic photons on the floor: no diffuse bounce on their path (ρp ≥ 0.01), facing up.
+    let caustic: Vec<Vec3> = photons
+        .iter()
+        .filter(|p| {
+            let (_, rho) = ispm::photon::types::unpack_direction(p.direction);
+            rho >= 0.01 && p.normal.normalize().y > 0.99
+        })
+        .map(|p| p.position)
+        .collect();
+    assert!(caustic.len() > 2_000, "{} caustic photons", caustic.len());
+    // The patch: the 800 caustic photons nearest their median, in the floor's plane.
+    let median = |a: fn(&Vec3) -> f32| {
+        let mut v: Vec<f32> = caustic.iter().map(a).collect();
+        v.sort_by(f32::total_cmp);
+        v[v.len() / 2]
+    };
+    let centre = Vec3::new(median(|p| p.x), 0.0, median(|p| p.z));
+    let mut near = caustic.clone();
+    near.sort_by(|a, b| {
+        let d = |p: &Vec3| (p.x - centre.x).hypot(p.z - centre.z);
+        d(a).total_cmp(&d(b))
+    });
+    let patch: Vec<[f64; 2]> = near[..800]
+        .iter()
+        .map(|p| [f64::from(p.x), f64::from(p.z)])
+        .collect();
+    let (peak, k) = structure_factor_peak(&patch);
+    eprintln!("caustic patch of 800 photons: S(k) peak {peak:.1} (lattice wave number {k:.0}/m)");
+    assert!(
+        peak < 25.0,
+        "the caustic photons form a lattice: structure factor peak {peak:.1} (a jittered set \
+         stays near 10, a lattice reaches ~n = 800)"
+    );
+}
+
+#[test]
+fn the_accumulation_restarts_when_the_camera_moves_and_keeps_its_photons() {
+    let scene = ispm::scene::bundled::resolve(Some("cornell-box")).expect("bundled");
+    let gpu = common::gpu();
+    let mut renderer = Renderer::new(
+        &gpu,
+        &scene,
+        RenderSettings {
+            width: 48,
+            height: 48,
+            ..settings(4_000, true)
+        },
+    )
+    .expect("renderer");
+    for n in 1..=3 {
+        let frame = renderer.render().expect("frame");
+        assert_eq!(frame.stats.accumulated_frames, n);
+        assert_eq!(
+            frame.stats.photon_sample,
+            n - 1,
+            "a new photon sample a frame"
+        );
+    }
+    let mut camera = *renderer.camera();
+    camera.transform = glam::Mat4::from_translation(Vec3::new(0.05, 0.0, 0.0)) * camera.transform;
+    renderer.set_camera(camera).expect("camera");
+    let moved = renderer.render().expect("frame");
+    assert_eq!(
+        moved.stats.accumulated_frames, 1,
+        "a camera move starts again"
+    );
+    assert!(
+        moved
+            .stats
+            .passes_skipped
+            .iter()
+            .any(|p| p.name == "cpu_trace"),
+        "a camera move keeps the photon map: {:?}",
+        moved.stats.passes_skipped
+    );
+    let next = renderer.render().expect("frame");
+    assert_eq!(next.stats.accumulated_frames, 2);
+    // Lights moving: back to the frame-coherent sample 0, every frame.
+    let mut lights = renderer.lights().to_vec();
+    lights[0].position -= Vec3::new(0.0, 0.01, 0.0);
+    renderer.set_lights(&lights).expect("lights");
+    let lit = renderer.render().expect("frame");
+    assert_eq!(lit.stats.accumulated_frames, 1);
+    assert_eq!(lit.stats.photon_sample, 0);
+    common::assert_validation_clean(&gpu);
+}
