@@ -457,3 +457,98 @@ fn camera_picks_one_of_the_files_cameras_and_a_missing_one_fails_with_one_line()
         );
     }
 }
+
+/// Reads an EXR that `ispm render` wrote: RGBA f32.
+fn read_exr(path: &std::path::Path) -> Vec<f32> {
+    image::open(path).expect("EXR").to_rgba32f().into_raw()
+}
+
+#[test]
+fn render_frames_n_writes_the_mean_of_n_frames_and_no_accumulate_the_last_frame() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(format!("{name}.exr"));
+        let stats = dir.path().join(format!("{name}.json"));
+        let mut args = vec![
+            "render",
+            "cornell-box",
+            "--size",
+            "48x36",
+            "--photons",
+            "3000",
+            "-o",
+            out.to_str().expect("utf8"),
+            "--stats",
+            stats.to_str().expect("utf8"),
+        ];
+        args.extend(extra);
+        let o = ispm(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&stats).expect("stats")).expect("JSON");
+        (
+            read_exr(&out),
+            json,
+            String::from_utf8_lossy(&o.stderr).to_string(),
+        )
+    };
+    let (one, json1, _) = run("one", &["--frames", "1"]);
+    let (four, json4, said) = run("four", &["--frames", "4"]);
+    let (alone, json_alone, _) = run("alone", &["--frames", "4", "--no-accumulate"]);
+    assert_eq!(json1["accumulated_frames"], 1);
+    assert_eq!(json4["accumulated_frames"], 4);
+    assert_eq!(
+        json4["photon_sample"], 3,
+        "each accumulated frame draws new photons"
+    );
+    assert!(said.contains("mean of 4 frames"), "{said}");
+    assert_eq!(json_alone["accumulated_frames"], 1);
+    // Without accumulation the 4th frame reuses the photon map: it is the first frame.
+    assert!(
+        one == alone,
+        "--no-accumulate: the last frame is not the first one again"
+    );
+    assert!(one != four, "the mean of 4 frames is the first frame");
+    // The mean keeps the energy of one frame (the same estimator, new photons).
+    let mean = |v: &[f32]| v.iter().map(|&x| f64::from(x)).sum::<f64>() / v.len() as f64;
+    let ratio = mean(&four) / mean(&one);
+    assert!(
+        (ratio - 1.0).abs() < 0.03,
+        "mean of 4 frames / one frame = {ratio}"
+    );
+}
+
+#[test]
+fn render_accumulates_for_the_seconds_asked_and_rejects_a_negative_duration() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("out.png");
+    let stats = dir.path().join("stats.json");
+    let o = ispm(&[
+        "render",
+        "caustic-ring",
+        "--size",
+        "32x24",
+        "--photons",
+        "2000",
+        "--seconds",
+        "0",
+        "-o",
+        out.to_str().expect("utf8"),
+        "--stats",
+        stats.to_str().expect("utf8"),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&stats).expect("stats")).expect("JSON");
+    assert_eq!(json["accumulated_frames"], 1, "--seconds 0: one frame");
+    let bad = dir.path().join("bad.png");
+    let o = ispm(&[
+        "render",
+        "--seconds",
+        "-1",
+        "-o",
+        bad.to_str().expect("utf8"),
+    ]);
+    assert!(!o.status.success());
+    assert!(!bad.exists());
+}
