@@ -35,6 +35,15 @@ fn settings(photons: usize, accumulate: bool) -> RenderSettings {
 /// The mean image after each of `checkpoints` frames of one accumulation (the frame counts,
 /// ascending), with the renderer's direct light subtracted: the accumulated indirect light.
 fn accumulated_indirect(scene: &Scene, photons: usize, checkpoints: &[u32]) -> Vec<Vec<f32>> {
+    accumulated_indirect_and_normals(scene, photons, checkpoints).0
+}
+
+/// [`accumulated_indirect`], and the eye G-buffer's normals (zero where no geometry was drawn).
+fn accumulated_indirect_and_normals(
+    scene: &Scene,
+    photons: usize,
+    checkpoints: &[u32],
+) -> (Vec<Vec<f32>>, Vec<Vec3>) {
     let gpu = common::gpu();
     let direct = Renderer::new(
         &gpu,
@@ -60,8 +69,34 @@ fn accumulated_indirect(scene: &Scene, photons: usize, checkpoints: &[u32]) -> V
         assert_eq!(frame.stats.accumulated_frames, n, "{:?}", frame.stats);
         out.push(minus(&frame, &direct));
     }
+    let position: Vec<[f32; 4]> =
+        bytemuck::pod_collect_to_vec(&renderer.read_gbuffer("position").expect("position"));
+    let normals = renderer.read_gbuffer("normal").expect("normal");
+    let normals = normals
+        .chunks_exact(8)
+        .zip(&position)
+        .map(|(c, p)| {
+            let h = |i: usize| f16_to_f32(u16::from_le_bytes([c[i], c[i + 1]]));
+            if p[3] == 0.0 {
+                Vec3::ZERO
+            } else {
+                Vec3::new(h(0), h(2), h(4)).normalize()
+            }
+        })
+        .collect();
     common::assert_validation_clean(&gpu);
-    out
+    (out, normals)
+}
+
+fn f16_to_f32(h: u16) -> f32 {
+    let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exp = i32::from((h >> 10) & 0x1f);
+    let frac = f32::from(h & 0x3ff);
+    match exp {
+        0 => sign * frac * 2f32.powi(-24),
+        31 => sign * f32::INFINITY,
+        e => sign * (1.0 + frac / 1024.0) * 2f32.powi(e - 15),
+    }
 }
 
 fn minus(a: &FrameImage, b: &FrameImage) -> Vec<f32> {
@@ -111,6 +146,67 @@ fn the_mean_of_still_frames_converges_to_the_path_tracer_in_a_closed_diffuse_roo
         "32 frames: {:.5} above the floor, one frame {:.5}",
         above(errors[3]),
         above(errors[0])
+    );
+}
+
+/// Pixels within `reach` pixels of a crease or corner of the geometry: another surface's normal
+/// (more than about 25 degrees away) is that close, and no background is.
+fn near_creases(normals: &[Vec3], size: usize, reach: i32) -> Vec<bool> {
+    (0..size * size)
+        .map(|i| {
+            let (x, y) = ((i % size) as i32, (i / size) as i32);
+            let n = normals[i];
+            if n == Vec3::ZERO {
+                return false;
+            }
+            let mut crease = false;
+            for dy in -reach..=reach {
+                for dx in -reach..=reach {
+                    let (u, v) = (x + dx, y + dy);
+                    if u < 0 || v < 0 || u >= size as i32 || v >= size as i32 {
+                        return false;
+                    }
+                    let m = normals[v as usize * size + u as usize];
+                    if m == Vec3::ZERO {
+                        return false;
+                    }
+                    crease |= m.dot(n) < 0.9;
+                }
+            }
+            crease
+        })
+        .collect()
+}
+
+#[test]
+fn corners_and_edges_of_a_closed_room_are_within_five_percent_of_the_path_tracer() {
+    let scene = ispm::reference::scenes::cornell(2);
+    let reference = path_traced(&scene, 256);
+    let (images, normals) = accumulated_indirect_and_normals(&scene, 10_000, &[1, 32]);
+    let size = CONVERGENCE_SIZE as usize;
+    let edges = near_creases(&normals, size, 2);
+    let count = edges.iter().filter(|&&e| e).count();
+    assert!(count > size * size / 10, "{count} pixels near creases");
+    let sum = |image: &[f32]| -> f64 {
+        image
+            .chunks_exact(4)
+            .zip(&edges)
+            .filter(|(_, &e)| e)
+            .map(|(p, _)| f64::from(p[0] + p[1] + p[2]))
+            .sum()
+    };
+    let ratios: Vec<f64> = images
+        .iter()
+        .map(|i| sum(i) / sum(&reference.indirect))
+        .collect();
+    eprintln!(
+        "cornell(2): indirect light within 2 pixels of creases, {count} pixels: ISPM / path          tracer = {:.4} (1 frame), {:.4} (32 frames)",
+        ratios[0], ratios[1]
+    );
+    assert!(
+        (ratios[1] - 1.0).abs() < 0.05,
+        "corners and edges: ISPM / path tracer = {:.4} after 32 frames",
+        ratios[1]
     );
 }
 

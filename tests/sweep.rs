@@ -191,6 +191,7 @@ fn more_photons_at_a_fixed_kernel_never_worsen_the_indirect_error() {
                     subsample: 1,
                     caustic_share: ispm::ispm::CAUSTIC_SHARE,
                     upsample: Default::default(),
+                    accumulate: 1,
                 };
                 let m = measure(&gpu, &scene, &config, (size, size), 1, &refs).expect("measure");
                 assert!(

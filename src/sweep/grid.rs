@@ -13,6 +13,7 @@
 //! | `caustic-share` | bounce-map resolution: the share of photons on the caustic views (`--caustic-share`) | 0.5 |
 //! | `upsample` | `joint` (bilateral) or `bilinear` upsampling at subsample > 1 (`--upsample`) | joint |
 //! | `method` | `ispm`, or `photon-gather` (the CPU k-d tree baseline) | ispm |
+//! | `accumulate` | frames averaged into one image, each with new photons and smaller kernels (`render --frames`; progressive accumulation) | 1 |
 //!
 //! "Bounce-map resolution": one bounce-map texel emits one photon, so a light's texel count *is*
 //! its photon count and cannot vary on its own; what does vary independently is how those texels
@@ -22,7 +23,7 @@
 //!
 //! Configurations are normalised before they are deduplicated: at subsample 1 there is no
 //! upsampling (the `upsample` value is recorded as `joint`); the `photon-gather` baseline has no
-//! subsampling, upsampling or caustic views.
+//! subsampling, upsampling, caustic views or accumulation.
 
 use crate::passes::upsample::Upsample;
 use anyhow::{bail, Context, Result};
@@ -58,6 +59,14 @@ pub struct Config {
     pub subsample: u32,
     pub caustic_share: f32,
     pub upsample: Upsample,
+    /// Frames averaged into the image (progressive accumulation; 1: one frame). Results
+    /// written before the knob existed read as 1.
+    #[serde(default = "one")]
+    pub accumulate: u32,
+}
+
+fn one() -> u32 {
+    1
 }
 
 impl Config {
@@ -66,7 +75,9 @@ impl Config {
         if self.method == SweepMethod::PhotonGather {
             self.subsample = 1;
             self.caustic_share = 0.0;
+            self.accumulate = 1;
         }
+        self.accumulate = self.accumulate.max(1);
         if self.subsample <= 1 {
             self.subsample = 1;
             self.upsample = Upsample::Joint;
@@ -81,15 +92,21 @@ impl Config {
             (_, Upsample::Joint) => " joint",
             (_, Upsample::Bilinear) => " bilinear",
         };
+        let accumulate = if self.accumulate > 1 {
+            format!(" a{}", self.accumulate)
+        } else {
+            String::new()
+        };
         format!(
-            "{} p{} b{} r{} s{} c{}{}",
+            "{} p{} b{} r{} s{} c{}{}{}",
             self.method.name(),
             self.photons,
             self.bounces,
             self.radius_scale,
             self.subsample,
             self.caustic_share,
-            upsample
+            upsample,
+            accumulate
         )
     }
 }
@@ -104,6 +121,7 @@ pub struct Grid {
     pub subsample: Vec<u32>,
     pub caustic_share: Vec<f32>,
     pub upsample: Vec<Upsample>,
+    pub accumulate: Vec<u32>,
 }
 
 impl Default for Grid {
@@ -116,6 +134,7 @@ impl Default for Grid {
             subsample: vec![1, 2, 4],
             caustic_share: vec![crate::ispm::CAUSTIC_SHARE],
             upsample: vec![Upsample::Joint],
+            accumulate: vec![1],
         }
     }
 }
@@ -203,6 +222,12 @@ impl Grid {
                         })
                         .collect::<Result<_>>()?;
                 }
+                "accumulate" => {
+                    grid.accumulate = values
+                        .iter()
+                        .map(|v| positive_int(knob, v, 4096.0).map(|n| n as u32))
+                        .collect::<Result<_>>()?;
+                }
                 "method" => {
                     grid.method = values
                         .iter()
@@ -215,7 +240,7 @@ impl Grid {
                 }
                 _ => bail!(
                     "--grid: unknown knob {knob:?} (photons, bounces, radius, subsample, \
-                     caustic-share, upsample, method)"
+                     caustic-share, upsample, method, accumulate)"
                 ),
             }
         }
@@ -232,18 +257,21 @@ impl Grid {
                         for &subsample in &self.subsample {
                             for &caustic_share in &self.caustic_share {
                                 for &upsample in &self.upsample {
-                                    let c = Config {
-                                        method,
-                                        photons,
-                                        bounces,
-                                        radius_scale,
-                                        subsample,
-                                        caustic_share,
-                                        upsample,
-                                    }
-                                    .normalised();
-                                    if !out.contains(&c) {
-                                        out.push(c);
+                                    for &accumulate in &self.accumulate {
+                                        let c = Config {
+                                            method,
+                                            photons,
+                                            bounces,
+                                            radius_scale,
+                                            subsample,
+                                            caustic_share,
+                                            upsample,
+                                            accumulate,
+                                        }
+                                        .normalised();
+                                        if !out.contains(&c) {
+                                            out.push(c);
+                                        }
                                     }
                                 }
                             }
@@ -289,6 +317,27 @@ mod tests {
     }
 
     #[test]
+    fn accumulated_frames_are_a_knob_the_cpu_baseline_does_not_have() {
+        let g =
+            Grid::parse("photons=1k;radius=1;subsample=1;accumulate=1,8;method=ispm,photon-gather")
+                .unwrap();
+        let labels: Vec<String> = g.configs().iter().map(Config::label).collect();
+        assert_eq!(
+            labels,
+            [
+                "ispm p1000 b8 r1 s1 c0.5",
+                "ispm p1000 b8 r1 s1 c0.5 a8",
+                "photon-gather p1000 b8 r1 s1 c0",
+            ]
+        );
+        // Results written before the knob read as one frame.
+        let old = r#"{"method":"ispm","photons":1000,"bounces":8,"radius_scale":1.0,
+            "subsample":1,"caustic_share":0.5,"upsample":"joint"}"#;
+        let c: Config = serde_json::from_str(old).unwrap();
+        assert_eq!(c.accumulate, 1);
+    }
+
+    #[test]
     fn bad_grid_specs_name_the_problem() {
         for (spec, words) in [
             ("photons=0", "photons=0"),
@@ -297,6 +346,7 @@ mod tests {
             ("photons", "KNOB=VALUE"),
             ("caustic-share=2", "0.95"),
             ("method=path", "photon-gather"),
+            ("accumulate=0", "accumulate=0"),
         ] {
             let e = Grid::parse(spec).unwrap_err().to_string();
             assert!(e.contains(words), "{spec}: {e}");

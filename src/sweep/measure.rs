@@ -18,6 +18,12 @@
 //! part, which it computes identically by next-event estimation at the pixel centres) and of
 //! the indirect part (ISPM: `PhotonFrame::read_indirect`), and FLIP of the tonemapped images.
 //! The error image is the frame rendered after the timed ones (same photons: the seed is fixed).
+//!
+//! **Accumulation (`accumulate` N > 1).** The image is the mean of N frames of one progressive
+//! accumulation (each with new photons and smaller kernels, `passes/accumulate.rs`), started
+//! after the warm-up frame; `frame_ms` is the wall time to that image (all N frames, the cost
+//! a user waits for), the stages the medians of its first N − 1 frames, and the indirect part the
+//! mean less the renderer's direct light (a `Method::Direct` render: deterministic).
 
 use super::grid::{Config, SweepMethod};
 use super::reference::References;
@@ -132,14 +138,48 @@ impl Job<'_> {
             effects: Effects::All,
             ..Default::default()
         };
-        let mut renderer = Renderer::new(gpu, scene, settings)?;
+        let accumulate = c.accumulate.max(1);
+        let settings = RenderSettings {
+            accumulate: accumulate > 1,
+            ..settings
+        };
+        let mut renderer = Renderer::new(gpu, scene, settings.clone())?;
         bench::timed_frames(&mut renderer, scene, 0, 1)?;
-        let (frame_ms, spans, _) = bench::timed_frames(&mut renderer, scene, 1, self.frames)?;
-        let frame = renderer.render()?;
-        let indirect = renderer
-            .photons()
-            .context("the ISPM renderer has no photon frame")?
-            .read_indirect()?;
+        let (frame_ms, spans, frame, indirect) = if accumulate > 1 {
+            // The time to the image: `accumulate` frames from a fresh accumulation (the
+            // warm-up frame is not in it), each tracing new photons (`Effects::All`).
+            renderer.restart_accumulation(false);
+            let start = crate::timing::now_ns();
+            let (_, spans, _) = bench::timed_frames(&mut renderer, scene, 1, accumulate - 1)?;
+            let frame = renderer.render()?;
+            let total_ms = crate::timing::now_ns().saturating_sub(start) as f64 * 1e-6;
+            anyhow::ensure!(
+                frame.stats.accumulated_frames == accumulate,
+                "the sweep's accumulation holds {} frames, not {accumulate}",
+                frame.stats.accumulated_frames
+            );
+            // The mean's indirect part: the mean less the (deterministic) direct light.
+            let direct = Renderer::new(
+                gpu,
+                scene,
+                RenderSettings {
+                    method: Method::Direct,
+                    accumulate: false,
+                    ..settings
+                },
+            )?
+            .render()?;
+            let indirect = difference(&frame.hdr, &direct.hdr);
+            (total_ms, spans, frame, indirect)
+        } else {
+            let (frame_ms, spans, _) = bench::timed_frames(&mut renderer, scene, 1, self.frames)?;
+            let frame = renderer.render()?;
+            let indirect = renderer
+                .photons()
+                .context("the ISPM renderer has no photon frame")?
+                .read_indirect()?;
+            (frame_ms, spans, frame, indirect)
+        };
         let stages: BTreeMap<String, f64> = bench::stage_times(&spans, |s| {
             if s.is_gpu() {
                 s.depth == 0

@@ -243,7 +243,7 @@ pub fn stages(title: &str, records: &[&Record]) -> Result<String> {
 /// A knob's name and its value in a record, as a number and as text.
 type Knob = (&'static str, fn(&Record) -> (f64, String));
 
-const KNOBS: [Knob; 6] = [
+const KNOBS: [Knob; 7] = [
     ("photons", |r| {
         (r.config.photons as f64, r.config.photons.to_string())
     }),
@@ -266,6 +266,12 @@ const KNOBS: [Knob; 6] = [
         (
             f64::from(r.config.caustic_share),
             r.config.caustic_share.to_string(),
+        )
+    }),
+    ("accumulated frames", |r| {
+        (
+            f64::from(r.config.accumulate),
+            r.config.accumulate.to_string(),
         )
     }),
     ("upsample", |r| {
