@@ -9,6 +9,8 @@
 //! `cargo test --test progressive -- --nocapture` prints every measured number.
 
 mod common;
+// The references of tests/ispm_accuracy.rs; this file uses some of them.
+#[allow(dead_code)]
 #[path = "ispm_accuracy/references.rs"]
 mod references;
 
@@ -16,7 +18,9 @@ use common::golden::rel_mse;
 use glam::Vec3;
 use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
 use ispm::scene::Scene;
-use references::{path_traced, progressive_indirect, CONVERGENCE_BOUNCES, CONVERGENCE_SIZE};
+use references::{
+    path_traced, progressive_indirect, CONVERGENCE_BOUNCES, CONVERGENCE_SIZE, REFERENCE_PASSES,
+};
 
 fn settings(photons: usize, accumulate: bool) -> RenderSettings {
     RenderSettings {
@@ -124,7 +128,7 @@ const CHECKPOINTS: [u32; 4] = [1, 4, 16, 32];
 #[test]
 fn the_mean_of_still_frames_converges_to_the_path_tracer_in_a_closed_diffuse_room() {
     let scene = ispm::reference::scenes::cornell(2);
-    let reference = path_traced(&scene, 256);
+    let reference = path_traced(&scene, REFERENCE_PASSES);
     let images = accumulated_indirect(&scene, 10_000, &CHECKPOINTS);
     let errors = curve(
         &format!(
@@ -181,7 +185,7 @@ fn near_creases(normals: &[Vec3], size: usize, reach: i32) -> Vec<bool> {
 #[test]
 fn corners_and_edges_of_a_closed_room_are_within_five_percent_of_the_path_tracer() {
     let scene = ispm::reference::scenes::cornell(2);
-    let reference = path_traced(&scene, 256);
+    let reference = path_traced(&scene, REFERENCE_PASSES);
     let (images, normals) = accumulated_indirect_and_normals(&scene, 10_000, &[1, 32]);
     let size = CONVERGENCE_SIZE as usize;
     let edges = near_creases(&normals, size, 2);
