@@ -23,6 +23,7 @@ use crate::passes::composite::CompositePass;
 use crate::passes::eye_gbuffer::GBuffer;
 use crate::passes::light_gbuffer::LightGBufferPass;
 use crate::passes::photon_volumes::{self, PhotonVolumeInputs, PhotonVolumesPass};
+use crate::passes::support::SupportPass;
 use crate::passes::upsample::{self, UpsampleInputs, UpsamplePass};
 use crate::photon::bvh::SceneBvh;
 use crate::photon::kernel::KernelSettings;
@@ -86,6 +87,10 @@ pub struct PhotonFrame {
     /// `--subsample N > 1`: the low-resolution targets and the pass that upsamples them.
     subsampled: Option<Subsampled>,
     indirect: Image,
+    /// The global photons' share of the estimate, beside `indirect` (or the low targets), and
+    /// the pass that normalises it by its kernel support (`passes/support.rs`).
+    global: Vec<Image>,
+    support: SupportPass,
     composite: CompositePass,
     /// The last frame's bounce map and photon map per light (positions relative to
     /// `plan.origin`), and the plan they were traced with (`retrace.rs`).
@@ -269,6 +274,15 @@ impl PhotonFrame {
             )?;
             (indirect, Some(Subsampled { low, upsample }))
         };
+        // The global photons' share of the estimate and its support normalisation, beside
+        // `indirect` or the low-resolution targets (`passes/support.rs`).
+        let (gw, gh) = upsample::low_size(radiance.width, radiance.height, subsample);
+        let global = photon_volumes::global_targets(gpu, gw, gh, subsample)?;
+        let totals: Vec<&Image> = match &subsampled {
+            None => vec![&indirect],
+            Some(sub) => sub.low.iter().collect(),
+        };
+        let support = SupportPass::new(gpu, &totals, &global.iter().collect::<Vec<_>>())?;
         let composite = CompositePass::new(gpu, &indirect, radiance)?;
         let kernel_clamp =
             KernelSettings::scene_relative(&gpu_scene.bounds, settings.photons, settings.radius);
@@ -312,6 +326,8 @@ impl PhotonFrame {
             photon_pass,
             subsampled,
             indirect,
+            global,
+            support,
             composite,
             traced: Traced::default(),
             reuse_lights: settings.effects == Effects::Auto,

@@ -64,3 +64,7 @@ pub const JITTER_STREAM_X: u32 = 0x7e1a_91c3;
 pub const JITTER_STREAM_Y: u32 = 0x2b5d_06f7;
 pub const JITTER_R2_X: u32 = 3242174890;
 pub const JITTER_R2_Y: u32 = 2447445414;
+
+// The smallest kernel support the global photons' estimate is divided by (`passes/support.rs`):
+// a convex corner's, where a quarter of each kernel lies on the surface.
+pub const SUPPORT_WEIGHT_MIN: f32 = 0.25;

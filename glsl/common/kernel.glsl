@@ -49,4 +49,10 @@ float kernel_weight(vec3 photon_pos, vec3 photon_normal, float r_xy, float r_z, 
     return t >= 1.0 ? 0.0 : 3.0 / (KERNEL_PI * r_xy * r_xy) * (1.0 - t);
 }
 
+// The surface area a global photon stands for in the support normalisation
+// (src/passes/support.rs), 0 for a caustic photon (not normalised).
+float global_support_area(Photon photon) {
+    return 0.0;
+}
+
 #endif

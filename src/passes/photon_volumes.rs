@@ -77,9 +77,11 @@ pub fn target(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<Image> 
             width,
             height,
             layers: 1,
-            // TRANSFER_DST: the value check's test seam (`value_check.rs`).
+            // TRANSFER_DST: the value check's test seam (`value_check.rs`); STORAGE: the
+            // support normalisation rewrites it in place (`passes/support.rs`).
             usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
                 | vk::ImageUsageFlags::SAMPLED
+                | vk::ImageUsageFlags::STORAGE
                 | vk::ImageUsageFlags::TRANSFER_SRC
                 | vk::ImageUsageFlags::TRANSFER_DST,
             view: ViewKind::D2,
@@ -98,9 +100,11 @@ pub fn low_targets(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<[I
                 width,
                 height,
                 layers: 1,
-                // TRANSFER_DST: the value check's test seam (`value_check.rs`).
+                // TRANSFER_DST: the value check's test seam (`value_check.rs`); STORAGE: the
+                // support normalisation rewrites it in place (`passes/support.rs`).
                 usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
                     | vk::ImageUsageFlags::SAMPLED
+                    | vk::ImageUsageFlags::STORAGE
                     | vk::ImageUsageFlags::TRANSFER_DST,
                 view: ViewKind::D2,
             },
@@ -110,6 +114,44 @@ pub fn low_targets(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<[I
         image("indirect.low_irradiance")?,
         image("indirect.low_glossy")?,
     ])
+}
+
+/// The global photons' share of the estimate, beside each target of the photon volumes
+/// (`passes/support.rs`): one at subsample 1 (`[global]`, beside `indirect`), two at N > 1
+/// (`[global irradiance, global glossy]`, beside the [`low_targets`]). RGB: what the global
+/// photons alone added; alpha of the first: their kernel support `W = Σ κ·a`.
+pub fn global_targets(
+    gpu: &Arc<Gpu>,
+    width: u32,
+    height: u32,
+    subsample: u32,
+) -> anyhow::Result<Vec<Image>> {
+    let names: &[&str] = if subsample <= 1 {
+        &["indirect.global"]
+    } else {
+        &[
+            "indirect.low_global_irradiance",
+            "indirect.low_global_glossy",
+        ]
+    };
+    names
+        .iter()
+        .map(|&name| {
+            Image::new(
+                gpu,
+                &ImageDesc {
+                    name,
+                    format: FORMAT,
+                    width,
+                    height,
+                    layers: 1,
+                    usage: vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::STORAGE,
+                    view: ViewKind::D2,
+                },
+            )
+        })
+        .collect::<Result<_, _>>()
+        .map_err(Into::into)
 }
 
 /// The most photon buffers one pass draws from (the descriptor pool's size). At lavapipe's
@@ -181,7 +223,7 @@ impl PhotonVolumesPass {
         let (fragment, color_formats, depth) = if subsample == 1 {
             (
                 &crate::gpu::shader_table::PHOTON_VOLUMES_FRAG,
-                &[FORMAT][..],
+                &[FORMAT, FORMAT][..],
                 Some(Depth {
                     format: DEPTH,
                     test: true,
@@ -194,7 +236,7 @@ impl PhotonVolumesPass {
         } else {
             (
                 &crate::gpu::shader_table::PHOTON_VOLUMES_SUBSAMPLED_FRAG,
-                &[FORMAT, FORMAT][..],
+                &[FORMAT, FORMAT, FORMAT, FORMAT][..],
                 None,
             )
         };
@@ -268,15 +310,15 @@ impl PhotonVolumesPass {
     }
 
     /// Draws `counts[i]` photon volumes from photon buffer `i` with the radii of `kernel` (its
-    /// clamp and footprint floor, [`crate::photon::kernel`]) into `targets`: `[indirect]` at
-    /// subsample 1, else the two [`low_targets`]. `offset` is added to every stored photon
+    /// clamp and footprint floor, [`crate::photon::kernel`]) into `targets`: `[indirect,
+    /// global]` at subsample 1, else the two [`low_targets`] and the two [`global_targets`]. `offset` is added to every stored photon
     /// position to make it relative to the eye (the frame's space).
     pub fn record(
         &self,
         cmd: &Cmd,
         inputs: &PhotonVolumeInputs,
         (counts, kernel, offset): (&[u32], &KernelSettings, glam::Vec3),
-        targets: &mut [Image],
+        targets: &[&Image],
     ) {
         let _scope = cmd.scope("photon_volumes");
         let g = inputs.gbuffer;

@@ -70,15 +70,23 @@ impl PhotonFrame {
             self.rebind = false;
         }
         let volumes = (&self.buffers.counts[..], &self.kernel, self.eye_offset());
+        let globals: Vec<&Image> = self.global.iter().collect();
         match &mut self.subsampled {
-            None => self.photon_pass.record(
-                cmd,
-                &inputs,
-                volumes,
-                std::slice::from_mut(&mut self.indirect),
-            ),
+            None => {
+                let totals = [&self.indirect];
+                self.photon_pass
+                    .record(cmd, &inputs, volumes, &[totals[0], globals[0]]);
+                self.support.record(cmd, &totals, &globals);
+            }
             Some(sub) => {
-                self.photon_pass.record(cmd, &inputs, volumes, &mut sub.low);
+                let totals = [&sub.low[0], &sub.low[1]];
+                self.photon_pass.record(
+                    cmd,
+                    &inputs,
+                    volumes,
+                    &[totals[0], totals[1], globals[0], globals[1]],
+                );
+                self.support.record(cmd, &totals, &globals);
                 if let Some(check) = check.as_deref_mut() {
                     check.image(cmd, Checked::IndirectLowIrradiance, &sub.low[0])?;
                     check.image(cmd, Checked::IndirectLowGlossy, &sub.low[1])?;
