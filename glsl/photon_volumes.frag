@@ -29,6 +29,7 @@ void main() {
         discard;
     }
     Photon photon = photon_load(photons[v_photon]);
+    // The normal's length is the photon's kNN radius (pack_normal): its direction only here.
     float kappa = kernel_weight(v_center, normalize(photon.normal), v_radius.x, v_radius.y,
                                 pos.xyz);
     if (!(kappa > 0.0)) {

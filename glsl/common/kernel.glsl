@@ -6,13 +6,15 @@
 const float KERNEL_NORMAL_RATIO = 0.5;
 const float KERNEL_PI = 3.14159265358979;
 
-// (r_xy, r_z) of a photon with path density rho_p at eye_distance metres from the eye; r_min,
-// r_max in metres, footprint: the pixel-footprint floor per metre of distance, footprint_max:
-// the floor's ceiling in metres.
-vec2 kernel_radius(float rho_p, float r_min, float r_max, float footprint, float footprint_max,
-                   float eye_distance) {
-    float r = (rho_p > 0.0 && !isinf(rho_p)) ? clamp(r_min * inversesqrt(rho_p), r_min, r_max)
-                                             : r_max;
+// (r_xy, r_z) of a photon with kNN radius r_knn (metres: the length of its packed normal,
+// src/photon/density.rs) at eye_distance metres from the eye: clamp(r_knn * scale, r_min, r_max),
+// then the footprint floor. r_min, r_max in metres, scale: the kNN radii's factor (> 0),
+// footprint: the pixel-footprint floor per metre of distance, footprint_max: the floor's ceiling
+// in metres.
+vec2 kernel_radius(float r_knn, float r_min, float r_max, float scale, float footprint,
+                   float footprint_max, float eye_distance) {
+    // <= 0 or NaN: a record without a radius (zero normal) gets the widest kernel.
+    float r = r_knn > 0.0 ? clamp(r_knn * scale, r_min, r_max) : r_max;
     // A comparison, not max(): a NaN floor (a photon with a broken position) leaves r alone.
     float floor_r = footprint * eye_distance;
     // Camera case (1x1 images, fields of view near 180 degrees): a pixel wider than the room

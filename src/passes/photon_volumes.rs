@@ -58,12 +58,14 @@ struct Push {
     subsample: u32,
     footprint: f32,
     footprint_max: f32,
-    _pad: [f32; 2],
+    /// The kNN radii's factor ([`KernelSettings::scale`]).
+    scale: f32,
+    _pad: f32,
     /// Added to every stored photon position to make it eye-relative (xyz; w unused): the
     /// photon map's origin minus the eye (`photon_frame.rs`).
     offset: [f32; 4],
 }
-// std430 push-constant layout: the vec4 after five scalars starts at byte 32.
+// std430 push-constant layout: the vec4 after seven scalars starts at byte 32.
 const _: () = assert!(std::mem::offset_of!(Push, offset) == 32);
 const _: () = assert!(size_of::<Push>() == 48);
 
@@ -267,7 +269,8 @@ impl PhotonVolumesPass {
         Ok(())
     }
 
-    /// Draws `counts[i]` photon volumes from photon buffer `i` with the radii of `kernel` (its
+    /// Draws `counts[i]` photon volumes from photon buffer `i` (normals packed with their kNN
+    /// radii, [`crate::photon::types::pack_normal`]) with the radii of `kernel` (its scale,
     /// clamp and footprint floor, [`crate::photon::kernel`]) into `targets`: `[indirect]` at
     /// subsample 1, else the two [`low_targets`]. `offset` is added to every stored photon
     /// position to make it relative to the eye (the frame's space).
@@ -321,7 +324,8 @@ impl PhotonVolumesPass {
                     subsample: self.subsample,
                     footprint: kernel.footprint,
                     footprint_max: kernel.footprint_max,
-                    _pad: [0.0; 2],
+                    scale: kernel.scale,
+                    _pad: 0.0,
                     offset: offset.extend(0.0).to_array(),
                 },
             );

@@ -9,6 +9,7 @@ use crate::passes::eye_gbuffer::GBuffer;
 use crate::passes::photon_volumes::PhotonVolumeInputs;
 use crate::passes::upsample::UpsampleInputs;
 use crate::passes::value_check::{Checked, Records, ValueCheckPass};
+use crate::photon::density::Neighbours;
 use crate::photon::kernel::KernelSettings;
 use crate::photon::types::{BounceMapPhoton, Photon};
 
@@ -175,9 +176,15 @@ impl PhotonFrame {
         }
     }
 
-    /// The kernel radius clamp the photon volumes use.
+    /// The kernel settings the photon volumes use: the kNN radii's scale, the clamp and the
+    /// footprint floor.
     pub fn kernel(&self) -> KernelSettings {
         self.kernel
+    }
+
+    /// k per photon class of the kNN radii packed into the drawn normals (`photon::density`).
+    pub fn neighbours(&self) -> Neighbours {
+        self.neighbours
     }
 
     /// Reads back the indirect radiance (RGBA f32; alpha = volumes per pixel).
