@@ -2,9 +2,7 @@
 // Photon volumes, fragment stage: the photon's contribution to the surface point the eye
 // G-buffer holds at this pixel, ΔL = f(s, ωi, ωo) · Φ · κ (paper eq. 1, with the cosine as a
 // front-side test), added into the indirect radiance buffer by additive blending. Alpha counts
-// the volumes that touched the pixel (the overdraw view). A global photon (not a caustic one)
-// also adds its contribution and its kernel support κ·a to the global target, which the
-// support normalisation divides by (src/passes/support.rs).
+// the volumes that touched the pixel (the overdraw view).
 #include "shared.glsl"
 #include "packing.glsl"
 #include "kernel.glsl"
@@ -23,7 +21,6 @@ layout(location = 1) flat in vec2 v_radius;
 layout(location = 2) flat in vec3 v_center;  // the photon's eye-relative position
 
 layout(location = 0) out vec4 out_indirect;
-layout(location = 1) out vec4 out_global;
 
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
@@ -48,8 +45,5 @@ void main() {
     GpuMaterial m = materials[texelFetch(g_material, px, 0).x];
     Bsdf bsdf = material_bsdf(m, texelFetch(g_albedo, px, 0).rgb);
     vec3 f = bsdf_eval(bsdf, wo, wi, n, n);
-    vec3 c = f * photon.power * kappa;
-    out_indirect = vec4(c, 1.0);
-    float area = global_support_area(photon);
-    out_global = area > 0.0 ? vec4(c, kappa * area) : vec4(0.0);
+    out_indirect = vec4(f * photon.power * kappa, 1.0);
 }

@@ -1,7 +1,8 @@
 #version 460
 // Photon volumes, vertex stage: one instance per photon; the icosahedron (inscribed sphere of
 // radius 1, from the vertex buffer) is scaled to bound the photon's ellipsoidal kernel:
-// r_xy in the tangent plane of the surface the photon hit, r_z along its normal.
+// r_xy in the tangent plane of the surface the photon hit, r_z along its normal. The photon's
+// kNN radius is the length of its stored normal (pack_normal).
 #include "shared.glsl"
 #include "packing.glsl"
 #include "kernel.glsl"
@@ -19,6 +20,7 @@ layout(push_constant) uniform Push {
     uint subsample;
     float footprint;
     float footprint_max;
+    float scale;  // the kNN radii's factor (KernelSettings::scale)
     vec4 offset;  // xyz: photon map origin − eye (the stored positions are origin-relative)
 } push;
 
@@ -28,13 +30,12 @@ layout(location = 2) flat out vec3 v_center;  // the photon's eye-relative posit
 
 void main() {
     Photon photon = photon_load(photons[gl_InstanceIndex]);
-    float rho_p;
-    unpack_direction(photon.direction, rho_p);
+    float r_knn;
+    vec3 n = unpack_normal(photon.normal, r_knn);
     // Eye-relative position: the eye is at the origin of the frame's space.
     vec3 center = photon.position + push.offset.xyz;
-    vec2 r = kernel_radius(rho_p, push.r_min, push.r_max, push.footprint, push.footprint_max,
-                           length(center));
-    vec3 n = normalize(photon.normal);
+    vec2 r = kernel_radius(r_knn, push.r_min, push.r_max, push.scale, push.footprint,
+                           push.footprint_max, length(center));
     vec3 t;
     vec3 b;
     frame_from_normal(n, t, b);

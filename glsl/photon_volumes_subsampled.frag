@@ -5,8 +5,6 @@
 // full-resolution BSDF:
 //   out_irradiance = Φ · κ            (front side only; times c_L/π at full resolution)
 //   out_glossy     = f_glossy · Φ · κ (the non-Lambertian lobes, as radiance at this sample)
-// and, for a global photon, the same two into the global targets with its kernel support κ·a
-// in the first's alpha (src/passes/support.rs).
 // There is no depth attachment at this size, so no hardware depth test: the kernel test alone
 // discards the surfaces a volume does not contain (see passes/photon_volumes.rs).
 #include "shared.glsl"
@@ -36,8 +34,6 @@ layout(location = 2) flat in vec3 v_center;  // the photon's eye-relative positi
 
 layout(location = 0) out vec4 out_irradiance;
 layout(location = 1) out vec4 out_glossy;
-layout(location = 2) out vec4 out_global_irradiance;
-layout(location = 3) out vec4 out_global_glossy;
 
 void main() {
     // The same centre sample as upsample.comp's subsample_centre.
@@ -77,7 +73,4 @@ void main() {
     vec3 glossy = max(f - c[LOBE_LAMBERTIAN] * (1.0 / PI), vec3(0.0));
     out_irradiance = vec4(flux, 1.0);
     out_glossy = vec4(glossy * flux, 0.0);
-    float area = global_support_area(photon);
-    out_global_irradiance = area > 0.0 ? vec4(flux, kappa * area) : vec4(0.0);
-    out_global_glossy = area > 0.0 ? vec4(glossy * flux, 0.0) : vec4(0.0);
 }

@@ -1,7 +1,8 @@
 //! The photon part of an ISPM frame: light G-buffers → bounce map → readback → CPU trace →
-//! upload → photon volumes (→ upsample at `--subsample N > 1`) → composite. Owns the buffers
-//! and passes those steps use; `frame.rs` calls its three steps in order. The first four run
-//! for the lights whose photons changed only; the others' are kept (`retrace.rs`).
+//! kernel radii (`photon::density`) → upload → photon volumes (→ upsample at
+//! `--subsample N > 1`) → composite. Owns the buffers and passes those steps use; `frame.rs`
+//! calls its three steps in order. The first four run for the lights whose photons changed
+//! only; the others' are kept (`retrace.rs`).
 //!
 //! The photon map does not depend on the camera: light G-buffers, bounce map, the CPU trace (its
 //! BVH built from the instances moved by −centre in f64) and photon positions are relative to
@@ -13,6 +14,16 @@
 //!   world ──(f64: − origin)──► photon map (f32, traced once) ──(+ (origin − eye), f32)──► volumes
 //!                                                                 ▲ set_view: the eye, yfov
 //! ```
+//!
+//! **Kernel radii.** Each photon's kernel radius comes from the density of the photons of its
+//! class around it (`photon::density`, the k-th nearest neighbour), over the whole photon map:
+//! every light's photons, so [`PhotonFrame::trace`] measures it again whenever it runs, kept
+//! lights included (their photons' neighbours may have changed). The per-light photons
+//! ([`retrace::Traced`]) keep the tracer's unit normals, and the radii are kept beside them in
+//! photon-map order; only the copy written to the staging buffers, and
+//! [`PhotonFrame::photon_map`], pack each normal with its radius (`photon::types::pack_normal`).
+//! So the kept photons stay exactly what a trace makes (the reuse's bit-for-bit invariant is
+//! about them), and the radii cannot go stale inside them.
 
 use crate::frame::{FrameStats, RenderSettings};
 use crate::gpu::{vk, Access, Buffer, Cmd, Gpu, Image, MemoryLocation, QueueRole, ViewKind};
@@ -23,12 +34,12 @@ use crate::passes::composite::CompositePass;
 use crate::passes::eye_gbuffer::GBuffer;
 use crate::passes::light_gbuffer::LightGBufferPass;
 use crate::passes::photon_volumes::{self, PhotonVolumeInputs, PhotonVolumesPass};
-use crate::passes::support::SupportPass;
 use crate::passes::upsample::{self, UpsampleInputs, UpsamplePass};
 use crate::photon::bvh::SceneBvh;
+use crate::photon::density::{knn_radii, Neighbours};
 use crate::photon::kernel::KernelSettings;
 use crate::photon::trace::TraceSettings;
-use crate::photon::types::{BounceMapPhoton, Photon};
+use crate::photon::types::{pack_normal, BounceMapPhoton, Photon};
 use crate::plan::{Effects, EffectsPlan};
 use crate::scene::Scene;
 use crate::timing;
@@ -45,6 +56,24 @@ use buffers::{photons_per_buffer, storage_buffer_range, BounceBuffers, PhotonBuf
 
 /// Poses of an animated scene over one period that the buffers are sized for.
 const POSE_SAMPLES: usize = 24;
+
+/// Photons packed at a time for the staging buffers (3 MiB).
+const WRITE_CHUNK: usize = 1 << 16;
+
+/// `traced`'s photon map as the GPU draws it: light after light, each normal packed with its
+/// kNN radius from `radii` (photon-map order), `offset` added to each position.
+fn drawn_photons<'a>(
+    traced: &'a Traced,
+    radii: &'a [f32],
+    offset: glam::Vec3,
+) -> impl Iterator<Item = Photon> + 'a {
+    debug_assert_eq!(traced.photon_count(), radii.len());
+    traced.photons().zip(radii).map(move |(p, &r)| Photon {
+        position: p.position + offset,
+        normal: pack_normal(p.normal, r),
+        ..*p
+    })
+}
 
 pub struct PhotonFrame {
     gpu: Arc<Gpu>,
@@ -64,8 +93,6 @@ pub struct PhotonFrame {
     /// The photon sample of the next traced map: its bounce-map seed, CPU path seed and the
     /// texels' jittered points (`ispm::texel_jitter`).
     sample: u32,
-    /// [`Self::set_radius_scale`].
-    radius_scale: f32,
     kernel: KernelSettings,
     light_gbuffer: GBuffer,
     light_pass: LightGBufferPass,
@@ -87,16 +114,17 @@ pub struct PhotonFrame {
     /// `--subsample N > 1`: the low-resolution targets and the pass that upsamples them.
     subsampled: Option<Subsampled>,
     indirect: Image,
-    /// The global photons' share of the estimate, beside `indirect` (or the low targets), and
-    /// the pass that normalises it by its kernel support (`passes/support.rs`).
-    global: Vec<Image>,
-    support: SupportPass,
     composite: CompositePass,
     /// The last frame's bounce map and photon map per light (positions relative to
     /// `plan.origin`), and the plan they were traced with (`retrace.rs`).
     traced: Traced,
     /// Whether unchanged lights keep their photons (not under `--effects all`).
     reuse_lights: bool,
+    /// k per photon class of the kNN radii.
+    neighbours: Neighbours,
+    /// Each photon's kNN radius (metres), in photon-map order (light after light): packed into
+    /// the normals the GPU draws (module docs, "Kernel radii").
+    radii: Vec<f32>,
     /// Per light: whether this frame traces its photons again ([`Self::record_emission`]).
     retrace: Vec<bool>,
     /// The views this frame's light G-buffers and bounce map are made for, in batches of
@@ -274,15 +302,6 @@ impl PhotonFrame {
             )?;
             (indirect, Some(Subsampled { low, upsample }))
         };
-        // The global photons' share of the estimate and its support normalisation, beside
-        // `indirect` or the low-resolution targets (`passes/support.rs`).
-        let (gw, gh) = upsample::low_size(radiance.width, radiance.height, subsample);
-        let global = photon_volumes::global_targets(gpu, gw, gh, subsample)?;
-        let totals: Vec<&Image> = match &subsampled {
-            None => vec![&indirect],
-            Some(sub) => sub.low.iter().collect(),
-        };
-        let support = SupportPass::new(gpu, &totals, &global.iter().collect::<Vec<_>>())?;
         let composite = CompositePass::new(gpu, &indirect, radiance)?;
         let kernel_clamp =
             KernelSettings::scene_relative(&gpu_scene.bounds, settings.photons, settings.radius);
@@ -306,7 +325,6 @@ impl PhotonFrame {
             },
             base_seed: settings.seed,
             sample: 0,
-            radius_scale: 1.0,
             // The footprint floor of the image the estimate is made at (the low one when
             // subsampling).
             kernel: kernel_clamp.for_view(scene.camera.yfov, estimate_height),
@@ -326,11 +344,11 @@ impl PhotonFrame {
             photon_pass,
             subsampled,
             indirect,
-            global,
-            support,
             composite,
             traced: Traced::default(),
             reuse_lights: settings.effects == Effects::Auto,
+            neighbours: Neighbours::for_photons(settings.photons),
+            radii: Vec::new(),
             retrace: Vec::new(),
             batches: Vec::new(),
             eye: scene.camera.position().as_dvec3(),
@@ -356,7 +374,8 @@ impl PhotonFrame {
     /// progressive schedule of an accumulation (`photon::progressive`), applied after the
     /// radius is chosen and before its clamp.
     pub fn set_radius_scale(&mut self, scale: f32) {
-        self.radius_scale = scale;
+        self.kernel_clamp.scale = scale;
+        self.kernel.scale = scale;
     }
 
     /// The photon sample of the last traced map ([`Self::set_sample`]).
@@ -566,6 +585,7 @@ impl PhotonFrame {
         if plan.texels == 0 {
             self.buffers.counts.fill(0);
             self.traced.clear();
+            self.radii.clear();
             return Ok(stats);
         }
         anyhow::ensure!(
@@ -597,9 +617,17 @@ impl PhotonFrame {
             self.buffers = PhotonBuffers::new(&self.gpu, count, capacity, per_buffer)?;
             self.rebind = true;
         }
-        // Light after light, each light's photons where a fresh map has them.
-        let lights = self.traced.lights().iter().map(|l| l.photons.as_slice());
-        timing::timed("upload write", || self.buffers.write(lights))?;
+        // The kernel radii over every light's photons (module docs, "Kernel radii").
+        let (traced, neighbours) = (&self.traced, self.neighbours);
+        self.radii = timing::timed("photon density", || knn_radii(traced.photons(), neighbours));
+        // Light after light, each light's photons where a fresh map has them, normals packed
+        // with their radii, a chunk at a time.
+        let mut drawn = drawn_photons(traced, &self.radii, glam::Vec3::ZERO);
+        let chunks = std::iter::from_fn(|| {
+            let chunk: Vec<Photon> = drawn.by_ref().take(WRITE_CHUNK).collect();
+            (!chunk.is_empty()).then_some(chunk)
+        });
+        timing::timed("upload write", || self.buffers.write(chunks))?;
         stats.photon_buffers = self.buffers.counts.iter().filter(|&&n| n > 0).count();
         stats.bounce_map_buffers = self.bounce_map_buffers();
         Ok(stats)
@@ -652,16 +680,10 @@ impl PhotonFrame {
 
     /// The last traced photon map as the photon volumes draw it now: positions relative to the
     /// eye, made the way the vertex shader makes them (the stored position plus
-    /// `origin − eye`, in f32).
+    /// `origin − eye`, in f32), and normals packed with the photons' kNN radii, as uploaded
+    /// (`photon::types::pack_normal`; [`Self::kernel`] turns a radius into the kernel's).
     pub fn photon_map(&self) -> Vec<Photon> {
-        let offset = self.eye_offset();
-        self.traced
-            .photons()
-            .map(|p| Photon {
-                position: p.position + offset,
-                ..*p
-            })
-            .collect()
+        drawn_photons(&self.traced, &self.radii, self.eye_offset()).collect()
     }
 
     /// Light `light`'s share of the last photon map: its photons (positions relative to the

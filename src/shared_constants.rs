@@ -21,6 +21,11 @@ pub const PATH_DENSITY_LAMBERTIAN_DIVISOR: f32 = 1000.0;
 pub const PATH_DENSITY_GLOSSY_DIVISOR: f32 = 10.0;
 // Packed directions store ω·(ρp + 1); ρp is clamped to [0, this] so that ‖v‖² stays finite in f32.
 pub const PATH_DENSITY_MAX: f32 = 1.0e15;
+// Stored photons' normals are packed as n̂·r (r: the kNN kernel radius in metres,
+// `photon::density`); r is clamped to [min, max] so that it stays > 0 (the normal's direction
+// survives) and ‖v‖² stays a normal, finite f32 (10⁻¹⁸ … 10¹⁸).
+pub const PACKED_RADIUS_MIN: f32 = 1.0e-9;
+pub const PACKED_RADIUS_MAX: f32 = 1.0e9;
 // Squared length below which a normal or direction counts as degenerate (the BSDF returns zero).
 pub const BSDF_MIN_LENGTH_SQUARED: f32 = 1.0e-12;
 // Cosine (to the shading normal) below which wo or a reflected wi counts as tangent: the BSDF
@@ -64,7 +69,3 @@ pub const JITTER_STREAM_X: u32 = 0x7e1a_91c3;
 pub const JITTER_STREAM_Y: u32 = 0x2b5d_06f7;
 pub const JITTER_R2_X: u32 = 3242174890;
 pub const JITTER_R2_Y: u32 = 2447445414;
-
-// The smallest kernel support the global photons' estimate is divided by (`passes/support.rs`):
-// a convex corner's, where a quarter of each kernel lies on the surface.
-pub const SUPPORT_WEIGHT_MIN: f32 = 0.25;

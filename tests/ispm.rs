@@ -7,8 +7,9 @@ mod common;
 use glam::Vec3;
 use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
 use ispm::photon::bsdf::Bsdf;
-use ispm::photon::kernel::{kernel_radius, kernel_weight, KernelSettings};
-use ispm::photon::types::{unpack_direction, Photon};
+use ispm::photon::density::PhotonClass;
+use ispm::photon::kernel::{kernel_radius, kernel_t, kernel_weight, KernelSettings};
+use ispm::photon::types::{unpack_direction, unpack_normal, Photon};
 use ispm::reference::scenes;
 use ispm::scene::{Camera, Light, LightKind, Scene};
 use ispm::shared_constants::{LIGHT_VIEW_FAR_Z, LIGHT_VIEW_NEAR_Z};
@@ -54,9 +55,29 @@ fn rgba16f(bytes: &[u8]) -> Vec<Vec3> {
         .collect()
 }
 
+/// Each photon of a drawn photon map (`PhotonFrame::photon_map`: normals packed with the kNN
+/// radii) as the photon volumes see it: position, unit normal, incident direction, `r_xy`,
+/// `r_z` (`photon::kernel`, the eye at the origin) and power.
+fn drawn_kernels(
+    photons: &[Photon],
+    kernel: &KernelSettings,
+) -> Vec<(Vec3, Vec3, Vec3, f32, f32, Vec3)> {
+    photons
+        .iter()
+        .map(|p| {
+            let (wi, _) = unpack_direction(p.direction);
+            let (n, r_knn) = unpack_normal(p.normal);
+            // Camera-relative positions: the eye is at the origin.
+            let (r_xy, r_z) = kernel_radius(r_knn, kernel, p.position.length());
+            (p.position, n, wi, r_xy, r_z, p.power)
+        })
+        .collect()
+}
+
 /// The CPU gather of the same photons at the same surface points the GPU shaded: for every
 /// pixel of the eye G-buffer, Σ f(s, ωi, ωo)·Φ·κ over the photon map, with the CPU über-BSDF
-/// and the CPU kernel (`photon::kernel`), brute force.
+/// and the CPU kernel (`photon::kernel`, each photon's radius from its packed normal), brute
+/// force.
 fn cpu_gather(
     scene: &Scene,
     renderer: &Renderer,
@@ -69,15 +90,7 @@ fn cpu_gather(
     let albedo = rgba16f(&renderer.read_gbuffer("albedo").expect("albedo"));
     let material: Vec<u32> =
         bytemuck::pod_collect_to_vec(&renderer.read_gbuffer("material").expect("material"));
-    let unpacked: Vec<(Vec3, Vec3, Vec3, f32, f32, Vec3)> = photons
-        .iter()
-        .map(|p| {
-            let (wi, rho) = unpack_direction(p.direction);
-            // Camera-relative positions: the eye is at the origin.
-            let (r_xy, r_z) = kernel_radius(rho, &kernel, p.position.length());
-            (p.position, p.normal.normalize(), wi, r_xy, r_z, p.power)
-        })
-        .collect();
+    let unpacked = drawn_kernels(photons, &kernel);
     position
         .iter()
         .enumerate()
@@ -175,13 +188,18 @@ fn camera_inside_a_photon_volume_keeps_indirect_light() {
             ..settings(32, 20_000)
         },
     );
-    // Multi-bounce photons on the floor get r_max; their volumes reach r_z = r_max·NORMAL_RATIO
-    // above it, far over the camera's 2 cm.
-    let kernel = renderer.photons().expect("ispm").kernel();
-    let reach = kernel.r_max * ispm::photon::kernel::NORMAL_RATIO;
+    // The floor's photons have kNN radii of several centimetres here (20k photons over a 2 m
+    // box); their volumes reach r_z = r_xy·NORMAL_RATIO above it, over the camera's 2 cm: the
+    // eye lies inside 43 of them (measured).
+    let photons = renderer.photons().expect("ispm");
+    let kernel = photons.kernel();
+    let around_eye = drawn_kernels(&photons.photon_map(), &kernel)
+        .iter()
+        .filter(|&&(x, n, _, r_xy, r_z, _)| kernel_t(x, n, r_xy, r_z, Vec3::ZERO) < 1.0)
+        .count();
     assert!(
-        reach > 0.1,
-        "the camera must sit inside the volumes: {kernel:?}"
+        around_eye >= 10,
+        "the camera must sit inside the volumes: {around_eye} contain it ({kernel:?})"
     );
     let (worst, peak) = compare_with_cpu_gather(&scene, &renderer, "camera_inside_volume");
     assert!(peak > 0.0, "no indirect light reached the floor");
@@ -192,6 +210,52 @@ fn camera_inside_a_photon_volume_keeps_indirect_light() {
     // Every pixel sees the floor and gets indirect light: no dark blotch.
     let dark = frame.hdr.chunks_exact(4).filter(|p| p[0] <= 0.0).count();
     assert_eq!(dark, 0, "{dark} black pixels");
+}
+
+#[test]
+fn drawn_photons_carry_their_kth_nearest_neighbour_distance_in_their_normal() {
+    // cornell-box has both classes: photons through the glass sphere (caustic) and the room's
+    // diffuse interreflection (global).
+    let scene = ispm::scene::bundled::resolve(Some("cornell-box")).expect("scene");
+    let (renderer, frame) = render(&scene, settings(32, 20_000));
+    let photons = renderer.photons().expect("ispm");
+    let map = photons.photon_map();
+    assert_eq!(map.len(), frame.stats.stored_photons);
+    let neighbours = photons.neighbours();
+    let class = |p: &Photon| PhotonClass::of(unpack_direction(p.direction).1);
+    let caustic = map
+        .iter()
+        .filter(|p| class(p) == PhotonClass::Caustic)
+        .count();
+    assert!(
+        caustic > neighbours.caustic && map.len() - caustic > neighbours.global,
+        "{caustic} caustic photons of {}",
+        map.len()
+    );
+    // Brute force on every 97th photon: the distance to its k-th nearest neighbour among the
+    // photons of its class (the map is eye-relative, the radii were measured origin-relative:
+    // the same distances to f32 rounding).
+    let mut checked = 0;
+    for p in map.iter().step_by(97) {
+        let (n, r) = unpack_normal(p.normal);
+        assert!((n.length() - 1.0).abs() < 1e-5, "{p:?}");
+        let c = class(p);
+        let mut d: Vec<f32> = map
+            .iter()
+            .filter(|q| class(q) == c)
+            .map(|q| q.position.distance(p.position))
+            .collect();
+        d.sort_by(f32::total_cmp);
+        // d[0] is the photon itself.
+        let expected = d[neighbours.of(c)];
+        assert!(
+            (r - expected).abs() <= 1e-4 * expected + 2e-6,
+            "{c:?} photon at {}: packed radius {r}, k-th neighbour at {expected}",
+            p.position
+        );
+        checked += 1;
+    }
+    assert!(checked > 100, "{checked}");
 }
 
 fn bounce_map_power(scene: &Scene) -> Vec3 {

@@ -404,9 +404,12 @@ fn ispm_indirect_light_converges_to_the_path_tracer() {
         .iter()
         .map(|&n| measure(&scene, &reference, n, None))
         .collect();
-    // The default is the consistent schedule, r_max ∝ N^(-1/4): photons per kernel grow as √N
-    // while the kernel shrinks. For comparison, the constant-count schedule r_max ∝ N^(-1/2)
-    // from the same radius at the first count.
+    // The default: kNN kernel radii (`photon::density`) under the clamp r_max ∝ N^(-1/4). At
+    // these counts (≤ 100k) k is fixed, so the kernels shrink as N^(-1/2) wherever they are below
+    // r_max, holding k photons each: the bias falls, the noise much less (measured 0.1036,
+    // 0.0578, 0.0521; the path-density radius, whose r_max kernels held ∝ √N photons: 0.1050,
+    // 0.0633, 0.0420). For comparison, the constant-count clamp r_max ∝ N^(-1/2) from the same
+    // radius at the first count.
     let r0 = default[0].r_max;
     let constant_count: Vec<Point> = counts
         .iter()
@@ -439,8 +442,8 @@ fn ispm_indirect_light_converges_to_the_path_tracer() {
         }
     }
     eprintln!("{table}");
-    // Falls monotonically with the default, consistent schedule (each step by at least 5 %:
-    // two seeds' noise in the relMSE is ~1 %).
+    // Falls monotonically with the default (each step by at least 5 %: two seeds' noise in the
+    // relMSE is ~1 %).
     for w in default.windows(2) {
         assert!(
             w[1].indirect < 0.95 * w[0].indirect,
@@ -644,8 +647,16 @@ fn ispm_caustic_error_falls_as_photons_grow() {
 
 /// The mirror ring's cardioid (`caustic-ring`, the sun at 20°): the caustic views store far more
 /// photons at the same `--photons`, and the caustic they draw agrees with progressive photon
-/// mapping per pixel and at block scale, where one view fitted to the scene leaves a lattice of
-/// separate dots (docs/accuracy.md §3).
+/// mapping per pixel and at block scale, where one view fitted to the scene puts its energy in
+/// the wrong places (docs/accuracy.md §3).
+///
+/// Per pixel the two are now close: the kNN kernel radii (`photon::density`) widen the ~1000
+/// photons of one view to their spacing, so they no longer draw a lattice of dots (per-pixel
+/// relMSE 2.43 and 0.52 with the path-density radius, 0.044 and 0.012 now), and at 64² that blur
+/// costs little; at 80k photons the sharper cardioid of the caustic views is even a little
+/// further from the reference's own blur per pixel (0.017 against 0.012). The blocks tell them
+/// apart: 8–15× lower error with caustic views (measured 0.0007 against 0.0105 at 20k, 0.0003
+/// against 0.0025 at 80k).
 #[test]
 fn the_ring_caustic_matches_progressive_photon_mapping_with_caustic_views() {
     let counts = [20_000, 80_000];
@@ -662,17 +673,17 @@ fn the_ring_caustic_matches_progressive_photon_mapping_with_caustic_views() {
             q.stored
         );
         assert!(
-            p.per_pixel < 0.1 && p.per_pixel * 10.0 < q.per_pixel,
-            "{} photons: per-pixel relMSE {} with caustic views, {} without",
+            p.per_pixel < 0.1,
+            "{} photons: per-pixel relMSE {} with caustic views",
             p.photons,
             p.per_pixel,
-            q.per_pixel
         );
         assert!(
-            p.blocks < 0.005,
-            "{} photons: block relMSE {}",
+            p.blocks < 0.005 && p.blocks * 4.0 < q.blocks,
+            "{} photons: block relMSE {} with caustic views, {} without",
             p.photons,
-            p.blocks
+            p.blocks,
+            q.blocks
         );
         assert!(
             (0.9..1.1).contains(&p.mean_ratio),

@@ -18,9 +18,7 @@ use common::golden::rel_mse;
 use glam::Vec3;
 use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
 use ispm::scene::Scene;
-use references::{
-    path_traced, progressive_indirect, CONVERGENCE_BOUNCES, CONVERGENCE_SIZE, REFERENCE_PASSES,
-};
+use references::{path_traced, CONVERGENCE_BOUNCES, CONVERGENCE_SIZE, REFERENCE_PASSES};
 
 fn settings(photons: usize, accumulate: bool) -> RenderSettings {
     RenderSettings {
@@ -48,6 +46,25 @@ fn accumulated_indirect_and_normals(
     photons: usize,
     checkpoints: &[u32],
 ) -> (Vec<Vec<f32>>, Vec<Vec3>) {
+    accumulated_indirect_seeded_and_normals(scene, photons, 1, checkpoints)
+}
+
+/// [`accumulated_indirect`] with the renderer's seed `seed`.
+fn accumulated_indirect_seeded(
+    scene: &Scene,
+    photons: usize,
+    seed: u32,
+    checkpoints: &[u32],
+) -> Vec<Vec<f32>> {
+    accumulated_indirect_seeded_and_normals(scene, photons, seed, checkpoints).0
+}
+
+fn accumulated_indirect_seeded_and_normals(
+    scene: &Scene,
+    photons: usize,
+    seed: u32,
+    checkpoints: &[u32],
+) -> (Vec<Vec<f32>>, Vec<Vec3>) {
     let gpu = common::gpu();
     let direct = Renderer::new(
         &gpu,
@@ -60,7 +77,15 @@ fn accumulated_indirect_and_normals(
     .expect("direct renderer")
     .render()
     .expect("direct frame");
-    let mut renderer = Renderer::new(&gpu, scene, settings(photons, true)).expect("renderer");
+    let mut renderer = Renderer::new(
+        &gpu,
+        scene,
+        RenderSettings {
+            seed,
+            ..settings(photons, true)
+        },
+    )
+    .expect("renderer");
     let mut out = Vec::new();
     let mut frames = 0;
     for &n in checkpoints {
@@ -203,6 +228,24 @@ fn corners_and_edges_of_a_closed_room_are_within_five_percent_of_the_path_tracer
         .iter()
         .map(|i| sum(i) / sum(&reference.indirect))
         .collect();
+    let interior = near_creases(&normals, size, 2)
+        .iter()
+        .zip(&normals)
+        .map(|(&e, n)| !e && *n != Vec3::ZERO)
+        .collect::<Vec<bool>>();
+    let sum_in = |image: &[f32]| -> f64 {
+        image
+            .chunks_exact(4)
+            .zip(&interior)
+            .filter(|(_, &e)| e)
+            .map(|(p, _)| f64::from(p[0] + p[1] + p[2]))
+            .sum()
+    };
+    eprintln!(
+        "elsewhere: ISPM / path tracer = {:.4} (1 frame), {:.4} (32 frames)",
+        sum_in(&images[0]) / sum_in(&reference.indirect),
+        sum_in(&images[1]) / sum_in(&reference.indirect)
+    );
     eprintln!(
         "cornell(2): indirect light within 2 pixels of creases, {count} pixels: ISPM / path          tracer = {:.4} (1 frame), {:.4} (32 frames)",
         ratios[0], ratios[1]
@@ -243,21 +286,33 @@ fn masked(image: &[f32], mask: &[bool]) -> Vec<f32> {
         .collect()
 }
 
+/// On `caustic-ring` the CPU reference cannot show the convergence: progressive photon mapping's
+/// shrinking global radius (128 iterations of 100k photons) still blurs the cardioid's edges, and
+/// ISPM's mean differs from it by that blur from the first frame on (per-pixel relMSE 0.0137,
+/// 0.0128, 0.0134, 0.0141 at 1, 4, 16 and 32 frames; 4×4 blocks 0.0050, 0.0046, 0.0048, 0.0050;
+/// glass-sphere's blocks likewise flat at 0.0095–0.0100: docs/accuracy.md). What accumulation
+/// removes there is the noise, which this test measures without a reference: two accumulations
+/// with different seeds (independent photons) must agree better and better, their relMSE (twice
+/// the variance of one, in relMSE units) falling with the frames.
 #[test]
-fn the_mean_of_still_frames_converges_to_progressive_photon_mapping_on_the_caustic_ring() {
+fn two_independent_accumulations_of_the_caustic_ring_agree_better_with_every_frame() {
     let scene = ispm::scene::bundled::resolve(Some("caustic-ring")).expect("bundled");
-    let reference = progressive_indirect(&scene);
     let mask = diffuse_pixels(&scene, CONVERGENCE_SIZE);
-    let images = accumulated_indirect(&scene, 20_000, &CHECKPOINTS);
-    let images: Vec<Vec<f32>> = images.iter().map(|i| masked(i, &mask)).collect();
-    let errors = curve(
-        "caustic-ring, 20k photons a frame, against progressive 128 x 100k",
-        &images,
-        &CHECKPOINTS,
-        &masked(&reference, &mask),
-    );
+    let run = |seed: u32| {
+        accumulated_indirect_seeded(&scene, 20_000, seed, &CHECKPOINTS)
+            .iter()
+            .map(|i| masked(i, &mask))
+            .collect::<Vec<_>>()
+    };
+    let (a, b) = (run(1), run(2));
+    let errors: Vec<f64> = a.iter().zip(&b).map(|(a, b)| rel_mse(a, b)).collect();
+    let mut table = String::from("caustic-ring, 20k photons a frame: frames | relMSE(seed 1, seed 2)\n");
+    for (n, e) in CHECKPOINTS.iter().zip(&errors) {
+        table += &format!("{n} | {e:.5}\n");
+    }
+    eprintln!("{table}");
     for w in errors.windows(2) {
-        assert!(w[1] < w[0], "the error grew with the frames: {errors:?}");
+        assert!(w[1] < w[0], "the accumulations did not get closer:\n{table}");
     }
     assert!(
         errors[3] <= 0.3 * errors[0],

@@ -7,7 +7,7 @@ mod common;
 
 use glam::{Mat4, Vec3};
 use ispm::frame::{FrameImage, RenderSettings, Renderer};
-use ispm::photon::types::Photon;
+use ispm::photon::types::{unpack_normal, Photon};
 use ispm::plan::Effects;
 use ispm::reference::scenes::{cornell, point_light};
 use ispm::scene::{Light, Material, Scene};
@@ -182,9 +182,8 @@ fn the_unmoved_lights_photons_are_kept_bit_for_bit_after_the_moved_ones() {
     let mut r = Renderer::new(&gpu, &scene, settings(Effects::Auto)).expect("renderer");
     r.render().expect("frame 0");
     let before = r.photons().expect("photon part").photon_map();
-    let (_, starts1) = light_photons(&r, 1);
+    let (light1, starts1) = light_photons(&r, 1);
     let n0 = r.photons().expect("photon part").light_photons(0).0.len();
-    let light1 = photon_bits(&before[n0..]);
 
     r.set_lights(&moved(&scene.lights, 0, Vec3::new(-0.2, -0.1, 0.15)))
         .expect("move light 0");
@@ -196,9 +195,26 @@ fn the_unmoved_lights_photons_are_kept_bit_for_bit_after_the_moved_ones() {
     let n0_now = photons.light_photons(0).0.len();
     assert_eq!(after.len(), n0_now + light1.len() / size_of::<Photon>());
     assert!(
-        photon_bits(&after[n0_now..]) == light1,
+        light_photons(&r, 1).0 == light1,
         "light 1's photons changed"
     );
+    // In the photon map as drawn they follow light 0's new ones, the same records but for
+    // their normals' length: the kNN radius, measured over every light's photons (light 0's
+    // moved; `assert_as_fresh` below finds the image a fresh renderer's).
+    let (kept_before, kept_after) = (&before[n0..], &after[n0_now..]);
+    assert_eq!(kept_before.len(), kept_after.len());
+    for (a, b) in kept_before.iter().zip(kept_after) {
+        let same =
+            |v: Vec3, w: Vec3| v.to_array().map(f32::to_bits) == w.to_array().map(f32::to_bits);
+        assert!(
+            same(a.power, b.power)
+                && same(a.direction, b.direction)
+                && same(a.position, b.position),
+            "light 1's drawn photon changed: {a:?} → {b:?}"
+        );
+        let (na, nb) = (unpack_normal(a.normal).0, unpack_normal(b.normal).0);
+        assert!(na.distance(nb) < 1e-6, "{a:?} → {b:?}");
+    }
     assert!(
         photon_bits(&after[..n0_now]) != photon_bits(&before[..n0]),
         "light 0 moved, its photons did not"

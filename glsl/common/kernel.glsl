@@ -6,13 +6,17 @@
 const float KERNEL_NORMAL_RATIO = 0.5;
 const float KERNEL_PI = 3.14159265358979;
 
-// (r_xy, r_z) of a photon with path density rho_p at eye_distance metres from the eye; r_min,
-// r_max in metres, footprint: the pixel-footprint floor per metre of distance, footprint_max:
-// the floor's ceiling in metres.
-vec2 kernel_radius(float rho_p, float r_min, float r_max, float footprint, float footprint_max,
-                   float eye_distance) {
-    float r = (rho_p > 0.0 && !isinf(rho_p)) ? clamp(r_min * inversesqrt(rho_p), r_min, r_max)
-                                             : r_max;
+// (r_xy, r_z) of a photon with kNN radius r_knn (metres: the length of its packed normal,
+// src/photon/density.rs) at eye_distance metres from the eye:
+// max(scale * clamp(r_knn, r_min, r_max), footprint floor). r_min, r_max in metres, scale: the kNN radii's factor (> 0),
+// footprint: the pixel-footprint floor per metre of distance, footprint_max: the floor's ceiling
+// in metres.
+vec2 kernel_radius(float r_knn, float r_min, float r_max, float scale, float footprint,
+                   float footprint_max, float eye_distance) {
+    // <= 0 or NaN: a record without a radius (zero normal) gets the widest kernel.
+    // The progressive shrink (scale) applies to the clamped radius, not to the footprint floor
+    // (src/photon/kernel.rs).
+    float r = (r_knn > 0.0 ? clamp(r_knn, r_min, r_max) : r_max) * scale;
     // A comparison, not max(): a NaN floor (a photon with a broken position) leaves r alone.
     float floor_r = footprint * eye_distance;
     // Camera case (1x1 images, fields of view near 180 degrees): a pixel wider than the room
@@ -47,12 +51,6 @@ float kernel_weight(vec3 photon_pos, vec3 photon_normal, float r_xy, float r_z, 
     }
     float t = kernel_t(photon_pos, photon_normal, r_xy, r_z, s);
     return t >= 1.0 ? 0.0 : 3.0 / (KERNEL_PI * r_xy * r_xy) * (1.0 - t);
-}
-
-// The surface area a global photon stands for in the support normalisation
-// (src/passes/support.rs), 0 for a caustic photon (not normalised).
-float global_support_area(Photon photon) {
-    return 0.0;
 }
 
 #endif

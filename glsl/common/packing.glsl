@@ -13,6 +13,11 @@
 //
 // `direction` is packed as w * (rho_p + 1) with rho_p clamped to [0, PATH_DENSITY_MAX]; the zero
 // vector means "no direction" (absorbed photon). See pack_direction.
+//
+// A stored photon's `normal`, in the photon map the photon volumes draw, is packed as n * r_i:
+// its length is the photon's kNN kernel radius in metres (src/photon/density.rs), clamped to
+// [PACKED_RADIUS_MIN, PACKED_RADIUS_MAX] so it is never 0 and its square stays finite. See
+// pack_normal; readers of the direction normalise.
 #ifndef ISPM_PACKING_GLSL
 #define ISPM_PACKING_GLSL
 
@@ -40,7 +45,7 @@ struct Photon {
     vec3 power;
     vec3 direction; // packed incident direction, see pack_direction
     vec3 position;
-    vec3 normal;
+    vec3 normal;    // packed with the kernel radius, see pack_normal
 };
 
 // w * (rho_p + 1) with w normalised here; zero or non-finite w gives the zero vector.
@@ -61,6 +66,29 @@ vec3 unpack_direction(vec3 v, out float rho_p) {
         return vec3(0.0);
     }
     rho_p = max(len - 1.0, 0.0);
+    return v / len;
+}
+
+// n * r with n normalised here and r clamped to [PACKED_RADIUS_MIN, PACKED_RADIUS_MAX] (NaN: the
+// maximum); zero or non-finite n gives the zero vector.
+vec3 pack_normal(vec3 n, float radius) {
+    float len2 = dot(n, n);
+    if (!(len2 > 0.0) || isinf(len2) || isnan(len2)) {
+        return vec3(0.0);
+    }
+    float r = isnan(radius) ? PACKED_RADIUS_MAX
+                            : clamp(radius, PACKED_RADIUS_MIN, PACKED_RADIUS_MAX);
+    return n * (inversesqrt(len2) * r);
+}
+
+// Returns the unit normal, writes the kernel radius; the zero vector gives (0, 0).
+vec3 unpack_normal(vec3 v, out float radius) {
+    float len = length(v);
+    if (!(len > 0.0) || isinf(len) || isnan(len)) {
+        radius = 0.0;
+        return vec3(0.0);
+    }
+    radius = len;
     return v / len;
 }
 

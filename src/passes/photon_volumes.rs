@@ -58,12 +58,14 @@ struct Push {
     subsample: u32,
     footprint: f32,
     footprint_max: f32,
-    _pad: [f32; 2],
+    /// The kNN radii's factor ([`KernelSettings::scale`]).
+    scale: f32,
+    _pad: f32,
     /// Added to every stored photon position to make it eye-relative (xyz; w unused): the
     /// photon map's origin minus the eye (`photon_frame.rs`).
     offset: [f32; 4],
 }
-// std430 push-constant layout: the vec4 after five scalars starts at byte 32.
+// std430 push-constant layout: the vec4 after seven scalars starts at byte 32.
 const _: () = assert!(std::mem::offset_of!(Push, offset) == 32);
 const _: () = assert!(size_of::<Push>() == 48);
 
@@ -77,11 +79,9 @@ pub fn target(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<Image> 
             width,
             height,
             layers: 1,
-            // TRANSFER_DST: the value check's test seam (`value_check.rs`); STORAGE: the
-            // support normalisation rewrites it in place (`passes/support.rs`).
+            // TRANSFER_DST: the value check's test seam (`value_check.rs`).
             usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
                 | vk::ImageUsageFlags::SAMPLED
-                | vk::ImageUsageFlags::STORAGE
                 | vk::ImageUsageFlags::TRANSFER_SRC
                 | vk::ImageUsageFlags::TRANSFER_DST,
             view: ViewKind::D2,
@@ -100,11 +100,9 @@ pub fn low_targets(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<[I
                 width,
                 height,
                 layers: 1,
-                // TRANSFER_DST: the value check's test seam (`value_check.rs`); STORAGE: the
-                // support normalisation rewrites it in place (`passes/support.rs`).
+                // TRANSFER_DST: the value check's test seam (`value_check.rs`).
                 usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
                     | vk::ImageUsageFlags::SAMPLED
-                    | vk::ImageUsageFlags::STORAGE
                     | vk::ImageUsageFlags::TRANSFER_DST,
                 view: ViewKind::D2,
             },
@@ -114,44 +112,6 @@ pub fn low_targets(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<[I
         image("indirect.low_irradiance")?,
         image("indirect.low_glossy")?,
     ])
-}
-
-/// The global photons' share of the estimate, beside each target of the photon volumes
-/// (`passes/support.rs`): one at subsample 1 (`[global]`, beside `indirect`), two at N > 1
-/// (`[global irradiance, global glossy]`, beside the [`low_targets`]). RGB: what the global
-/// photons alone added; alpha of the first: their kernel support `W = Σ κ·a`.
-pub fn global_targets(
-    gpu: &Arc<Gpu>,
-    width: u32,
-    height: u32,
-    subsample: u32,
-) -> anyhow::Result<Vec<Image>> {
-    let names: &[&str] = if subsample <= 1 {
-        &["indirect.global"]
-    } else {
-        &[
-            "indirect.low_global_irradiance",
-            "indirect.low_global_glossy",
-        ]
-    };
-    names
-        .iter()
-        .map(|&name| {
-            Image::new(
-                gpu,
-                &ImageDesc {
-                    name,
-                    format: FORMAT,
-                    width,
-                    height,
-                    layers: 1,
-                    usage: vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::STORAGE,
-                    view: ViewKind::D2,
-                },
-            )
-        })
-        .collect::<Result<_, _>>()
-        .map_err(Into::into)
 }
 
 /// The most photon buffers one pass draws from (the descriptor pool's size). At lavapipe's
@@ -223,7 +183,7 @@ impl PhotonVolumesPass {
         let (fragment, color_formats, depth) = if subsample == 1 {
             (
                 &crate::gpu::shader_table::PHOTON_VOLUMES_FRAG,
-                &[FORMAT, FORMAT][..],
+                &[FORMAT][..],
                 Some(Depth {
                     format: DEPTH,
                     test: true,
@@ -236,7 +196,7 @@ impl PhotonVolumesPass {
         } else {
             (
                 &crate::gpu::shader_table::PHOTON_VOLUMES_SUBSAMPLED_FRAG,
-                &[FORMAT, FORMAT, FORMAT, FORMAT][..],
+                &[FORMAT, FORMAT][..],
                 None,
             )
         };
@@ -309,16 +269,17 @@ impl PhotonVolumesPass {
         Ok(())
     }
 
-    /// Draws `counts[i]` photon volumes from photon buffer `i` with the radii of `kernel` (its
-    /// clamp and footprint floor, [`crate::photon::kernel`]) into `targets`: `[indirect,
-    /// global]` at subsample 1, else the two [`low_targets`] and the two [`global_targets`]. `offset` is added to every stored photon
+    /// Draws `counts[i]` photon volumes from photon buffer `i` (normals packed with their kNN
+    /// radii, [`crate::photon::types::pack_normal`]) with the radii of `kernel` (its scale,
+    /// clamp and footprint floor, [`crate::photon::kernel`]) into `targets`: `[indirect]` at
+    /// subsample 1, else the two [`low_targets`]. `offset` is added to every stored photon
     /// position to make it relative to the eye (the frame's space).
     pub fn record(
         &self,
         cmd: &Cmd,
         inputs: &PhotonVolumeInputs,
         (counts, kernel, offset): (&[u32], &KernelSettings, glam::Vec3),
-        targets: &[&Image],
+        targets: &mut [Image],
     ) {
         let _scope = cmd.scope("photon_volumes");
         let g = inputs.gbuffer;
@@ -363,7 +324,8 @@ impl PhotonVolumesPass {
                     subsample: self.subsample,
                     footprint: kernel.footprint,
                     footprint_max: kernel.footprint_max,
-                    _pad: [0.0; 2],
+                    scale: kernel.scale,
+                    _pad: 0.0,
                     offset: offset.extend(0.0).to_array(),
                 },
             );

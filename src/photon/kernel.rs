@@ -14,19 +14,37 @@
 //! κ is a density over the tangent disk (units 1/m²), and `Φ·κ` is irradiance. Tested
 //! numerically in `kernel_integrates_to_one_over_the_tangent_disk`.
 //!
-//! # Radius from the path density
-//! `r_xy = clamp(r_min/√ρp, r_min, r_max)`, `r_z = NORMAL_RATIO·r_xy`. ρp is the product of
-//! the lobe factors (Lambertian ρ/1000, glossy ρ/10, delta ρ), so a photon that came straight
-//! through a perfect mirror or glass (ρp ≈ 1, a caustic) gets `r_min`, one diffuse bounce
-//! (ρp ≈ 5·10⁻⁴) about `45·r_min`, two or more diffuse bounces `r_max`. `r ∝ ρp^(−1/2)` keeps
-//! the expected number of photons per kernel constant if the photon density is ∝ ρp.
+//! # Radius from the photon density
+//! `r_xy = max(s·clamp(r_i, r_min, r_max), floor)`, `r_z = NORMAL_RATIO·r_xy`, with the
+//! footprint floor below. `r_i` is the photon's kNN radius (`photon::density`): the distance to its k-th nearest
+//! neighbour among the photons of its class (caustic: no diffuse bounce on its path; global: the
+//! rest), with a small k for caustics and a larger one for global photons, so the kernel holds
+//! about k photons of its kind wherever they are dense or sparse. It travels to the GPU in the
+//! length of the stored normal (`photon::types::pack_normal`). `s` ([`KernelSettings::scale`],
+//! 1 by default) scales the clamped radius: progressive accumulation shrinks every kernel by it
+//! frame after frame (`photon::progressive`), so the bias of the kernel and of its clamp
+//! vanishes. The footprint floor does not shrink: a kernel one pixel wide is the pixel's own
+//! footprint (a pixel shows the mean over it anyway), and below it each photon lands on single
+//! pixels, whose noise the frames average only slowly (measured on `caustic-ring`: shrinking the
+//! floor too made the 32-frame mean noisier, not closer, `tests/progressive.rs`). A photon
+//! without a radius (`r_i ≤ 0` or NaN: a zero normal) gets `r_max`.
 //! [`KernelSettings::scene_relative`] derives `r_max` from the scene size and the photon count
-//! and sets `r_min = r_max/50`.
+//! and sets `r_min = r_max/50`; with kNN radii the clamp only bounds outliers (a photon alone in
+//! its class gets `r_max`).
+//!
+//! *Before: the path density.* The radius was `clamp(r_min/√ρp, r_min, r_max)` from the path
+//! density ρp alone (the paper's ad hoc rule: `r ∝ ρp^(−1/2)` keeps the photons per kernel
+//! constant *if* the photon density is ∝ ρp). It is not: after two diffuse bounces ρp is ~10⁻⁷
+//! and every such photon got `r_max` wherever it landed, so on `cornell-box` each pixel was
+//! covered by hundreds of volumes (the photon volumes took 3.6 s of a 4.9 s frame on lavapipe)
+//! while the image stayed blotchy; and a photon the mirror ball scattered across the room kept
+//! the caustic radius `r_min` (ρp ≈ 1) though it had no neighbour, a single-pixel sparkle.
+//! docs/accuracy.md, "Kernel radius from the photon density", has the before/after figures.
 //!
 //! # Radius from the pixel footprint: a floor
 //! A kernel smaller than the pixel spacing is sampled only at pixel centres: each photon becomes
 //! a single-pixel firefly (`3/(π r²)` times its power) or nothing. The estimate stays unbiased in
-//! expectation, but its per-pixel variance grows as `r` shrinks, so caustic photons (ρp ≈ 1,
+//! expectation, but its per-pixel variance grows as `r` shrinks, so caustic photons (then ρp ≈ 1,
 //! radius `r_min`) got *noisier* with more photons (docs/accuracy.md, "Caustics"). The radius is
 //! therefore never below `FOOTPRINT_PIXELS` pixel spacings at the photon's distance `d` from
 //! the eye: `r_xy ≥ footprint·d`, `footprint = FOOTPRINT_PIXELS·2·tan(yfov/2)/height` (the
@@ -42,7 +60,10 @@
 //! the photons per kernel grow as √N (variance → 0), so the estimate converges. Keeping the
 //! photons per kernel constant (`r ∝ N^(−1/2)`, this module's first schedule) leaves the noise
 //! where it is: `tests/ispm_accuracy.rs` measured its relMSE flat at 0.063–0.064 from 20k to 80k
-//! photons where this schedule falls 0.6× per 4× photons (docs/accuracy.md).
+//! photons where this schedule falls 0.6× per 4× photons (docs/accuracy.md). The kNN radii follow
+//! the same schedule above the renderer's default budget (`photon::density`: k grows as √N past
+//! 100k photons, so `r_i ∝ N^(−1/4)` like `r_max`); at or below it k is fixed, the
+//! constant-count regime, which measured better there than a k shrinking with N.
 
 use crate::scene::Aabb;
 use glam::Vec3;
@@ -62,11 +83,14 @@ pub const RADIUS_SCALE: f32 = 0.42;
 /// The radius floor in pixel spacings (module docs, "Radius from the pixel footprint").
 pub const FOOTPRINT_PIXELS: f32 = 1.0;
 
-/// The radius clamp, in metres, and the view's footprint floor.
+/// The radius clamp, in metres, the scale of the kNN radii and the view's footprint floor.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct KernelSettings {
     pub r_min: f32,
     pub r_max: f32,
+    /// `s`: every photon's kNN radius is multiplied by it before the clamp (> 0; 1 by default;
+    /// a progressive renderer shrinks it over frames).
+    pub scale: f32,
     /// Smallest radius per metre of distance from the eye (0: no floor).
     pub footprint: f32,
     /// The floor's ceiling in metres: a tenth of the scene's diagonal
@@ -89,6 +113,7 @@ impl KernelSettings {
         Self {
             r_min: r_max / RADIUS_RANGE,
             r_max,
+            scale: 1.0,
             footprint: 0.0,
             footprint_max: 0.1 * diag,
         }
@@ -109,18 +134,15 @@ impl KernelSettings {
     }
 }
 
-/// `(r_xy, r_z)` of a photon with path density `rho_p` at `eye_distance` metres from the eye.
-pub fn kernel_radius(rho_p: f32, settings: &KernelSettings, eye_distance: f32) -> (f32, f32) {
-    let rho = if rho_p.is_finite() && rho_p > 0.0 {
-        rho_p
-    } else {
-        0.0
-    };
-    let r = if rho > 0.0 {
-        (settings.r_min / rho.sqrt()).clamp(settings.r_min, settings.r_max)
+/// `(r_xy, r_z)` of a photon with kNN radius `r_knn` (metres, `photon::density`; the length
+/// of its packed normal) at `eye_distance` metres from the eye.
+pub fn kernel_radius(r_knn: f32, settings: &KernelSettings, eye_distance: f32) -> (f32, f32) {
+    // ≤ 0 or NaN: a record without a radius (zero normal) gets the widest kernel.
+    let r = if r_knn > 0.0 {
+        r_knn.clamp(settings.r_min, settings.r_max)
     } else {
         settings.r_max
-    };
+    } * settings.scale;
     let floor = settings.footprint * eye_distance;
     // Camera case (1×1 images, fields of view near 180°): a pixel wider than the room made
     // kernels that spanned its walls; the floor stops at a tenth of the scene (NaN stays NaN).
@@ -210,19 +232,38 @@ mod tests {
     }
 
     #[test]
-    fn radius_shrinks_with_path_density_within_the_clamp() {
+    fn radius_is_the_scaled_knn_radius_within_the_clamp() {
         let k = KernelSettings {
             r_min: 0.01,
             r_max: 0.5,
+            scale: 1.0,
             footprint: 0.0,
             footprint_max: f32::INFINITY,
         };
-        assert_eq!(kernel_radius(1.0, &k, 3.0).0, 0.01);
-        assert_eq!(kernel_radius(1e-9, &k, 3.0).0, 0.5);
+        let (r, rz) = kernel_radius(0.1, &k, 3.0);
+        assert!((r - 0.1).abs() < 1e-7 && (rz - 0.1 * NORMAL_RATIO).abs() < 1e-7);
+        assert_eq!(kernel_radius(1e-9, &k, 3.0).0, 0.01);
+        assert_eq!(kernel_radius(3.0, &k, 3.0).0, 0.5);
+        assert_eq!(kernel_radius(f32::INFINITY, &k, 3.0).0, 0.5);
+        // No radius: the widest kernel.
         assert_eq!(kernel_radius(0.0, &k, 3.0).0, 0.5);
+        assert_eq!(kernel_radius(-1.0, &k, 3.0).0, 0.5);
         assert_eq!(kernel_radius(f32::NAN, &k, 3.0).0, 0.5);
-        let (r, rz) = kernel_radius(1e-2, &k, 3.0);
-        assert!((r - 0.1).abs() < 1e-6 && (rz - 0.1 * NORMAL_RATIO).abs() < 1e-6);
+        // The scale multiplies the clamped radius, not the footprint floor.
+        let half = KernelSettings { scale: 0.5, ..k };
+        assert!((kernel_radius(0.1, &half, 3.0).0 - 0.05).abs() < 1e-7);
+        assert!((kernel_radius(1e-9, &half, 3.0).0 - 0.005).abs() < 1e-9);
+        let twice = KernelSettings { scale: 2.0, ..k };
+        assert_eq!(kernel_radius(3.0, &twice, 3.0).0, 1.0);
+        let floored = KernelSettings {
+            footprint: 0.1,
+            ..half
+        };
+        assert!((kernel_radius(0.1, &floored, 3.0).0 - 0.3).abs() < 1e-7);
+        assert_eq!(
+            KernelSettings::scene_relative(&Aabb::EMPTY, 100, None).scale,
+            1.0
+        );
     }
 
     #[test]
@@ -231,6 +272,7 @@ mod tests {
         let k = KernelSettings {
             r_min: 0.01,
             r_max: 0.5,
+            scale: 1.0,
             footprint: 0.0,
             footprint_max: 10.0,
         }
@@ -239,16 +281,16 @@ mod tests {
             (k.footprint - FOOTPRINT_PIXELS * 0.02).abs() < 1e-6,
             "{k:?}"
         );
-        // A caustic photon (r_min) 2 m away is raised to the footprint …
-        let (r, rz) = kernel_radius(1.0, &k, 2.0);
+        // A dense caustic photon (r_min) 2 m away is raised to the footprint …
+        let (r, rz) = kernel_radius(1e-3, &k, 2.0);
         assert!((r - FOOTPRINT_PIXELS * 0.04).abs() < 1e-6, "{r}");
         assert!((rz - r * NORMAL_RATIO).abs() < 1e-7);
-        // … a diffuse one keeps its larger radius, and the floor may exceed r_max far away.
-        assert_eq!(kernel_radius(1e-9, &k, 2.0).0, 0.5);
-        assert!((kernel_radius(1e-9, &k, 100.0).0 - FOOTPRINT_PIXELS * 2.0).abs() < 1e-5);
+        // … a sparse one keeps its larger radius, and the floor may exceed r_max far away.
+        assert_eq!(kernel_radius(2.0, &k, 2.0).0, 0.5);
+        assert!((kernel_radius(2.0, &k, 100.0).0 - FOOTPRINT_PIXELS * 2.0).abs() < 1e-5);
         // … up to its ceiling: a pixel wider than the scene does not make a kernel as wide.
-        assert_eq!(kernel_radius(1e-9, &k, 1000.0).0, 10.0);
+        assert_eq!(kernel_radius(2.0, &k, 1000.0).0, 10.0);
         // Broken distances leave the clamp alone.
-        assert_eq!(kernel_radius(1.0, &k, f32::NAN).0, 0.01);
+        assert_eq!(kernel_radius(1e-3, &k, f32::NAN).0, 0.01);
     }
 }

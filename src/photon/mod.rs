@@ -3,6 +3,7 @@
 
 pub mod bsdf;
 pub mod bvh;
+pub mod density;
 pub mod emit;
 pub mod kernel;
 pub mod progressive;

@@ -1,5 +1,6 @@
-//! Photon records shared with the GPU, exactly as DESIGN.md §2.1 (paper Table 1), and the
-//! packing of a direction with its path density.
+//! Photon records shared with the GPU, exactly as DESIGN.md §2.1 (paper Table 1), the
+//! packing of a direction with its path density, and of a stored photon's normal with its
+//! kernel radius.
 //!
 //! Both records are `#[repr(C)]` + [`bytemuck::Pod`] arrays of `f32` with no padding; their GLSL
 //! twins in `glsl/common/packing.glsl` read them as std430 arrays of `vec4` (2 for a
@@ -14,8 +15,21 @@
 //!   already get the largest kernel, so nothing is lost that the kernel clamp would keep.
 //! - A zero or non-finite ω packs to the zero vector, which unpacks to `(0, 0)`: "no direction",
 //!   used by absorbed bounce-map photons (whose power is 0).
-
-use crate::shared_constants::PATH_DENSITY_MAX;
+//!
+//! # Normal packing
+//! The photon map the photon volumes draw carries each photon's kNN kernel radius `r_i`
+//! (metres, `photon::density`) in the length of its normal: `v = n̂·r_i` ([`pack_normal`]);
+//! [`unpack_normal`] returns `(v/‖v‖, ‖v‖)`. The record keeps its 48 bytes.
+//! - `r_i` is clamped to `[PACKED_RADIUS_MIN, PACKED_RADIUS_MAX]` (10⁻⁹ m, 10⁹ m) when packing,
+//!   so the length is never 0 (the direction survives coincident photons, whose kNN distance
+//!   is 0) and `‖v‖²` stays a finite, normal `f32`; NaN and +∞ (a photon alone in its class,
+//!   `density::NO_NEIGHBOURS`) pack as the maximum, which every kernel clamp turns into `r_max`.
+//! - The tracer stores unit normals (`photon::trace`, the per-light photons `PhotonFrame`
+//!   keeps); only the copy written for the GPU ([`crate::photon_frame::PhotonFrame::photon_map`])
+//!   and the CPU gather's records are packed. Readers that want the direction normalise (the
+//!   photon volumes' shaders always did).
+//! - A zero or non-finite n packs to the zero vector, which unpacks to `(0, 0)`.
+use crate::shared_constants::{PACKED_RADIUS_MAX, PACKED_RADIUS_MIN, PATH_DENSITY_MAX};
 use bytemuck::{Pod, Zeroable};
 use core::mem::{offset_of, size_of};
 use glam::Vec3;
@@ -46,7 +60,9 @@ pub struct Photon {
     pub direction: Vec3,
     /// World-space position of the hit.
     pub position: Vec3,
-    /// Unit normal n̂p of the surface the photon hit.
+    /// Normal n̂p of the surface the photon hit, turned to the incident side: unit as traced;
+    /// packed with the photon's kernel radius in the photon map the GPU draws, see
+    /// [`pack_normal`].
     pub normal: Vec3,
 }
 
@@ -82,6 +98,30 @@ pub fn unpack_direction(v: Vec3) -> (Vec3, f32) {
         return (Vec3::ZERO, 0.0);
     }
     (v / len, (len - 1.0).max(0.0))
+}
+
+/// Packs a normal (normalised here) and a kernel radius in metres into one vector: `n̂·r`, `r`
+/// clamped to `[PACKED_RADIUS_MIN, PACKED_RADIUS_MAX]` (NaN: the maximum).
+pub fn pack_normal(n: Vec3, radius: f32) -> Vec3 {
+    let len2 = n.length_squared();
+    if !(len2.is_finite() && len2 > 0.0) {
+        return Vec3::ZERO;
+    }
+    let r = if radius.is_nan() {
+        PACKED_RADIUS_MAX
+    } else {
+        radius.clamp(PACKED_RADIUS_MIN, PACKED_RADIUS_MAX)
+    };
+    n * (len2.sqrt().recip() * r)
+}
+
+/// Inverse of [`pack_normal`]: `(unit normal, radius)`; the zero vector gives `(0, 0)`.
+pub fn unpack_normal(v: Vec3) -> (Vec3, f32) {
+    let len = v.length();
+    if !(len.is_finite() && len > 0.0) {
+        return (Vec3::ZERO, 0.0);
+    }
+    (v / len, len)
 }
 
 impl BounceMapPhoton {
@@ -165,6 +205,55 @@ mod tests {
             assert_eq!(pack_direction(w, 3.0), Vec3::ZERO);
         }
         assert_eq!(unpack_direction(Vec3::ZERO), (Vec3::ZERO, 0.0));
+    }
+
+    #[test]
+    fn normal_packing_roundtrips_the_radius_within_its_clamp() {
+        let normals = [
+            Vec3::X,
+            -Vec3::Y,
+            Vec3::new(0.3, -0.5, 0.8).normalize(),
+            // Not unit: normalised when packing.
+            Vec3::new(0.0, 0.0, 7.0),
+        ];
+        for n in normals {
+            for r in [1e-9, 1e-4, 0.0123, 1.0, 37.5, 1e9] {
+                let v = pack_normal(n, r);
+                let (n2, r2) = unpack_normal(v);
+                assert!(n2.distance(n.normalize()) < 1e-6, "{n} {r}: {n2}");
+                assert!((r2 / r - 1.0).abs() < 1e-6, "{r} → {r2}");
+                assert!(v.length_squared().is_finite() && v.length_squared() > 0.0);
+            }
+        }
+        // Coincident photons (kNN distance 0) keep their normal; no density packs the maximum.
+        let (n, r) = unpack_normal(pack_normal(Vec3::Y, 0.0));
+        assert!(n.distance(Vec3::Y) < 1e-6 && (r / PACKED_RADIUS_MIN - 1.0).abs() < 1e-6);
+        for r in [f32::INFINITY, f32::NAN, 1e30] {
+            let (n, r2) = unpack_normal(pack_normal(-Vec3::Z, r));
+            assert!(n.distance(-Vec3::Z) < 1e-6, "{r}: {n}");
+            assert!((r2 / PACKED_RADIUS_MAX - 1.0).abs() < 1e-6, "{r} → {r2}");
+        }
+        for n in [
+            Vec3::ZERO,
+            Vec3::splat(f32::NAN),
+            Vec3::new(0.0, f32::INFINITY, 0.0),
+        ] {
+            assert_eq!(pack_normal(n, 0.5), Vec3::ZERO);
+        }
+        assert_eq!(unpack_normal(Vec3::ZERO), (Vec3::ZERO, 0.0));
+    }
+
+    #[test]
+    fn glsl_twin_packs_normals_with_the_shared_constants() {
+        let packing = include_str!("../../glsl/common/packing.glsl");
+        for f in [
+            "vec3 pack_normal(vec3 n, float radius)",
+            "vec3 unpack_normal(vec3 v, out float radius)",
+            "PACKED_RADIUS_MIN",
+            "PACKED_RADIUS_MAX",
+        ] {
+            assert!(packing.contains(f), "packing.glsl lacks `{f}`");
+        }
     }
 
     #[test]

@@ -109,15 +109,16 @@ impl PhotonBuffers {
         photons <= self.capacity * self.device.len()
     }
 
-    /// Writes the photon map, given as consecutive `parts` (e.g. each light's photons), into
-    /// the staging buffers, `capacity` a buffer; a part may straddle two buffers.
-    pub(super) fn write<'a>(
+    /// Writes the photon map, given as consecutive `parts` (e.g. chunks of it), into the
+    /// staging buffers, `capacity` a buffer; a part may straddle two buffers.
+    pub(super) fn write<P: AsRef<[Photon]>>(
         &mut self,
-        parts: impl IntoIterator<Item = &'a [Photon]>,
+        parts: impl IntoIterator<Item = P>,
     ) -> anyhow::Result<()> {
         self.counts.fill(0);
         let mut written = 0;
-        for mut part in parts {
+        for part in parts {
+            let mut part = part.as_ref();
             while !part.is_empty() {
                 let (buffer, within) = (written / self.capacity, written % self.capacity);
                 let n = part.len().min(self.capacity - within);

@@ -9,6 +9,7 @@ use crate::passes::eye_gbuffer::GBuffer;
 use crate::passes::photon_volumes::PhotonVolumeInputs;
 use crate::passes::upsample::UpsampleInputs;
 use crate::passes::value_check::{Checked, Records, ValueCheckPass};
+use crate::photon::density::Neighbours;
 use crate::photon::kernel::KernelSettings;
 use crate::photon::types::{BounceMapPhoton, Photon};
 
@@ -70,23 +71,15 @@ impl PhotonFrame {
             self.rebind = false;
         }
         let volumes = (&self.buffers.counts[..], &self.kernel, self.eye_offset());
-        let globals: Vec<&Image> = self.global.iter().collect();
         match &mut self.subsampled {
-            None => {
-                let totals = [&self.indirect];
-                self.photon_pass
-                    .record(cmd, &inputs, volumes, &[totals[0], globals[0]]);
-                self.support.record(cmd, &totals, &globals);
-            }
+            None => self.photon_pass.record(
+                cmd,
+                &inputs,
+                volumes,
+                std::slice::from_mut(&mut self.indirect),
+            ),
             Some(sub) => {
-                let totals = [&sub.low[0], &sub.low[1]];
-                self.photon_pass.record(
-                    cmd,
-                    &inputs,
-                    volumes,
-                    &[totals[0], totals[1], globals[0], globals[1]],
-                );
-                self.support.record(cmd, &totals, &globals);
+                self.photon_pass.record(cmd, &inputs, volumes, &mut sub.low);
                 if let Some(check) = check.as_deref_mut() {
                     check.image(cmd, Checked::IndirectLowIrradiance, &sub.low[0])?;
                     check.image(cmd, Checked::IndirectLowGlossy, &sub.low[1])?;
@@ -183,9 +176,15 @@ impl PhotonFrame {
         }
     }
 
-    /// The kernel radius clamp the photon volumes use.
+    /// The kernel settings the photon volumes use: the kNN radii's scale, the clamp and the
+    /// footprint floor.
     pub fn kernel(&self) -> KernelSettings {
         self.kernel
+    }
+
+    /// k per photon class of the kNN radii packed into the drawn normals (`photon::density`).
+    pub fn neighbours(&self) -> Neighbours {
+        self.neighbours
     }
 
     /// Reads back the indirect radiance (RGBA f32; alpha = volumes per pixel).

@@ -18,7 +18,9 @@
 //! The materials, the seed, the bounces and the BSDF variant are fixed for a renderer; an
 //! instance move ([`Traced::invalidate`]) re-traces every light; the rest is compared view by
 //! view ([`BouncePlan::same_light_views`]), never taken from the caller. So a kept light's
-//! records and photons are bit for bit those a fresh trace would make, and so is the image.
+//! records and photons are bit for bit those a fresh trace would make, and so is the image: the
+//! photons' kernel radii, which depend on every light's photons, are measured again over the
+//! whole map each time it is traced (`photon_frame.rs`, "Kernel radii").
 
 use crate::frame::{skipped, FrameStats, ReusedLight, TRACE_PASSES};
 use crate::ispm::BouncePlan;

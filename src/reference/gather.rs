@@ -1,6 +1,6 @@
 //! Photon mapping by gathering: `photon-gather` (one photon map, ISPM's per-photon kernel
-//! radius from ρp) and `progressive` (a new photon map per iteration and a global radius
-//! shrinking as Knaus & Zwicker 2011).
+//! radius from the photons' kNN density, `photon::density`) and `progressive` (a new photon map
+//! per iteration and a global radius shrinking as Knaus & Zwicker 2011).
 //!
 //! Estimator (DESIGN.md §2.2, paper eq. 1 without the cosine): `L = Σ f(s, ωi, ωo)·Φ·κ`.
 //! The stored power is flux through the surface, so `Φ·κ` (κ in 1/m², integrating to 1 over the
@@ -11,6 +11,7 @@
 use super::photon_index::PhotonGrid;
 use super::{direct_light, eye_path, Accumulator, Ctx, HdrImage};
 use crate::photon::bsdf::Bsdf;
+use crate::photon::density::{knn_radii, Neighbours};
 use crate::photon::emit::emit_photons;
 use crate::photon::kernel::{kernel_radius, kernel_weight, KernelSettings, NORMAL_RATIO};
 use crate::photon::ray::Hit;
@@ -32,15 +33,21 @@ pub struct GatherMap {
 }
 
 impl GatherMap {
-    /// Radii from each photon's ρp and its distance from `eye` ([`kernel_radius`]).
-    pub fn with_path_density(map: PhotonMap, kernel: &KernelSettings, eye: Vec3) -> Self {
+    /// Radii from each photon's kNN radius among the photons of its class
+    /// ([`knn_radii`] with `neighbours`) and its distance from `eye` ([`kernel_radius`]): the
+    /// rule of ISPM's photon volumes.
+    pub fn with_density(
+        map: PhotonMap,
+        kernel: &KernelSettings,
+        neighbours: Neighbours,
+        eye: Vec3,
+    ) -> Self {
+        let knn = knn_radii(&map.photons, neighbours);
         let radii: Vec<(f32, f32)> = map
             .photons
             .iter()
-            .map(|p| {
-                let rho_p = unpack_direction(p.direction).1;
-                kernel_radius(rho_p, kernel, p.position.distance(eye))
-            })
+            .zip(knn)
+            .map(|(p, r)| kernel_radius(r, kernel, p.position.distance(eye)))
             .collect();
         Self::with_radii(map, radii)
     }
@@ -105,11 +112,12 @@ fn gather_passes(ctx: &Ctx, map: &GatherMap, first_pass: u32, acc: &mut Accumula
 pub(super) fn render_gather(ctx: &Ctx) -> Result<HdrImage> {
     let s = ctx.settings;
     ctx.set_length(s.spp.max(1) as u64 * s.height as u64);
-    // The same kernel as the GPU's photon volumes: clamp and pixel-footprint floor.
+    // The same kernel as the GPU's photon volumes: kNN radii, clamp and pixel-footprint floor.
     let kernel = KernelSettings::scene_relative(&ctx.scene.bounds(), s.photons, s.radius)
         .for_view(ctx.scene.camera.yfov, s.height);
     let eye = ctx.scene.camera.position();
-    let map = GatherMap::with_path_density(photon_map(ctx, s.photons, s.seed), &kernel, eye);
+    let map = photon_map(ctx, s.photons, s.seed);
+    let map = GatherMap::with_density(map, &kernel, Neighbours::for_photons(s.photons), eye);
     let mut acc = Accumulator::new(s.width, s.height);
     gather_passes(ctx, &map, 0, &mut acc);
     acc.finish()
