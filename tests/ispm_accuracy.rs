@@ -123,7 +123,7 @@ fn golden_glass_sphere() {
 /// The glass sphere's golden frame shows the focused caustic: the brightest indirect light lies
 /// where the ball lens's axis (from the spot through the sphere's centre) meets the plane, in
 /// front of the sphere, and focused there it outshines the spot's direct light on the plane
-/// (measured at 96², 20k photons: 0.2 px from the axis, 33× the lit plane).
+/// (measured at 96², 20k photons: 0.2 px from the axis, 32× the lit plane).
 #[test]
 fn glass_sphere_focuses_its_caustic_where_the_ball_lens_axis_meets_the_plane() {
     let scene = bundled("glass-sphere");
