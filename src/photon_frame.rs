@@ -607,6 +607,10 @@ impl PhotonFrame {
             sample: self.sample,
         };
         self.traced.update(&frame, &mut read, &mut stats)?;
+        // The kernel radii over every light's photons (module docs, "Kernel radii"), before
+        // anything can fail: the radii always match the kept photons.
+        let (traced, neighbours) = (&self.traced, self.neighbours);
+        self.radii = timing::timed("photon density", || knn_radii(traced.photons(), neighbours));
         let count = self.traced.photon_count();
         if !self.buffers.holds(count) {
             // The old buffers go to the graveyard, destroyed once the frames using them finish.
@@ -617,12 +621,9 @@ impl PhotonFrame {
             self.buffers = PhotonBuffers::new(&self.gpu, count, capacity, per_buffer)?;
             self.rebind = true;
         }
-        // The kernel radii over every light's photons (module docs, "Kernel radii").
-        let (traced, neighbours) = (&self.traced, self.neighbours);
-        self.radii = timing::timed("photon density", || knn_radii(traced.photons(), neighbours));
         // Light after light, each light's photons where a fresh map has them, normals packed
         // with their radii, a chunk at a time.
-        let mut drawn = drawn_photons(traced, &self.radii, glam::Vec3::ZERO);
+        let mut drawn = drawn_photons(&self.traced, &self.radii, glam::Vec3::ZERO);
         let chunks = std::iter::from_fn(|| {
             let chunk: Vec<Photon> = drawn.by_ref().take(WRITE_CHUNK).collect();
             (!chunk.is_empty()).then_some(chunk)

@@ -55,9 +55,10 @@
 //! the (k + 1)-th (`select_nth_unstable_by`) instead of keeping a heap; a query whose bound holds
 //! too few points (rounding) or too many for the buffer, and the first of a run, search with a
 //! max-heap of the k + 1 best instead. Every path finds the exact k-th distance, so the result
-//! does not depend on the number of threads. (Measured on 200k points on the faces of a cube, 2
-//! cores: 280 ms for k = 64 with a heap per query and the plane distance bound, 190 ms with both
-//! changes.)
+//! does not depend on the number of threads. (On 200k points on the faces of a cube, k = 64, 2
+//! cores: a heap per query and the split plane's distance as the bound took about 600 ms; the
+//! last query's bound, the incremental distance and collect-and-select brought it to 190 ms,
+//! measured on a shared machine. On `cornell-box`'s 194k photons it takes ~180 ms.)
 
 use crate::photon::types::{unpack_direction, Photon};
 use glam::Vec3;
@@ -69,10 +70,12 @@ pub const CAUSTIC_PATH_DENSITY: f32 = 1e-2;
 
 /// k of the global photons at up to [`REFERENCE_PHOTONS`] emitted photons. On `cornell-box` at
 /// 640×480 and 100k photons (whole-image relMSE against progressive photon mapping; photon
-/// volumes ms on lavapipe, idle 2 cores): k = 32: 0.0292, 1.06 s; 48: 0.0247, 1.25 s; 64:
-/// 0.0227, 1.39 s; 96: 0.0212, 1.52 s; 128: 0.0209, 1.56 s; the path-density radius it replaces:
-/// 0.0310, 1.58 s. 64 is the knee: beyond it most global photons reach `r_max` and a larger k
-/// buys little, below it the noise (blotches on the ceiling and back wall) grows fast.
+/// volumes on lavapipe, idle 2 cores, caustic k 16): k = 32: 0.0292, 1.06 s; 48: 0.0247, 1.25 s;
+/// 64: 0.0227, 1.39 s; 96: 0.0212, 1.52 s; 128: 0.0209, 1.56 s; the path-density radius it
+/// replaces: 0.0310, 1.58 s. Each step from 32 to 96 trades 7–15 % of error for 9–18 % of fill,
+/// and past 96 most global photons reach `r_max`. 64 is the largest k whose frame, this module's
+/// host time included (~180 ms), is no slower than the path-density rule's: a quarter less error
+/// at no cost in time (docs/accuracy.md §6).
 pub const GLOBAL_K: usize = 64;
 
 /// k of the caustic photons at up to [`REFERENCE_PHOTONS`] emitted photons. The caustic views
