@@ -72,14 +72,18 @@ impl PhotonFrame {
         }
         let volumes = (&self.buffers.counts[..], &self.kernel, self.eye_offset());
         match &mut self.subsampled {
-            None => self.photon_pass.record(
-                cmd,
-                &inputs,
-                volumes,
-                std::slice::from_mut(&mut self.indirect),
-            ),
+            None => {
+                let (images, support) = self
+                    .support
+                    .as_ref()
+                    .expect("the support targets exist at subsample 1");
+                let targets = [&self.indirect, &images[0], &images[1]];
+                self.photon_pass.record(cmd, &inputs, volumes, &targets);
+                support.record(cmd, gbuffer, &self.indirect, images);
+            }
             Some(sub) => {
-                self.photon_pass.record(cmd, &inputs, volumes, &mut sub.low);
+                let targets = [&sub.low[0], &sub.low[1]];
+                self.photon_pass.record(cmd, &inputs, volumes, &targets);
                 if let Some(check) = check.as_deref_mut() {
                     check.image(cmd, Checked::IndirectLowIrradiance, &sub.low[0])?;
                     check.image(cmd, Checked::IndirectLowGlossy, &sub.low[1])?;
