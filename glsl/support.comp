@@ -12,7 +12,7 @@ layout(set = 0, binding = 1) uniform sampler2D g_position;
 layout(set = 0, binding = 2) uniform sampler2D g_normal;
 layout(set = 0, binding = 3, rgba32f) uniform image2D total;
 layout(set = 0, binding = 4, rgba32f) uniform readonly image2D global_share;  // a: Σ κ·r
-layout(set = 0, binding = 5, rgba32f) uniform readonly image2D global_weight;  // r: Σ κ
+layout(set = 0, binding = 5, rgba32f) uniform image2D global_weight;  // r: Σ κ; g ← f
 
 layout(push_constant) uniform Push {
     uint width;
@@ -63,7 +63,8 @@ void main() {
     if (px.x >= int(push.width) || px.y >= int(push.height)) {
         return;
     }
-    float w = imageLoad(global_weight, px).r;
+    vec4 weight = imageLoad(global_weight, px);
+    float w = weight.r;
     if (!(w > 0.0)) {
         return;  // no global photon here: nothing to normalise
     }
@@ -100,4 +101,6 @@ void main() {
     vec4 old = imageLoad(total, px);
     vec3 rgb = old.rgb + g.rgb * (1.0 / max(f, SUPPORT_FRACTION_MIN) - 1.0);
     imageStore(total, px, vec4(rgb, old.a));
+    // The fraction, for the estimator-equivalence test (PhotonFrame::read_support_fraction).
+    imageStore(global_weight, px, vec4(w, f, weight.ba));
 }

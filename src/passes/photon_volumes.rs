@@ -129,7 +129,10 @@ pub fn support_targets(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Resul
                 width,
                 height,
                 layers: 1,
-                usage: vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::STORAGE,
+                // TRANSFER_SRC: the tests read the measured fraction back.
+                usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
+                    | vk::ImageUsageFlags::STORAGE
+                    | vk::ImageUsageFlags::TRANSFER_SRC,
                 view: ViewKind::D2,
             },
         )

@@ -197,4 +197,15 @@ impl PhotonFrame {
             &self.gpu.read_image(&self.indirect)?,
         ))
     }
+
+    /// Reads back, per pixel, the share `f` of the global photons' kernel on the surface that
+    /// the support normalisation divided by (`passes/support.rs`; unclamped, 0 where no global
+    /// photon reached the pixel), or `None` when subsampling (not normalised). For the tests.
+    pub fn read_support_fraction(&self) -> anyhow::Result<Option<Vec<f32>>> {
+        let Some((images, _)) = &self.support else {
+            return Ok(None);
+        };
+        let texels: Vec<f32> = bytemuck::pod_collect_to_vec(&self.gpu.read_image(&images[1])?);
+        Ok(Some(texels.chunks_exact(4).map(|t| t[1]).collect()))
+    }
 }
