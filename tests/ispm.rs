@@ -72,7 +72,7 @@ fn drawn_kernels(photons: &[Photon], kernel: &KernelSettings) -> Vec<DrawnKernel
             let (n, r_knn) = unpack_normal(p.normal);
             // Camera-relative positions: the eye is at the origin.
             let (r_xy, r_z) = kernel_radius(r_knn, kernel, p.position.length());
-            let global = !(rho_p > CAUSTIC_PATH_DENSITY);
+            let global = rho_p <= CAUSTIC_PATH_DENSITY || rho_p.is_nan();
             (p.position, n, wi, r_xy, r_z, p.power, global)
         })
         .collect()
