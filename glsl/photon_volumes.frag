@@ -2,7 +2,10 @@
 // Photon volumes, fragment stage: the photon's contribution to the surface point the eye
 // G-buffer holds at this pixel, ΔL = f(s, ωi, ωo) · Φ · κ (paper eq. 1, with the cosine as a
 // front-side test), added into the indirect radiance buffer by additive blending. Alpha counts
-// the volumes that touched the pixel (the overdraw view).
+// the volumes that touched the pixel (the overdraw view). A global photon (not a caustic one)
+// reaches only surfaces facing its own way, and also adds its contribution and κ·r to the
+// global target and κ to the weight target, for the support normalisation
+// (src/passes/support.rs).
 #include "shared.glsl"
 #include "packing.glsl"
 #include "kernel.glsl"
@@ -21,6 +24,8 @@ layout(location = 1) flat in vec2 v_radius;
 layout(location = 2) flat in vec3 v_center;  // the photon's eye-relative position
 
 layout(location = 0) out vec4 out_indirect;
+layout(location = 1) out vec4 out_global;  // rgb: the global photons' share; a: Σ κ·r
+layout(location = 2) out vec4 out_weight;  // r: Σ κ of the global photons
 
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
@@ -37,6 +42,12 @@ void main() {
     float rho_p;
     vec3 wi = unpack_direction(photon.direction, rho_p);
     vec3 n = normalize(texelFetch(g_normal, px, 0).xyz);
+    bool global_photon = !(rho_p > CAUSTIC_PATH_DENSITY);
+    // A global photon stays on its own surface: the other wall of a crease is not its to light
+    // (the support normalisation counts the kernel on the shaded surface alone).
+    if (global_photon && abs(dot(normalize(photon.normal), n)) < SUPPORT_NORMAL_COS) {
+        discard;
+    }
     // Front-side test: the photon arrived on the side of the surface the viewer sees.
     if (dot(wi, n) <= 0.0) {
         discard;
@@ -45,5 +56,8 @@ void main() {
     GpuMaterial m = materials[texelFetch(g_material, px, 0).x];
     Bsdf bsdf = material_bsdf(m, texelFetch(g_albedo, px, 0).rgb);
     vec3 f = bsdf_eval(bsdf, wo, wi, n, n);
-    out_indirect = vec4(f * photon.power * kappa, 1.0);
+    vec3 c = f * photon.power * kappa;
+    out_indirect = vec4(c, 1.0);
+    out_global = global_photon ? vec4(c, kappa * v_radius.x) : vec4(0.0);
+    out_weight = global_photon ? vec4(kappa, 0.0, 0.0, 0.0) : vec4(0.0);
 }

@@ -34,6 +34,7 @@ use crate::passes::composite::CompositePass;
 use crate::passes::eye_gbuffer::GBuffer;
 use crate::passes::light_gbuffer::LightGBufferPass;
 use crate::passes::photon_volumes::{self, PhotonVolumeInputs, PhotonVolumesPass};
+use crate::passes::support::SupportPass;
 use crate::passes::upsample::{self, UpsampleInputs, UpsamplePass};
 use crate::photon::bvh::SceneBvh;
 use crate::photon::density::{knn_radii, Neighbours};
@@ -114,6 +115,9 @@ pub struct PhotonFrame {
     /// `--subsample N > 1`: the low-resolution targets and the pass that upsamples them.
     subsampled: Option<Subsampled>,
     indirect: Image,
+    /// At subsample 1: the global photons' share of the estimate beside `indirect` and the
+    /// pass that normalises it by its kernel's support on the surface (`passes/support.rs`).
+    support: Option<([Image; 2], SupportPass)>,
     composite: CompositePass,
     /// The last frame's bounce map and photon map per light (positions relative to
     /// `plan.origin`), and the plan they were traced with (`retrace.rs`).
@@ -302,6 +306,13 @@ impl PhotonFrame {
             )?;
             (indirect, Some(Subsampled { low, upsample }))
         };
+        let support = if subsample == 1 {
+            let images = photon_volumes::support_targets(gpu, radiance.width, radiance.height)?;
+            let pass = SupportPass::new(gpu, (frame, gbuffer), &indirect, &images)?;
+            Some((images, pass))
+        } else {
+            None
+        };
         let composite = CompositePass::new(gpu, &indirect, radiance)?;
         let kernel_clamp =
             KernelSettings::scene_relative(&gpu_scene.bounds, settings.photons, settings.radius);
@@ -344,6 +355,7 @@ impl PhotonFrame {
             photon_pass,
             subsampled,
             indirect,
+            support,
             composite,
             traced: Traced::default(),
             reuse_lights: settings.effects == Effects::Auto,

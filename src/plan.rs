@@ -747,6 +747,25 @@ impl EffectsPlan {
                 "--subsample 1: full-resolution photon volumes",
             )
         };
+        // The boundary normalisation of the global photons (`passes/support.rs`).
+        let support = if !indirect.needed {
+            photon("support")
+        } else if self.subsample > 1 {
+            pass(
+                "support",
+                false,
+                &format!(
+                    "--subsample {}: the low-resolution estimate is not normalised",
+                    self.subsample
+                ),
+            )
+        } else {
+            pass(
+                "support",
+                true,
+                "the photon volumes' kernels at surface boundaries",
+            )
+        };
         let translucent = |name| pass(name, self.translucent.needed, &self.translucent.reason);
         vec![
             photon("light_gbuffers"),
@@ -758,6 +777,7 @@ impl EffectsPlan {
             pass("eye_gbuffer", true, "every frame: the camera's view"),
             pass("direct", true, "every frame: direct light and emission"),
             photon("photon_volumes"),
+            support,
             upsample,
             photon("composite"),
             translucent("environment"),

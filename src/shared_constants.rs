@@ -69,3 +69,13 @@ pub const JITTER_STREAM_X: u32 = 0x7e1a_91c3;
 pub const JITTER_STREAM_Y: u32 = 0x2b5d_06f7;
 pub const JITTER_R2_X: u32 = 3242174890;
 pub const JITTER_R2_Y: u32 = 2447445414;
+
+// A photon is a caustic photon when its path density ρp exceeds this (`photon::density`): every
+// bounce on its path was a mirror, refraction or glossy one.
+pub const CAUSTIC_PATH_DENSITY: f32 = 1.0e-2;
+// The kernel-support normalisation of the global photons' estimate (`passes/support.rs`): the
+// smallest on-surface fraction of a kernel it divides by (a straight convex edge's), and the
+// cosine between a global photon's normal and the shaded surface's below which the photon does
+// not reach the surface (a photon on the other wall of a crease).
+pub const SUPPORT_FRACTION_MIN: f32 = 0.5;
+pub const SUPPORT_NORMAL_COS: f32 = 0.9;

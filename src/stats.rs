@@ -20,6 +20,7 @@ pub const STAGES: &[&str] = &[
     "eye_gbuffer",
     "direct",
     "photon_volumes",
+    "support",
     "upsample",
     "composite",
     "environment",

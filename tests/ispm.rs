@@ -12,7 +12,10 @@ use ispm::photon::kernel::{kernel_radius, kernel_t, kernel_weight, KernelSetting
 use ispm::photon::types::{unpack_direction, unpack_normal, Photon};
 use ispm::reference::scenes;
 use ispm::scene::{Camera, Light, LightKind, Scene};
-use ispm::shared_constants::{LIGHT_VIEW_FAR_Z, LIGHT_VIEW_NEAR_Z};
+use ispm::shared_constants::{
+    CAUSTIC_PATH_DENSITY, LIGHT_VIEW_FAR_Z, LIGHT_VIEW_NEAR_Z, SUPPORT_FRACTION_MIN,
+    SUPPORT_NORMAL_COS,
+};
 
 fn settings(size: u32, photons: usize) -> RenderSettings {
     RenderSettings {
@@ -57,19 +60,20 @@ fn rgba16f(bytes: &[u8]) -> Vec<Vec3> {
 
 /// Each photon of a drawn photon map (`PhotonFrame::photon_map`: normals packed with the kNN
 /// radii) as the photon volumes see it: position, unit normal, incident direction, `r_xy`,
-/// `r_z` (`photon::kernel`, the eye at the origin) and power.
-fn drawn_kernels(
-    photons: &[Photon],
-    kernel: &KernelSettings,
-) -> Vec<(Vec3, Vec3, Vec3, f32, f32, Vec3)> {
+/// `r_z` (`photon::kernel`, the eye at the origin), power, and whether it is a global photon
+/// (`ρp ≤ CAUSTIC_PATH_DENSITY`: normalised by the support pass, kept to its own surface).
+type DrawnKernel = (Vec3, Vec3, Vec3, f32, f32, Vec3, bool);
+
+fn drawn_kernels(photons: &[Photon], kernel: &KernelSettings) -> Vec<DrawnKernel> {
     photons
         .iter()
         .map(|p| {
-            let (wi, _) = unpack_direction(p.direction);
+            let (wi, rho_p) = unpack_direction(p.direction);
             let (n, r_knn) = unpack_normal(p.normal);
             // Camera-relative positions: the eye is at the origin.
             let (r_xy, r_z) = kernel_radius(r_knn, kernel, p.position.length());
-            (p.position, n, wi, r_xy, r_z, p.power)
+            let global = rho_p <= CAUSTIC_PATH_DENSITY || rho_p.is_nan();
+            (p.position, n, wi, r_xy, r_z, p.power, global)
         })
         .collect()
 }
@@ -77,13 +81,22 @@ fn drawn_kernels(
 /// The CPU gather of the same photons at the same surface points the GPU shaded: for every
 /// pixel of the eye G-buffer, Σ f(s, ωi, ωo)·Φ·κ over the photon map, with the CPU über-BSDF
 /// and the CPU kernel (`photon::kernel`, each photon's radius from its packed normal), brute
-/// force.
+/// force. A global photon reaches only surfaces within `SUPPORT_NORMAL_COS` of its normal, and
+/// the global photons' sum at a pixel is divided by `max(f, SUPPORT_FRACTION_MIN)`, `f` the
+/// share of the kernel on the surface that the GPU's support pass measured there
+/// (`passes/support.rs`; the measurement itself is checked against the path tracer in
+/// `tests/progressive.rs`, this checks everything else).
 fn cpu_gather(
     scene: &Scene,
     renderer: &Renderer,
     photons: &[Photon],
     kernel: KernelSettings,
 ) -> Vec<Vec3> {
+    let fraction = renderer
+        .photons()
+        .expect("ispm")
+        .read_support_fraction()
+        .expect("support fraction");
     let position: Vec<[f32; 4]> =
         bytemuck::pod_collect_to_vec(&renderer.read_gbuffer("position").expect("position"));
     let normal = rgba16f(&renderer.read_gbuffer("normal").expect("normal"));
@@ -102,14 +115,27 @@ fn cpu_gather(
             let n = normal[i].normalize();
             let wo = (-s).normalize();
             let bsdf = Bsdf::new(&scene.materials[material[i] as usize], Some(albedo[i]));
-            let mut sum = Vec3::ZERO;
-            for &(x, np, wi, r_xy, r_z, power) in &unpacked {
+            let (mut caustic, mut global) = (Vec3::ZERO, Vec3::ZERO);
+            for &(x, np, wi, r_xy, r_z, power, is_global) in &unpacked {
+                if is_global && np.dot(n).abs() < SUPPORT_NORMAL_COS {
+                    continue;
+                }
                 let kappa = kernel_weight(x, np, r_xy, r_z, s);
                 if kappa > 0.0 && wi.dot(n) > 0.0 {
-                    sum += bsdf.eval(wo, wi, n, n) * power * kappa;
+                    let c = bsdf.eval(wo, wi, n, n) * power * kappa;
+                    if is_global {
+                        global += c;
+                    } else {
+                        caustic += c;
+                    }
                 }
             }
-            sum
+            match &fraction {
+                Some(f) if global != Vec3::ZERO => {
+                    caustic + global / f[i].max(SUPPORT_FRACTION_MIN)
+                }
+                _ => caustic + global,
+            }
         })
         .collect()
 }
@@ -195,7 +221,7 @@ fn camera_inside_a_photon_volume_keeps_indirect_light() {
     let kernel = photons.kernel();
     let around_eye = drawn_kernels(&photons.photon_map(), &kernel)
         .iter()
-        .filter(|&&(x, n, _, r_xy, r_z, _)| kernel_t(x, n, r_xy, r_z, Vec3::ZERO) < 1.0)
+        .filter(|&&(x, n, _, r_xy, r_z, _, _)| kernel_t(x, n, r_xy, r_z, Vec3::ZERO) < 1.0)
         .count();
     assert!(
         around_eye >= 10,

@@ -306,13 +306,17 @@ fn two_independent_accumulations_of_the_caustic_ring_agree_better_with_every_fra
     };
     let (a, b) = (run(1), run(2));
     let errors: Vec<f64> = a.iter().zip(&b).map(|(a, b)| rel_mse(a, b)).collect();
-    let mut table = String::from("caustic-ring, 20k photons a frame: frames | relMSE(seed 1, seed 2)\n");
+    let mut table =
+        String::from("caustic-ring, 20k photons a frame: frames | relMSE(seed 1, seed 2)\n");
     for (n, e) in CHECKPOINTS.iter().zip(&errors) {
         table += &format!("{n} | {e:.5}\n");
     }
     eprintln!("{table}");
     for w in errors.windows(2) {
-        assert!(w[1] < w[0], "the accumulations did not get closer:\n{table}");
+        assert!(
+            w[1] < w[0],
+            "the accumulations did not get closer:\n{table}"
+        );
     }
     assert!(
         errors[3] <= 0.3 * errors[0],

@@ -30,6 +30,7 @@ pub mod eye_gbuffer;
 pub mod light_gbuffer;
 pub mod photon_volumes;
 pub mod shadow_map;
+pub mod support;
 pub mod tonemap;
 pub mod translucent;
 pub mod upsample;

@@ -79,9 +79,11 @@ pub fn target(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<Image> 
             width,
             height,
             layers: 1,
-            // TRANSFER_DST: the value check's test seam (`value_check.rs`).
+            // TRANSFER_DST: the value check's test seam (`value_check.rs`); STORAGE: the
+            // support normalisation rewrites it in place (`passes/support.rs`).
             usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
                 | vk::ImageUsageFlags::SAMPLED
+                | vk::ImageUsageFlags::STORAGE
                 | vk::ImageUsageFlags::TRANSFER_SRC
                 | vk::ImageUsageFlags::TRANSFER_DST,
             view: ViewKind::D2,
@@ -112,6 +114,30 @@ pub fn low_targets(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<[I
         image("indirect.low_irradiance")?,
         image("indirect.low_glossy")?,
     ])
+}
+
+/// The global photons' share of the estimate beside the full-resolution [`target`], for the
+/// support normalisation (`passes/support.rs`): `[global, weight]`, global's RGB what the
+/// global photons alone added and its alpha their `Σ κ·r`, weight's R their `Σ κ`.
+pub fn support_targets(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<[Image; 2]> {
+    let image = |name: &str| {
+        Image::new(
+            gpu,
+            &ImageDesc {
+                name,
+                format: FORMAT,
+                width,
+                height,
+                layers: 1,
+                // TRANSFER_SRC: the tests read the measured fraction back.
+                usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
+                    | vk::ImageUsageFlags::STORAGE
+                    | vk::ImageUsageFlags::TRANSFER_SRC,
+                view: ViewKind::D2,
+            },
+        )
+    };
+    Ok([image("indirect.global")?, image("indirect.global_weight")?])
 }
 
 /// The most photon buffers one pass draws from (the descriptor pool's size). At lavapipe's
@@ -183,7 +209,7 @@ impl PhotonVolumesPass {
         let (fragment, color_formats, depth) = if subsample == 1 {
             (
                 &crate::gpu::shader_table::PHOTON_VOLUMES_FRAG,
-                &[FORMAT][..],
+                &[FORMAT, FORMAT, FORMAT][..],
                 Some(Depth {
                     format: DEPTH,
                     test: true,
@@ -271,15 +297,15 @@ impl PhotonVolumesPass {
 
     /// Draws `counts[i]` photon volumes from photon buffer `i` (normals packed with their kNN
     /// radii, [`crate::photon::types::pack_normal`]) with the radii of `kernel` (its scale,
-    /// clamp and footprint floor, [`crate::photon::kernel`]) into `targets`: `[indirect]` at
-    /// subsample 1, else the two [`low_targets`]. `offset` is added to every stored photon
+    /// clamp and footprint floor, [`crate::photon::kernel`]) into `targets`: `[indirect]` and
+    /// the two [`support_targets`] at subsample 1, else the two [`low_targets`]. `offset` is added to every stored photon
     /// position to make it relative to the eye (the frame's space).
     pub fn record(
         &self,
         cmd: &Cmd,
         inputs: &PhotonVolumeInputs,
         (counts, kernel, offset): (&[u32], &KernelSettings, glam::Vec3),
-        targets: &mut [Image],
+        targets: &[&Image],
     ) {
         let _scope = cmd.scope("photon_volumes");
         let g = inputs.gbuffer;
@@ -295,7 +321,7 @@ impl PhotonVolumesPass {
         }
         let colors: Vec<Attachment> = targets
             .iter()
-            .map(|image| Attachment {
+            .map(|&image| Attachment {
                 image,
                 layer: 0,
                 load: Load::Clear([0.0; 4]),

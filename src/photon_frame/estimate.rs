@@ -72,14 +72,18 @@ impl PhotonFrame {
         }
         let volumes = (&self.buffers.counts[..], &self.kernel, self.eye_offset());
         match &mut self.subsampled {
-            None => self.photon_pass.record(
-                cmd,
-                &inputs,
-                volumes,
-                std::slice::from_mut(&mut self.indirect),
-            ),
+            None => {
+                let (images, support) = self
+                    .support
+                    .as_ref()
+                    .expect("the support targets exist at subsample 1");
+                let targets = [&self.indirect, &images[0], &images[1]];
+                self.photon_pass.record(cmd, &inputs, volumes, &targets);
+                support.record(cmd, gbuffer, &self.indirect, images);
+            }
             Some(sub) => {
-                self.photon_pass.record(cmd, &inputs, volumes, &mut sub.low);
+                let targets = [&sub.low[0], &sub.low[1]];
+                self.photon_pass.record(cmd, &inputs, volumes, &targets);
                 if let Some(check) = check.as_deref_mut() {
                     check.image(cmd, Checked::IndirectLowIrradiance, &sub.low[0])?;
                     check.image(cmd, Checked::IndirectLowGlossy, &sub.low[1])?;
@@ -192,5 +196,16 @@ impl PhotonFrame {
         Ok(bytemuck::pod_collect_to_vec(
             &self.gpu.read_image(&self.indirect)?,
         ))
+    }
+
+    /// Reads back, per pixel, the share `f` of the global photons' kernel on the surface that
+    /// the support normalisation divided by (`passes/support.rs`; unclamped, 0 where no global
+    /// photon reached the pixel), or `None` when subsampling (not normalised). For the tests.
+    pub fn read_support_fraction(&self) -> anyhow::Result<Option<Vec<f32>>> {
+        let Some((images, _)) = &self.support else {
+            return Ok(None);
+        };
+        let texels: Vec<f32> = bytemuck::pod_collect_to_vec(&self.gpu.read_image(&images[1])?);
+        Ok(Some(texels.chunks_exact(4).map(|t| t[1]).collect()))
     }
 }
