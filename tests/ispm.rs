@@ -36,23 +36,12 @@ fn render(scene: &Scene, settings: RenderSettings) -> (Renderer, FrameImage) {
     (renderer, frame)
 }
 
-/// IEEE half → f32 (the G-buffer's normal and albedo are RGBA16F).
-fn f16_to_f32(h: u16) -> f32 {
-    let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
-    let exp = i32::from((h >> 10) & 0x1f);
-    let frac = f32::from(h & 0x3ff);
-    match exp {
-        0 => sign * frac * 2f32.powi(-24),
-        31 => sign * f32::INFINITY,
-        e => sign * (1.0 + frac / 1024.0) * 2f32.powi(e - 15),
-    }
-}
-
+/// The RGB of an RGBA16F image read back (the G-buffer's normal and albedo).
 fn rgba16f(bytes: &[u8]) -> Vec<Vec3> {
     bytes
         .chunks_exact(8)
         .map(|c| {
-            let h = |i: usize| f16_to_f32(u16::from_le_bytes([c[i], c[i + 1]]));
+            let h = |i: usize| common::f16_to_f32(u16::from_le_bytes([c[i], c[i + 1]]));
             Vec3::new(h(0), h(2), h(4))
         })
         .collect()

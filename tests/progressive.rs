@@ -105,7 +105,7 @@ fn accumulated_indirect_seeded_and_normals(
         .chunks_exact(8)
         .zip(&position)
         .map(|(c, p)| {
-            let h = |i: usize| f16_to_f32(u16::from_le_bytes([c[i], c[i + 1]]));
+            let h = |i: usize| common::f16_to_f32(u16::from_le_bytes([c[i], c[i + 1]]));
             if p[3] == 0.0 {
                 Vec3::ZERO
             } else {
@@ -115,17 +115,6 @@ fn accumulated_indirect_seeded_and_normals(
         .collect();
     common::assert_validation_clean(&gpu);
     (out, normals)
-}
-
-fn f16_to_f32(h: u16) -> f32 {
-    let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
-    let exp = i32::from((h >> 10) & 0x1f);
-    let frac = f32::from(h & 0x3ff);
-    match exp {
-        0 => sign * frac * 2f32.powi(-24),
-        31 => sign * f32::INFINITY,
-        e => sign * (1.0 + frac / 1024.0) * 2f32.powi(e - 15),
-    }
 }
 
 fn minus(a: &FrameImage, b: &FrameImage) -> Vec<f32> {

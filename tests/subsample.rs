@@ -29,17 +29,6 @@ struct Rendered {
     normal: Vec<[f32; 3]>,
 }
 
-fn f16_to_f32(h: u16) -> f32 {
-    let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
-    let exp = i32::from((h >> 10) & 0x1f);
-    let mant = f32::from(h & 0x3ff);
-    match exp {
-        0 => sign * mant * 2f32.powi(-24),
-        31 => sign * f32::INFINITY,
-        e => sign * (1.0 + mant / 1024.0) * 2f32.powi(e - 15),
-    }
-}
-
 fn render(scene: &Scene, settings: RenderSettings) -> Rendered {
     let gpu = common::gpu();
     let rendered = {
@@ -56,7 +45,7 @@ fn render(scene: &Scene, settings: RenderSettings) -> Rendered {
             .unwrap()
             .chunks_exact(8)
             .map(|t| {
-                let c = |i: usize| f16_to_f32(u16::from_le_bytes([t[2 * i], t[2 * i + 1]]));
+                let c = |i: usize| common::f16_to_f32(u16::from_le_bytes([t[2 * i], t[2 * i + 1]]));
                 [c(0), c(1), c(2)]
             })
             .collect();

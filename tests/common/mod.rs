@@ -64,3 +64,15 @@ pub fn small_ispm_settings(effects: Effects) -> RenderSettings {
         ..Default::default()
     }
 }
+
+/// An IEEE half float (a G-buffer channel read back) as f32.
+pub fn f16_to_f32(h: u16) -> f32 {
+    let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exp = i32::from((h >> 10) & 0x1f);
+    let mant = f32::from(h & 0x3ff);
+    match exp {
+        0 => sign * mant * 2f32.powi(-24),
+        31 => sign * f32::INFINITY,
+        e => sign * (1.0 + mant / 1024.0) * 2f32.powi(e - 15),
+    }
+}
