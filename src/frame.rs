@@ -705,11 +705,6 @@ impl Renderer {
         }
     }
 
-    /// Frames in the image the last submitted frame shows (1 without accumulation).
-    pub fn accumulated_frames(&self) -> u32 {
-        self.accumulated.max(1)
-    }
-
     /// The plan for `self.source` with `lights` already in it, and the photon part moved to
     /// them ([`Self::set_lights`]).
     fn plan_lights(&mut self, lights: &[Light]) -> anyhow::Result<EffectsPlan> {

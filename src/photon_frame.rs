@@ -383,8 +383,8 @@ impl PhotonFrame {
     }
 
     /// Scales every photon's kernel radius by `scale` from the next estimate on: the
-    /// progressive schedule of an accumulation (`photon::progressive`), applied after the
-    /// radius is chosen and before its clamp.
+    /// progressive schedule of an accumulation (`photon::progressive`), applied to the clamped
+    /// radius and not to the footprint floor (`photon::kernel`).
     pub fn set_radius_scale(&mut self, scale: f32) {
         self.kernel_clamp.scale = scale;
         self.kernel.scale = scale;

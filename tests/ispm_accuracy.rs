@@ -21,8 +21,8 @@ use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
 use ispm::scene::Scene;
 use ispm_accuracy::bounce_stats::{compare, cpu_bounces, gpu_bounces, histograms, Tally};
 use ispm_accuracy::references::{
-    block_means, mean, path_traced, progressive_indirect, Reference, CONVERGENCE_BOUNCES,
-    CONVERGENCE_SIZE, PROGRESSIVE_ITERATIONS, REFERENCE_PASSES,
+    block_means, first_hits, mean, path_traced, progressive_indirect, Reference,
+    CONVERGENCE_BOUNCES, CONVERGENCE_SIZE, PROGRESSIVE_ITERATIONS, REFERENCE_PASSES,
 };
 
 pub(crate) fn settings(width: u32, height: u32, photons: usize, seed: u32) -> RenderSettings {
@@ -479,27 +479,6 @@ struct CausticPoint {
     mean_ratio: f64,
 }
 
-/// Whether the camera ray through each pixel centre first meets a material with a delta lobe
-/// (glass, mirror): those pixels are the translucent pass's, and ISPM's G-buffer sees past them.
-fn delta_pixels(scene: &Scene, size: u32) -> Vec<bool> {
-    let bvh = ispm::photon::bvh::SceneBvh::new(scene);
-    let cam = &scene.camera;
-    let t = (cam.yfov * 0.5).tan();
-    let origin = cam.position();
-    (0..size * size)
-        .map(|i| {
-            let (x, y) = (i % size, i / size);
-            let ndc_x = (x as f32 + 0.5) / size as f32 * 2.0 - 1.0;
-            let ndc_y = 1.0 - (y as f32 + 0.5) / size as f32 * 2.0;
-            let dir = cam
-                .transform
-                .transform_vector3(Vec3::new(ndc_x * t, ndc_y * t, -1.0));
-            bvh.intersect(&ispm::photon::ray::Ray::new(origin, dir))
-                .is_some_and(|h| scene.materials[h.material].has_delta_lobe())
-        })
-        .collect()
-}
-
 /// ISPM's indirect light on the bundled scene `name` against progressive photon mapping's
 /// (`progressive − path-trace(bounces 0)`, both at pixel centres, so the difference is exactly
 /// the gathered part), over the pixels that see a surface without delta lobes from the camera
@@ -509,7 +488,10 @@ fn caustic_curve(name: &str, runs: &[(usize, f32)]) -> Vec<CausticPoint> {
     let scene = bundled(name);
     let size = CONVERGENCE_SIZE;
     let indirect_ref = progressive_indirect(&scene);
-    let behind_glass = delta_pixels(&scene, size);
+    let behind_glass: Vec<bool> = first_hits(&scene, size)
+        .iter()
+        .map(|&h| h == Some(true))
+        .collect();
     let mut curve = Vec::new();
     for &(photons, share) in runs {
         let (renderer, frame) = render(

@@ -1,6 +1,7 @@
 //! The CPU references of `tests/ispm_accuracy.rs` (docs/accuracy.md §2–3): the path tracer's and
 //! progressive photon mapping's indirect light at pixel centres, and image means.
 
+use glam::Vec3;
 use ispm::scene::Scene;
 
 /// Image side of the convergence tests.
@@ -154,5 +155,27 @@ pub fn progressive_indirect(scene: &Scene) -> Vec<f32> {
         .iter()
         .zip(&direct)
         .flat_map(|(p, d)| [p[0] - d[0], p[1] - d[1], p[2] - d[2], 1.0])
+        .collect()
+}
+
+/// What the camera ray through each pixel centre of a `size`² image first meets: `None`
+/// nothing, `Some(true)` a material with a delta lobe (glass, mirror: those pixels are the
+/// translucent pass's, and ISPM's G-buffer sees past them), `Some(false)` any other.
+pub fn first_hits(scene: &Scene, size: u32) -> Vec<Option<bool>> {
+    let bvh = ispm::photon::bvh::SceneBvh::new(scene);
+    let cam = &scene.camera;
+    let t = (cam.yfov * 0.5).tan();
+    let origin = cam.position();
+    (0..size * size)
+        .map(|i| {
+            let (x, y) = (i % size, i / size);
+            let ndc_x = (x as f32 + 0.5) / size as f32 * 2.0 - 1.0;
+            let ndc_y = 1.0 - (y as f32 + 0.5) / size as f32 * 2.0;
+            let dir = cam
+                .transform
+                .transform_vector3(Vec3::new(ndc_x * t, ndc_y * t, -1.0));
+            bvh.intersect(&ispm::photon::ray::Ray::new(origin, dir))
+                .map(|h| scene.materials[h.material].has_delta_lobe())
+        })
         .collect()
 }
