@@ -89,8 +89,8 @@ pub const FOOTPRINT_PIXELS: f32 = 1.0;
 pub struct KernelSettings {
     pub r_min: f32,
     pub r_max: f32,
-    /// `s`: every photon's kNN radius is multiplied by it before the clamp (> 0; 1 by default;
-    /// a progressive renderer shrinks it over frames).
+    /// `s`: every photon's clamped kNN radius is multiplied by it, the footprint floor is not
+    /// (> 0; 1 by default; progressive accumulation shrinks it over frames).
     pub scale: f32,
     /// Smallest radius per metre of distance from the eye (0: no floor).
     pub footprint: f32,
