@@ -84,6 +84,28 @@ bool same_surface(ivec3 t, vec3 p, vec3 n, uint material) {
     return dot(m, n) > 0.9 && abs(dot(d, n)) <= 0.25 * length(d);
 }
 
+// Whether the texel with key `key` sends its photon in sample `sample_index` when its view keeps
+// texels with probability `keep` (module docs of src/ispm.rs, "Budget"): the twin of
+// ispm::texel_kept (src/ispm.rs), bit for bit.
+bool texel_kept(uint key, uint sample_index, float keep) {
+    uint bits = hash2(key, KEEP_STREAM) + sample_index * KEEP_R1;
+    return float(bits >> 8u) * (1.0 / 16777216.0) < keep;
+}
+
+// The direction from the light through the centre of texel xy of `view`, towards the texel's
+// first hit `hit` if it saw one (its w not 0).
+vec3 texel_direction(BounceView view, uvec2 xy, vec4 hit) {
+    if (view.kind.x == LIGHT_DIRECTIONAL) {
+        return view.axis.xyz;
+    }
+    if (hit.w != 0.0) {
+        return normalize(hit.xyz - view.light.xyz);
+    }
+    vec2 ndc = (vec2(xy) + 0.5) / vec2(view.texels.xy) * 2.0 - 1.0;
+    vec4 far_h = view.inv_view_proj * vec4(ndc, LIGHT_VIEW_FAR_Z, 1.0);
+    return normalize(far_h.xyz / far_h.w - view.light.xyz);
+}
+
 void main() {
     uint v = push.first_view + gl_GlobalInvocationID.z;
     BounceView view = views[v];
@@ -99,64 +121,21 @@ void main() {
     }
     uint index = record - push.base;
     ivec3 texel = ivec3(xy, int(v));
-    BounceMapPhoton photon = BounceMapPhoton(vec3(0.0), vec3(0.0), 1.0, 0.0);
+    // A record with eta 0 sent no photon (outside the cone, not kept this frame, or its power
+    // carried by other texels); one with eta 1 and no power sent one that met nothing or was
+    // absorbed at its first hit (the CPU counts the photons sent: FrameStats::emitted_photons).
+    BounceMapPhoton photon = BounceMapPhoton(vec3(0.0), vec3(0.0), 0.0, 0.0);
     vec4 pos = texelFetch(g_position, texel, 0);
-    if (pos.w == 0.0) {
-        bounce_map[index] = bounce_map_photon_store(photon);
-        return;
-    }
-    // The photon passes through a jittered point of its texel (texel_jitter): its hit is where
-    // that ray meets the plane of the triangle the texel saw (its face normal), and its shading
-    // normal is the bilinear interpolation of the neighbouring texels' normals on the same
-    // surface, so a curved mirror reflects a continuous fan of directions, not one per texel.
-    vec3 centre = pos.xyz;
-    vec4 nrm = texelFetch(g_normal, texel, 0);
-    vec3 n_centre = normalize(nrm.xyz);
-    vec3 face = gbuffer_face_normal(nrm, texelFetch(g_albedo, texel, 0));
-    uint material = texelFetch(g_material, texel, 0).x;
-    vec2 jitter = texel_jitter(texel_key(view, xy), push.sample_index);
-    vec2 ndc = (vec2(xy) + jitter) / vec2(size) * 2.0 - 1.0;
-    vec4 near_h = view.inv_view_proj * vec4(ndc, LIGHT_VIEW_NEAR_Z, 1.0);
-    vec4 far_h = view.inv_view_proj * vec4(ndc, LIGHT_VIEW_FAR_Z, 1.0);
-    vec3 near_point = near_h.xyz / near_h.w;
-    vec3 ray = normalize(far_h.xyz / far_h.w - near_point);
-    float facing = dot(ray, face);
-    // Grazing rays (within about 6 degrees of the plane) take the point nearest the texel's.
-    float depth = facing * facing > 0.01 ? dot(centre - near_point, face) / facing
-                                         : dot(centre - near_point, ray);
-    if (!(depth > 0.0) || isinf(depth)) {
-        depth = length(centre - near_point);
-    }
-    photon.depth = depth;
-    vec3 p = near_point + ray * depth;
-    // Bilinear weights of the four texel centres around the jittered point.
-    vec2 f = vec2(xy) + jitter - 0.5;
-    ivec2 base = ivec2(floor(f));
-    vec2 w = f - vec2(base);
-    vec3 n_sum = vec3(0.0);
-    for (int j = 0; j < 2; j++) {
-        for (int i = 0; i < 2; i++) {
-            ivec2 c = base + ivec2(i, j);
-            float weight = (i == 0 ? 1.0 - w.x : w.x) * (j == 0 ? 1.0 - w.y : w.y);
-            if (c == ivec2(xy)) {
-                n_sum += weight * n_centre;
-            } else if (all(greaterThanEqual(c, ivec2(0))) && all(lessThan(c, ivec2(size)))
-                       && same_surface(ivec3(c, int(v)), centre, n_centre, material)) {
-                n_sum += weight * normalize(texelFetch(g_normal, ivec3(c, int(v)), 0).xyz);
-            }
-        }
-    }
-    vec3 n_interp = normalize(n_sum);
+    uint key = texel_key(view, xy);
 
-    // The texel centre on the view's plane (unit distance, or metres for orthographic views).
+    // What the light sends through the texel. The texel centre on the view's plane (unit
+    // distance, or metres for orthographic views).
     float side = view.params.x;
     vec2 q = view.params.zw + (vec2(xy) + 0.5) * side;
-    vec3 travel = view.kind.x == LIGHT_DIRECTIONAL ? view.axis.xyz : normalize(p - view.light.xyz);
     // Where the texel's solid angle and spot falloff are evaluated: its centre, or for a caustic
     // view its parent texel's centre (q, and the direction to the parent's first hit), so that
     // the powers still sum to the light's flux exactly.
-    vec3 emitted = view.kind.x == LIGHT_DIRECTIONAL ? view.axis.xyz
-                                                    : normalize(centre - view.light.xyz);
+    vec3 emitted = texel_direction(view, xy, pos);
     // The part of the texel's power it carries: every direction counted once (src/ispm.rs,
     // "Caustic views").
     float part = 1.0;
@@ -194,21 +173,10 @@ void main() {
         // 1/k² of the parent texel's power (side² = parent side² / k²), evaluated as the parent
         // evaluates it (towards its own first hit), so that the split is exact.
         q = parent.params.zw + (vec2(at) + 0.5) * parent.params.x;
-        vec4 parent_hit = texelFetch(g_position, parent_texel, 0);
-        if (parent_hit.w != 0.0) {
-            emitted = normalize(parent_hit.xyz - view.light.xyz);
-        } else {
-            vec2 parent_ndc = (vec2(at) + 0.5) / vec2(parent.texels.xy) * 2.0 - 1.0;
-            vec4 far_h = parent.inv_view_proj * vec4(parent_ndc, LIGHT_VIEW_FAR_Z, 1.0);
-            emitted = normalize(far_h.xyz / far_h.w - view.light.xyz);
-        }
+        emitted = texel_direction(parent, uvec2(max(at, ivec2(0))),
+                                  texelFetch(g_position, parent_texel, 0));
     }
-    if (part <= 0.0) {
-        bounce_map[index] = bounce_map_photon_store(photon);
-        return;
-    }
-
-    vec3 power;
+    vec3 power = vec3(0.0);
     if (view.kind.x == LIGHT_DIRECTIONAL) {
         // Orthographic: irradiance times the texel's area.
         power = view.intensity.rgb * side * side * part;
@@ -220,16 +188,76 @@ void main() {
             power *= spot_falloff_cos(view.intensity.w, view.axis.w, dot(view.axis.xyz, emitted));
         }
     }
+    // The budget: the texel sends its photon with probability keep, which then carries 1/keep
+    // of its power (src/ispm.rs, "Budget").
+    float keep = view.params.y;
+    if (!(part > 0.0) || !any(greaterThan(power, vec3(0.0)))
+        || !texel_kept(key, push.sample_index, keep)) {
+        bounce_map[index] = bounce_map_photon_store(photon);
+        return;
+    }
+    power /= keep;
+    photon.eta = 1.0;
+    if (pos.w == 0.0) {
+        // Sent, and met nothing.
+        bounce_map[index] = bounce_map_photon_store(photon);
+        return;
+    }
+
+    // Where it hits. The photon passes through a jittered point of its texel (texel_jitter):
+    // its hit is where that ray meets the plane of the triangle the texel saw (its face normal),
+    // and its shading normal is the bilinear interpolation of the neighbouring texels' normals
+    // on the same surface, so a curved mirror reflects a continuous fan of directions, not one
+    // per texel.
+    vec3 centre = pos.xyz;
+    vec4 nrm = texelFetch(g_normal, texel, 0);
+    vec3 n_centre = normalize(nrm.xyz);
+    vec3 face = gbuffer_face_normal(nrm, texelFetch(g_albedo, texel, 0));
+    uint material = texelFetch(g_material, texel, 0).x;
+    vec2 jitter = texel_jitter(key, push.sample_index);
+    vec2 ndc = (vec2(xy) + jitter) / vec2(size) * 2.0 - 1.0;
+    vec4 near_h = view.inv_view_proj * vec4(ndc, LIGHT_VIEW_NEAR_Z, 1.0);
+    vec4 far_h = view.inv_view_proj * vec4(ndc, LIGHT_VIEW_FAR_Z, 1.0);
+    vec3 near_point = near_h.xyz / near_h.w;
+    vec3 ray = normalize(far_h.xyz / far_h.w - near_point);
+    float facing = dot(ray, face);
+    // Grazing rays (within about 6 degrees of the plane) take the point nearest the texel's.
+    float depth = facing * facing > 0.01 ? dot(centre - near_point, face) / facing
+                                         : dot(centre - near_point, ray);
+    if (!(depth > 0.0) || isinf(depth)) {
+        depth = length(centre - near_point);
+    }
+    photon.depth = depth;
+    vec3 p = near_point + ray * depth;
+    // Bilinear weights of the four texel centres around the jittered point.
+    vec2 f = vec2(xy) + jitter - 0.5;
+    ivec2 base = ivec2(floor(f));
+    vec2 w = f - vec2(base);
+    vec3 n_sum = vec3(0.0);
+    for (int j = 0; j < 2; j++) {
+        for (int i = 0; i < 2; i++) {
+            ivec2 c = base + ivec2(i, j);
+            float weight = (i == 0 ? 1.0 - w.x : w.x) * (j == 0 ? 1.0 - w.y : w.y);
+            if (c == ivec2(xy)) {
+                n_sum += weight * n_centre;
+            } else if (all(greaterThanEqual(c, ivec2(0))) && all(lessThan(c, ivec2(size)))
+                       && same_surface(ivec3(c, int(v)), centre, n_centre, material)) {
+                n_sum += weight * normalize(texelFetch(g_normal, ivec3(c, int(v)), 0).xyz);
+            }
+        }
+    }
+    vec3 n_interp = normalize(n_sum);
+
+    vec3 travel = view.kind.x == LIGHT_DIRECTIONAL ? view.axis.xyz : normalize(p - view.light.xyz);
 
     // The mesh's own side: refraction needs to know whether the photon enters or leaves.
     vec3 n = n_interp * (nrm.w < 0.0 ? -1.0 : 1.0);
     vec3 albedo = texelFetch(g_albedo, texel, 0).rgb;
     GpuMaterial m = materials[material];
     Bsdf bsdf = material_bsdf(m, albedo);
-    Rng rng = rng_new(hash2(texel_key(view, xy), push.seed));
+    Rng rng = rng_new(hash2(key, push.seed));
     BsdfSample s;
-    if (any(greaterThan(power, vec3(0.0)))
-        && bsdf_sample_russian_roulette(bsdf, -travel, n, n, rng_next_3(rng), s)) {
+    if (bsdf_sample_russian_roulette(bsdf, -travel, n, n, rng_next_3(rng), s)) {
         photon.power = power * s.weight;
         photon.direction = pack_direction(s.wi, s.path_density_factor);
         photon.eta = s.eta;

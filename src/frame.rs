@@ -91,8 +91,14 @@ pub enum Method {
 #[derive(Clone, Debug)]
 pub struct RenderSettings {
     pub method: Method,
-    /// Photons emitted from all lights together (split by power).
+    /// Photons emitted from all lights together (split by power), per frame: exactly, to within
+    /// the binomial spread of the texels' keep test (src/ispm.rs, "Budget").
     pub photons: usize,
+    /// Every light-view texel inside its light's cone sends its photon: the budget rounded up
+    /// to whole grids, instead of each texel kept with probability budget/texels. The bounce
+    /// map then carries exactly each light's flux in every frame, not only on average (the
+    /// tests of that sum use it). Default false.
+    pub whole_light_grids: bool,
     /// Most scattering events a photon may take.
     pub bounces: u32,
     /// Largest kernel radius in metres (`None`: relative to the scene and photon count).
@@ -142,6 +148,7 @@ impl Default for RenderSettings {
         Self {
             method: Method::Ispm,
             photons: 100_000,
+            whole_light_grids: false,
             bounces: 8,
             radius: None,
             seed: 0,
@@ -191,7 +198,11 @@ impl FrameImage {
 /// The paper's Table 2 numbers for one frame.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct FrameStats {
+    /// Photons the lights sent this frame (the budget, `--photons`, to within its binomial
+    /// spread: src/ispm.rs, "Budget"), the reused lights' included.
     pub emitted_photons: usize,
+    /// Bounce-map records (light-view texels) this frame: one per texel that may send a photon.
+    pub bounce_map_records: usize,
     /// Photons that survived the first (GPU) bounce.
     pub bounce_map_photons: usize,
     pub stored_photons: usize,

@@ -812,12 +812,14 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
         );
     }
     eprintln!(
-        "wrote {} ({}x{}, {} triangles, {} lights, {} photons stored, mean of {} frame{})",
+        "wrote {} ({}x{}, {} triangles, {} lights, {} photons emitted and {} stored per frame, \
+         mean of {} frame{})",
         args.output.display(),
         frame.width,
         frame.height,
         triangles,
         scene.lights.len(),
+        frame.stats.emitted_photons,
         frame.stats.stored_photons,
         frame.stats.accumulated_frames,
         if frame.stats.accumulated_frames == 1 {

@@ -86,6 +86,8 @@ pub struct PhotonFrame {
     /// Photons per frame, the caustic views' share of them and the scene's bounds: what the
     /// plan is made from.
     budget: (usize, f32),
+    /// `RenderSettings::whole_light_grids`: every texel sends its photon.
+    whole_grids: bool,
     bounds: crate::scene::Aabb,
     trace: TraceSettings,
     /// The renderer's `--seed`: photon sample 0's, from which every other sample's seed is
@@ -214,9 +216,15 @@ impl PhotonFrame {
         let budget = (settings.photons, settings.caustic_share);
         let plan_for = |scene: &Scene, active: &[bool]| {
             let bounds = &gpu_scene.bounds;
-            BouncePlan::with_caustic_share(scene, active, origin, bounds, budget.0, budget.1)
+            let plan =
+                BouncePlan::with_caustic_share(scene, active, origin, bounds, budget.0, budget.1);
+            if settings.whole_light_grids {
+                plan.whole_grids()
+            } else {
+                plan
+            }
         };
-        let plan = plan_for(scene, &active);
+        let plan = timing::timed("bounce plan", || plan_for(scene, &active));
         // Room for every light too: `set_lights` may bring back a light the plan skips now,
         // and move lights (caustic views change size: `BouncePlan::capacity`).
         let every = vec![true; scene.lights.len()];
@@ -342,6 +350,7 @@ impl PhotonFrame {
             plan,
             capacity,
             budget,
+            whole_grids: settings.whole_light_grids,
             bounds: gpu_scene.bounds,
             light_gbuffer,
             light_pass,
@@ -408,16 +417,23 @@ impl PhotonFrame {
         // In place (the scene's meshes are not copied), and back if the plan does not fit.
         let before = std::mem::replace(&mut self.scene.lights, lights.to_vec());
         let (origin, bounds) = (self.plan.origin, &self.bounds);
-        match BouncePlan::within(
-            &self.scene,
-            active,
-            origin,
-            bounds,
-            self.budget,
-            &self.capacity,
-        ) {
+        let plan = timing::timed("bounce plan", || {
+            BouncePlan::within(
+                &self.scene,
+                active,
+                origin,
+                bounds,
+                self.budget,
+                &self.capacity,
+            )
+        });
+        match plan {
             Ok(plan) => {
-                self.plan = plan;
+                self.plan = if self.whole_grids {
+                    plan.whole_grids()
+                } else {
+                    plan
+                };
                 Ok(())
             }
             Err(e) => {
@@ -590,7 +606,7 @@ impl PhotonFrame {
     pub fn trace(&mut self) -> anyhow::Result<FrameStats> {
         let plan = &self.plan;
         let mut stats = FrameStats {
-            emitted_photons: plan.texels,
+            bounce_map_records: plan.texels,
             lights_at_max_resolution: plan.lights_at_max_resolution.clone(),
             ..Default::default()
         };

@@ -70,6 +70,14 @@ pub const JITTER_STREAM_Y: u32 = 0x2b5d_06f7;
 pub const JITTER_R2_X: u32 = 3242174890;
 pub const JITTER_R2_Y: u32 = 2447445414;
 
+// Whether a light-view texel sends its photon this frame (`ispm::texel_kept`, `bounce_map.comp`):
+// a per-texel random number (a hash of the texel's key with this salt) rotated by `sample` times
+// 2^32/φ (the golden ratio: the R1 sequence), in 32-bit fixed point, below the view's keep
+// probability. Over the frames of an accumulation each texel is kept in that fraction of them,
+// evenly spread.
+pub const KEEP_STREAM: u32 = 0x4b33_7e9d;
+pub const KEEP_R1: u32 = 2654435769;
+
 // A photon is a caustic photon when its path density ρp exceeds this (`photon::density`): every
 // bounce on its path was a mirror, refraction or glossy one.
 pub const CAUSTIC_PATH_DENSITY: f32 = 1.0e-2;

@@ -54,6 +54,7 @@ pub fn frame_json(
         "triangles": triangles,
         "lights": scene.lights.len(),
         "emitted_photons": s.emitted_photons,
+        "bounce_map_records": s.bounce_map_records,
         "bounce_map_photons": s.bounce_map_photons,
         "stored_photons": s.stored_photons,
         "accumulated_frames": s.accumulated_frames,

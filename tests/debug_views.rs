@@ -191,7 +191,7 @@ fn the_bounce_map_and_photon_views_of_maps_split_over_buffers_show_every_buffer(
     let (many, first_view) = view_of(split.clone(), DebugView::BounceMap);
     eprintln!(
         "bounce map: {} records in {} buffers, the first view's {first_view:?}",
-        many.stats.emitted_photons, many.stats.bounce_map_buffers
+        many.stats.bounce_map_records, many.stats.bounce_map_buffers
     );
     assert!(first_view.len() > 600, "the first view spans three buffers");
     save("BounceMap-split", &many);

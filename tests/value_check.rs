@@ -51,7 +51,10 @@ fn expected_values(frame: &FrameImage, subsample: u32) -> Vec<(Checked, u64)> {
     let pixels = u64::from(frame.width * frame.height);
     let mut expected = vec![
         (Checked::Direct, 4 * pixels),
-        (Checked::BounceMap, 8 * frame.stats.emitted_photons as u64),
+        (
+            Checked::BounceMap,
+            8 * frame.stats.bounce_map_records as u64,
+        ),
         (Checked::PhotonMap, 12 * frame.stats.stored_photons as u64),
         (Checked::Indirect, 4 * pixels),
         (Checked::Final, 4 * pixels),
@@ -270,7 +273,10 @@ fn every_buffer_of_a_split_bounce_map_and_photon_map_is_checked_and_a_nan_in_the
     .expect("renderer");
     let clean = renderer.render().expect("render");
     let (stored, buffers) = (clean.stats.stored_photons, clean.stats.photon_buffers);
-    let (records, bounce_buffers) = (clean.stats.emitted_photons, clean.stats.bounce_map_buffers);
+    let (records, bounce_buffers) = (
+        clean.stats.bounce_map_records,
+        clean.stats.bounce_map_buffers,
+    );
     eprintln!(
         "{stored} photons in {buffers} buffers, {records} records in {bounce_buffers} buffers"
     );

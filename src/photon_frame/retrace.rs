@@ -38,6 +38,8 @@ pub(super) struct LightPhotons {
     pub photons: Vec<Photon>,
     /// Its bounce-map photons (the paths started on the CPU).
     pub starts: usize,
+    /// The photons it sent (bounce-map records with an `eta`: `bounce_map.comp`).
+    pub emitted: usize,
     /// Its paths alive after each bounce (`PhotonMap::attrition`).
     pub attrition: Vec<u64>,
 }
@@ -150,7 +152,7 @@ impl Traced {
             .resize(plan.texels, BounceMapPhoton::default());
         // Kept lights' photons, and the re-traced lights' starts (traced together below).
         let mut lights = vec![None; frame.retrace.len()];
-        let mut traced: Vec<(usize, Vec<PhotonState>)> = Vec::new();
+        let mut traced: Vec<(usize, usize, Vec<PhotonState>)> = Vec::new();
         for (light, &retrace) in frame.retrace.iter().enumerate() {
             let views = plan.light_views(light);
             let texels = plan.texel_range(views.clone());
@@ -173,17 +175,22 @@ impl Traced {
                 lights[light] = Some(self.take(light));
                 continue;
             }
-            read(texels.clone(), &mut self.bounce_map[texels])?;
+            read(texels.clone(), &mut self.bounce_map[texels.clone()])?;
+            let emitted = self.bounce_map[texels]
+                .iter()
+                .filter(|p| p.eta != 0.0)
+                .count();
             traced.push((
                 light,
+                emitted,
                 plan.photon_starts_from_origin(&self.bounce_map, views, frame.sample, frame.bvh),
             ));
         }
         // One parallel trace of every re-traced light's starts; each light's photons are those
         // a trace of its starts alone makes (`trace_photon_groups`).
-        let groups: Vec<&[PhotonState]> = traced.iter().map(|(_, s)| s.as_slice()).collect();
+        let groups: Vec<&[PhotonState]> = traced.iter().map(|(_, _, s)| s.as_slice()).collect();
         let maps = trace_photon_groups(frame.scene, frame.bvh, &groups, frame.trace);
-        for ((light, starts), map) in traced.iter().zip(maps) {
+        for ((light, emitted, starts), map) in traced.iter().zip(maps) {
             // Traced relative to the origin (the BVH is), so the photons come out relative;
             // the photon volumes add the eye's offset (`photon_frame.rs`).
             let photons = map.photons;
@@ -192,6 +199,7 @@ impl Traced {
             lights[*light] = Some(LightPhotons {
                 photons,
                 starts: starts.len(),
+                emitted: *emitted,
                 attrition: map.attrition,
             });
         }
@@ -204,6 +212,7 @@ impl Traced {
         }
         for l in &lights {
             stats.bounce_map_photons += l.starts;
+            stats.emitted_photons += l.emitted;
             stats.stored_photons += l.photons.len();
             add_attrition(&mut stats.attrition, &l.attrition);
         }
