@@ -418,3 +418,32 @@ fn bad_emissive_data_is_an_error_when_non_finite_and_clamped_when_out_of_range()
         json!({"name": "lamp", "extras": {"ispm": {"emission": [1e9, 1e9, 1e9]}}});
     assert_eq!(lamp(load(&gltf)), Vec3::splat(MAX_EMISSION));
 }
+
+#[test]
+fn the_default_light_follows_the_camera_the_scene_is_seen_from() {
+    let mut gltf = object_on_floor();
+    let (eye, target) = (Vec3::new(3.0, 1.0, -1.0), Vec3::new(0.0, 0.4, 0.0));
+    let rotation = ispm::scene::authoring::look_rotation(target - eye);
+    let nodes = gltf.doc["nodes"].as_array_mut().expect("nodes");
+    nodes.push(
+        json!({"name": "side", "camera": 0, "translation": eye.to_array(),
+                      "rotation": rotation.to_array()}),
+    );
+    let node = nodes.len() - 1;
+    gltf.doc["scenes"][0]["nodes"]
+        .as_array_mut()
+        .expect("roots")
+        .push(json!(node));
+    let mut scene = load_with(&gltf, &lit()).expect("loads");
+    let front = scene.lights[0].clone();
+    scene.camera = scene.cameras[1];
+    scene.aim_default_light();
+    let side = &scene.lights[0];
+    assert!(
+        side.position.x > 1.0 && front.position.x.abs() < 2.0,
+        "{side:?}"
+    );
+    assert!(side.direction.dot((target - side.position).normalize()) > 0.999);
+    let irradiance = side.intensity.x / side.position.distance_squared(target);
+    assert!((irradiance - DEFAULT_LIGHT_IRRADIANCE).abs() < 1e-3);
+}
