@@ -66,6 +66,8 @@ enum Command {
 struct SweepArgs {
     /// A .gltf/.glb file or a bundled scene name (default: the bundled cornell-box).
     scene: Option<String>,
+    #[command(flatten)]
+    scene_args: SceneArgs,
     /// Folder for results.csv, results.json and the plots (configurations already in its
     /// results.json are not measured again).
     #[arg(long)]
@@ -102,6 +104,8 @@ struct SweepArgs {
 struct ViewArgs {
     /// A .gltf/.glb file or a bundled scene name (default: the bundled cornell-box).
     scene: Option<String>,
+    #[command(flatten)]
+    scene_args: SceneArgs,
     /// Window (and render) size, WIDTHxHEIGHT.
     #[arg(long, default_value = "960x540", value_parser = parse_size)]
     size: (u32, u32),
@@ -171,6 +175,8 @@ fn parse_press(s: &str) -> Result<(u32, ispm::viewer::ViewKey), String> {
 struct BenchArgs {
     /// A .gltf/.glb file or a bundled scene name (default: the bundled cornell-box).
     scene: Option<String>,
+    #[command(flatten)]
+    scene_args: SceneArgs,
     /// Image size, WIDTHxHEIGHT.
     #[arg(long, default_value = "1280x720", value_parser = parse_size)]
     size: (u32, u32),
@@ -267,10 +273,33 @@ impl QualityArgs {
     }
 }
 
+/// How the scene file is read, shared by every command that loads one.
+#[derive(clap::Args)]
+struct SceneArgs {
+    /// Render a scene with no light and no emissive surface as it is (unlit: only unlit
+    /// materials show) instead of adding the default key light over the camera's shoulder.
+    #[arg(long)]
+    no_default_light: bool,
+    /// KHR_materials_variants: show the material variant NAME instead of the default materials.
+    #[arg(long, value_name = "NAME")]
+    variant: Option<String>,
+}
+
+impl SceneArgs {
+    fn options(&self) -> ispm::scene::load::LoadOptions {
+        ispm::scene::load::LoadOptions {
+            default_light: !self.no_default_light,
+            variant: self.variant.clone(),
+        }
+    }
+}
+
 #[derive(clap::Args)]
 struct PlanArgs {
     /// A .gltf/.glb file or a bundled scene name (default: the bundled cornell-box).
     scene: Option<String>,
+    #[command(flatten)]
+    scene_args: SceneArgs,
     /// Image size, WIDTHxHEIGHT (the view's aspect ratio).
     #[arg(long, default_value = "640x480", value_parser = parse_size)]
     size: (u32, u32),
@@ -316,6 +345,8 @@ enum Method {
 struct RenderArgs {
     /// A .gltf/.glb file or a bundled scene name (default: the bundled cornell-box).
     scene: Option<String>,
+    #[command(flatten)]
+    scene_args: SceneArgs,
     /// Output image: .png (tonemapped sRGB) or .exr (linear HDR).
     #[arg(short, long, default_value = "out.png")]
     output: PathBuf,
@@ -450,20 +481,19 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
-fn load_scene(arg: Option<&str>) -> anyhow::Result<ispm::scene::Scene> {
-    ispm::scene::bundled::resolve(arg)
-}
-
-/// The scene of `arg`, seen from its file's camera `camera` (`--camera N`) if given, with its
-/// lights orbiting when `--orbit-lights` asks.
+/// The scene of `arg` read as `scene_args` say, seen from its file's camera `camera`
+/// (`--camera N`) if given, with its lights orbiting when `--orbit-lights` asks. Says on
+/// stderr when the default light was added, or when `--no-default-light` leaves the scene
+/// without light.
 fn load_scene_from(
     arg: Option<&str>,
+    scene_args: &SceneArgs,
     camera: Option<usize>,
     orbit_lights: Option<f32>,
 ) -> anyhow::Result<ispm::scene::Scene> {
-    let mut scene = load_scene(arg)?;
+    let mut scene = ispm::scene::bundled::resolve_with(arg, &scene_args.options())?;
+    let name = arg.unwrap_or("cornell-box");
     if let Some(n) = camera {
-        let name = arg.unwrap_or("cornell-box");
         let count = scene.cameras.len();
         scene.camera = *scene.cameras.get(n).ok_or_else(|| match count {
             0 => anyhow::anyhow!("--camera {n}: {name} has no cameras"),
@@ -473,9 +503,21 @@ fn load_scene_from(
                 count - 1
             ),
         })?;
+        scene.aim_default_light();
     }
     if let Some(seconds) = orbit_lights {
         scene.orbit_lights(seconds).context("--orbit-lights")?;
+    }
+    if scene.default_light {
+        eprintln!(
+            "ispm: {name} has no lights; adding a default key light (--no-default-light turns \
+             it off)"
+        );
+    } else if scene.needs_default_light() {
+        eprintln!(
+            "ispm: warning: {name} has no lights and --no-default-light keeps it so: nothing in \
+             it is lit (only unlit materials show)"
+        );
     }
     Ok(scene)
 }
@@ -519,7 +561,12 @@ fn view(args: ViewArgs, device: Option<usize>) -> anyhow::Result<()> {
             dir.display()
         );
     }
-    let scene = load_scene_from(args.scene.as_deref(), args.camera, args.orbit_lights)?;
+    let scene = load_scene_from(
+        args.scene.as_deref(),
+        &args.scene_args,
+        args.camera,
+        args.orbit_lights,
+    )?;
     let knobs = args.quality.resolve(&scene)?;
     let (width, height) = args.size;
     let settings = ispm::viewer::ViewSettings {
@@ -567,7 +614,12 @@ fn bench(args: BenchArgs, device: Option<usize>) -> anyhow::Result<()> {
     {
         ispm::output::check_writable(path)?;
     }
-    let scene = load_scene_from(args.scene.as_deref(), args.camera, args.orbit_lights)?;
+    let scene = load_scene_from(
+        args.scene.as_deref(),
+        &args.scene_args,
+        args.camera,
+        args.orbit_lights,
+    )?;
     let scene_name = args.scene.as_deref().unwrap_or("cornell-box");
     let knobs = args.quality.resolve(&scene)?;
     let gpu = gpu(device)?;
@@ -620,7 +672,7 @@ fn sweep(args: SweepArgs, device: Option<usize>) -> anyhow::Result<()> {
         "--out {}: a file, not a folder",
         args.out.display()
     );
-    let scene = load_scene_from(args.scene.as_deref(), args.camera, None)?;
+    let scene = load_scene_from(args.scene.as_deref(), &args.scene_args, args.camera, None)?;
     let scene_name = args.scene.as_deref().unwrap_or("cornell-box");
     let gpu = gpu(device)?;
     let settings = ispm::sweep::SweepSettings {
@@ -668,7 +720,12 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
             "--radius {r} must be a positive length"
         );
     }
-    let scene = load_scene_from(args.scene.as_deref(), args.camera, args.orbit_lights)?;
+    let scene = load_scene_from(
+        args.scene.as_deref(),
+        &args.scene_args,
+        args.camera,
+        args.orbit_lights,
+    )?;
     let knobs = args.quality.resolve(&scene)?;
     // The viewer's scripted path starts from the scene as loaded.
     let path_pose = args
@@ -877,7 +934,12 @@ fn render_reference(
 }
 
 fn plan(args: PlanArgs) -> anyhow::Result<()> {
-    let scene = load_scene_from(args.scene.as_deref(), args.camera, args.orbit_lights)?;
+    let scene = load_scene_from(
+        args.scene.as_deref(),
+        &args.scene_args,
+        args.camera,
+        args.orbit_lights,
+    )?;
     let settings = RenderSettings {
         method: args.method,
         photons: args.photons,
@@ -890,6 +952,21 @@ fn plan(args: PlanArgs) -> anyhow::Result<()> {
     };
     let plan = ispm::plan::EffectsPlan::analyse(&scene, &settings, &scene.camera);
     print!("{plan}");
+    let name = args.scene.as_deref().unwrap_or("cornell-box");
+    let default_light = if scene.default_light {
+        format!(
+            "yes — {name} has no lights and no emissive surfaces: light 0 '{}' is a spot over \
+             the camera's shoulder (--no-default-light turns it off)",
+            scene.lights[0].name
+        )
+    } else if !scene.lights.is_empty() {
+        format!("no — the scene has {} light(s)", scene.lights.len())
+    } else if scene.has_emitter() {
+        "no — its emissive surfaces light it".to_string()
+    } else {
+        "no — --no-default-light: nothing in the scene is lit".to_string()
+    };
+    println!("default light: {default_light}");
     Ok(())
 }
 

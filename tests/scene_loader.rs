@@ -364,10 +364,12 @@ fn unknown_component_type_is_an_error() {
 }
 
 #[test]
-fn scene_without_geometry_is_an_error() {
+fn scene_without_geometry_is_an_empty_scene() {
     let mut f = Fixture::triangle();
     f.doc["nodes"] = json!([{"name": "empty"}]);
-    assert_error(f.load(), "fixture.gltf", "no triangle geometry");
+    let s = f.load().expect("an empty scene loads");
+    assert!(s.instances.is_empty() && s.triangle_count() == 0);
+    assert!(s.camera.position().is_finite());
 }
 
 #[test]

@@ -3,7 +3,8 @@
 //! The `.glb` files are written by `cargo run --example make-scenes` from
 //! [`authoring`](super::authoring); a test keeps the committed files equal to its output.
 
-use super::{load, Scene};
+use super::load::{self, LoadOptions};
+use super::Scene;
 use anyhow::Result;
 use std::path::Path;
 
@@ -38,9 +39,14 @@ pub fn bundled(name: &str) -> Option<&'static [u8]> {
 /// The scene a command-line `SCENE` argument names: `None` ⇒ the Cornell box; a bundled name
 /// ⇒ that scene; anything else ⇒ a path to a `.gltf`/`.glb` file.
 pub fn resolve(arg: Option<&str>) -> Result<Scene> {
+    resolve_with(arg, &LoadOptions::default())
+}
+
+/// [`resolve`] with [`LoadOptions`].
+pub fn resolve_with(arg: Option<&str>, options: &LoadOptions) -> Result<Scene> {
     let name = arg.unwrap_or(DEFAULT_SCENE);
     match bundled(name) {
-        Some(bytes) => load::load_from_slice(bytes, name, None),
-        None => load::load(Path::new(name)),
+        Some(bytes) => load::load_from_slice_with(bytes, name, None, options),
+        None => load::load_with(Path::new(name), options),
     }
 }

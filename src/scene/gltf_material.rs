@@ -16,10 +16,19 @@
 //!
 //! then, per channel, if lambertian + glossy + transmission > 1, lambertian and transmission are
 //! scaled down so the sum is 1. Material `extras` `{"ispm": {...}}` override any field exactly.
+//!
+//! Emission: a non-finite emissiveFactor or emissiveStrength is an error; a negative one is
+//! clamped to 0, and an emitted radiance above [`MAX_EMISSION`] is scaled down to it, each with
+//! a warning (a NaN or Inf radiance would make a NaN picture).
+//!
+//! KHR_materials_pbrSpecularGlossiness becomes metallic-roughness by the extension's published
+//! conversion ([`spec_gloss_to_metal_rough`]); its diffuse texture is the base-colour texture.
+//! KHR_materials_unlit becomes [`unlit`]: no reflectance, `emission` = base colour
+//! (radiance c shows at about c with the default tonemap at 0 EV), `Material::unlit` set.
 
 use super::gltf_data::{read_uri, Buffers};
 use super::units::candela_to_watts_per_sr;
-use super::{Material, Texture, TextureId};
+use super::{Material, Texture, TextureId, MAX_EMISSION};
 use anyhow::{anyhow, bail, ensure, Context, Result};
 use glam::Vec3;
 use serde::Deserialize;
@@ -28,6 +37,8 @@ use std::path::Path;
 
 /// Exponents at or above this are treated as a perfect mirror.
 const MIRROR_EXPONENT: f64 = 1e6;
+/// F0 of a dielectric in the specular-glossiness conversion (η = 1.5).
+const DIELECTRIC_F0: f32 = 0.04;
 /// Largest texture side we decode.
 const MAX_TEXTURE_SIDE: u32 = 16384;
 /// Most decoded texture bytes (all images together) a scene may hold.
@@ -101,22 +112,154 @@ pub fn convert_material(
     convert_inner(file, &name, mat, textures).with_context(|| what)
 }
 
+/// The base colour, metallic and roughness of a material, and its base-colour texture: from
+/// pbrMetallicRoughness, or converted from KHR_materials_pbrSpecularGlossiness.
+struct BaseModel<'a> {
+    color: Vec3,
+    metallic: f32,
+    roughness: f32,
+    texture: Option<gltf::texture::Info<'a>>,
+}
+
+fn base_model<'a>(file: &str, name: &str, mat: &gltf::Material<'a>) -> Result<BaseModel<'a>> {
+    if let Some(sg) = mat.pbr_specular_glossiness() {
+        let [r, g, b, _a] = sg.diffuse_factor();
+        let diffuse = reflectance([r, g, b], "diffuseFactor", file, name)?;
+        let specular = reflectance(sg.specular_factor(), "specularFactor", file, name)?;
+        let gloss = sg.glossiness_factor();
+        ensure!(gloss.is_finite(), "non-finite glossinessFactor {gloss}");
+        if sg.specular_glossiness_texture().is_some() {
+            log::warn!(
+                "{file}: material {name}: specularGlossinessTexture is not used (its factors are)"
+            );
+        }
+        let (color, metallic) = spec_gloss_to_metal_rough(diffuse, specular);
+        return Ok(BaseModel {
+            color,
+            metallic,
+            roughness: 1.0 - gloss.clamp(0.0, 1.0),
+            texture: sg.diffuse_texture(),
+        });
+    }
+    let pbr = mat.pbr_metallic_roughness();
+    let [r, g, b, _a] = pbr.base_color_factor();
+    let color = reflectance([r, g, b], "baseColorFactor", file, name)?;
+    let (metallic, roughness) = (pbr.metallic_factor(), pbr.roughness_factor());
+    ensure!(
+        metallic.is_finite() && roughness.is_finite(),
+        "non-finite metallic/roughness factor"
+    );
+    Ok(BaseModel {
+        color,
+        metallic: metallic.clamp(0.0, 1.0),
+        roughness,
+        texture: pbr.base_color_texture(),
+    })
+}
+
+/// KHR_materials_pbrSpecularGlossiness (diffuse, specular) → metallic-roughness (base colour,
+/// metallic), by the conversion published with the extension (glTF repository,
+/// `KHR_materials_pbrSpecularGlossiness/examples/convert-between-workflows`): metallic solves
+/// the quadratic that blends a dielectric (F0 = 0.04) with a metal on the perceived brightness
+/// √(0.299 r² + 0.587 g² + 0.114 b²) of diffuse and specular; the base colour blends the
+/// colour seen as diffuse and the colour seen as specular by metallic². Glossiness becomes
+/// roughness = 1 − glossiness (in [`base_model`]).
+pub fn spec_gloss_to_metal_rough(diffuse: Vec3, specular: Vec3) -> (Vec3, f32) {
+    const EPSILON: f32 = 1e-6;
+    let brightness = |c: Vec3| (0.299 * c.x * c.x + 0.587 * c.y * c.y + 0.114 * c.z * c.z).sqrt();
+    let one_minus_specular = 1.0 - specular.max_element();
+    let (d, s) = (brightness(diffuse), brightness(specular));
+    let metallic = if s < DIELECTRIC_F0 {
+        0.0
+    } else {
+        let a = DIELECTRIC_F0;
+        let b = d * one_minus_specular / (1.0 - DIELECTRIC_F0) + s - 2.0 * DIELECTRIC_F0;
+        let c = DIELECTRIC_F0 - s;
+        let discriminant = (b * b - 4.0 * a * c).max(0.0);
+        ((-b + discriminant.sqrt()) / (2.0 * a)).clamp(0.0, 1.0)
+    };
+    let from_diffuse =
+        diffuse * (one_minus_specular / (1.0 - DIELECTRIC_F0) / (1.0 - metallic).max(EPSILON));
+    let from_specular =
+        (specular - Vec3::splat(DIELECTRIC_F0 * (1.0 - metallic))) / metallic.max(EPSILON);
+    let color = from_diffuse
+        .lerp(from_specular, metallic * metallic)
+        .clamp(Vec3::ZERO, Vec3::ONE);
+    (color, metallic)
+}
+
+/// A KHR_materials_unlit material: shown at its base colour (times the mean colour of its
+/// base-colour texture, which is not sampled per pixel), reflecting nothing.
+fn unlit(
+    file: &str,
+    name: &str,
+    mat: &gltf::Material,
+    textures: &mut TextureCache,
+) -> Result<Material> {
+    let base = base_model(file, name, mat)?;
+    let mut color = base.color;
+    if let Some(info) = base.texture {
+        color *= textures.mean_linear(&info.texture().source())?;
+        log::warn!(
+            "{file}: material {name}: unlit base-colour texture shown as its mean colour {color}"
+        );
+    }
+    Ok(Material {
+        name: name.to_owned(),
+        lambertian: Vec3::ZERO,
+        glossy: Vec3::ZERO,
+        transmission: Vec3::ZERO,
+        emission: color,
+        double_sided: mat.double_sided(),
+        unlit: true,
+        ..Material::default()
+    })
+}
+
+/// The emitted radiance of emissiveFactor × KHR_materials_emissive_strength, in W/(m²·sr):
+/// non-finite is an error; negative is clamped to 0 with a warning.
+fn emission(file: &str, name: &str, mat: &gltf::Material) -> Result<Vec3> {
+    let factor = finite3(mat.emissive_factor(), "emissiveFactor")?;
+    let strength = mat.emissive_strength().unwrap_or(1.0);
+    ensure!(
+        strength.is_finite(),
+        "non-finite emissiveStrength {strength}"
+    );
+    let clamped = factor.max(Vec3::ZERO);
+    if clamped != factor {
+        log::warn!("{file}: material {name}: negative emissiveFactor {factor} clamped to 0");
+    }
+    if strength < 0.0 {
+        log::warn!("{file}: material {name}: negative emissiveStrength {strength} clamped to 0");
+    }
+    Ok(clamped * candela_to_watts_per_sr(strength.max(0.0)))
+}
+
+/// Scales an emitted radiance brighter than [`MAX_EMISSION`] down to it (keeping its colour).
+fn limit_emission(file: &str, m: &mut Material) {
+    let peak = m.emission.max_element();
+    if peak > MAX_EMISSION {
+        log::warn!(
+            "{file}: material {}: emitted radiance {} W/(m²·sr) scaled down to {MAX_EMISSION} \
+             (emissiveFactor × emissiveStrength is absurdly bright)",
+            m.name,
+            m.emission
+        );
+        m.emission *= MAX_EMISSION / peak;
+    }
+}
+
 fn convert_inner(
     file: &str,
     name: &str,
     mat: &gltf::Material,
     textures: &mut TextureCache,
 ) -> Result<Material> {
-    let pbr = mat.pbr_metallic_roughness();
-    let [r, g, b, _a] = pbr.base_color_factor();
-    let c = reflectance([r, g, b], "baseColorFactor", file, name)?;
-    let m = pbr.metallic_factor();
-    let rough = pbr.roughness_factor();
-    ensure!(
-        m.is_finite() && rough.is_finite(),
-        "non-finite metallic/roughness factor"
-    );
-    let m = m.clamp(0.0, 1.0);
+    if mat.unlit() {
+        return unlit(file, name, mat, textures);
+    }
+    let base = base_model(file, name, mat)?;
+    let (c, m, rough) = (base.color, base.metallic, base.roughness);
     let t = mat.transmission().map_or(0.0, |t| t.transmission_factor());
     let ior = mat.ior().unwrap_or(1.5);
     let (s, sc) = mat.specular().map_or((1.0, [1.0; 3]), |s| {
@@ -132,12 +275,6 @@ fn convert_inner(
     // KHR_materials_ior: ior 0 means "no dielectric specular" in some exporters; treat as 1.5.
     let ior = if ior == 0.0 { 1.5 } else { ior };
     let f0 = (((ior - 1.0) / (ior + 1.0)).powi(2) * s.clamp(0.0, 1.0) * sc).min(Vec3::ONE);
-    let strength = mat.emissive_strength().unwrap_or(1.0);
-    ensure!(
-        strength.is_finite() && strength >= 0.0,
-        "bad emissiveStrength {strength}"
-    );
-    let emissive = finite3(mat.emissive_factor(), "emissiveFactor")?.max(Vec3::ZERO);
 
     let mut out = Material {
         name: name.to_owned(),
@@ -148,10 +285,11 @@ fn convert_inner(
         transmission: (1.0 - m) * t * c,
         ior,
         fresnel: m < 0.5,
-        emission: emissive * candela_to_watts_per_sr(strength),
+        emission: emission(file, name, mat)?,
         double_sided: mat.double_sided(),
+        unlit: false,
     };
-    if let Some(info) = pbr.base_color_texture() {
+    if let Some(info) = base.texture {
         if info.tex_coord() != 0 {
             log::warn!("{file}: material {name}: base colour texture uses TEXCOORD_{}; only TEXCOORD_0 is loaded", info.tex_coord());
         }
@@ -167,6 +305,7 @@ fn convert_inner(
             apply_extras(&mut out, x)?;
         }
     }
+    limit_emission(file, &mut out);
     enforce_energy(file, &mut out);
     Ok(out)
 }
@@ -261,10 +400,28 @@ impl<'a, 'b> TextureCache<'a, 'b> {
         }
     }
 
+    /// The scene texture of `image`, decoded once.
     fn get(&mut self, image: &gltf::Image) -> Result<TextureId> {
         if let Some(&id) = self.by_image.get(&image.index()) {
             return Ok(id);
         }
+        let texture = self.decode(image)?;
+        let id = self.textures.len();
+        self.textures.push(texture);
+        self.by_image.insert(image.index(), id);
+        Ok(id)
+    }
+
+    /// The mean linear colour of `image` (decoded, not kept as a scene texture unless it is
+    /// one already).
+    fn mean_linear(&mut self, image: &gltf::Image) -> Result<Vec3> {
+        match self.by_image.get(&image.index()) {
+            Some(&id) => Ok(self.textures[id].mean_linear()),
+            None => Ok(self.decode(image)?.mean_linear()),
+        }
+    }
+
+    fn decode(&mut self, image: &gltf::Image) -> Result<Texture> {
         let what = format!("image {}", image.index());
         let bytes = match image.source() {
             gltf::image::Source::View { view, .. } => self.buffers.view(&view)?.to_vec(),
@@ -276,14 +433,29 @@ impl<'a, 'b> TextureCache<'a, 'b> {
             self.bytes <= MAX_TEXTURE_BYTES,
             "absurd size: decoded textures exceed {MAX_TEXTURE_BYTES} bytes at {what}"
         );
-        let texture = Texture {
+        Ok(Texture {
             name: image.name().map(str::to_owned).unwrap_or(what),
             ..texture
+        })
+    }
+}
+
+impl Texture {
+    /// The mean of the texels' linear RGB (sRGB decoded).
+    pub fn mean_linear(&self) -> Vec3 {
+        let decode = |v: u8| {
+            let c = f32::from(v) / 255.0;
+            if c <= 0.04045 {
+                c / 12.92
+            } else {
+                ((c + 0.055) / 1.055).powf(2.4)
+            }
         };
-        let id = self.textures.len();
-        self.textures.push(texture);
-        self.by_image.insert(image.index(), id);
-        Ok(id)
+        let texels = self.rgba8.chunks_exact(4);
+        let n = texels.len().max(1) as f32;
+        texels.fold(Vec3::ZERO, |sum, t| {
+            sum + Vec3::new(decode(t[0]), decode(t[1]), decode(t[2]))
+        }) / n
     }
 }
 

@@ -9,22 +9,29 @@
 //! [`Clip`]s over the flattened node hierarchy ([`Animations`]), and an animated scene is
 //! returned posed at t = 0 ([`Scene::pose_at`]).
 //!
+//! Material extensions: KHR_materials_unlit, KHR_materials_pbrSpecularGlossiness (converted to
+//! metallic-roughness), KHR_materials_variants (the default mapping, or the variant
+//! [`LoadOptions::variant`] names); KHR_materials_clearcoat and KHR_materials_sheen are accepted
+//! and approximated by the base material (one warning). A scene with no nodes, or with no
+//! triangles, is an empty scene (with a warning), not an error. [`LoadOptions::default_light`]
+//! adds the default key light ([`default_light`](super::default_light)) to a scene with no light
+//! and no emitter.
+//!
 //! Every error is one line that starts with the file's name. Input that can still be
 //! rendered is repaired with a `log::warn!`; everything else is rejected. `docs/scenes.md`
 //! lists which is which.
 
 use super::gltf_data::{read_f32, split_glb, Buffers, MAX_VERTICES};
+use super::gltf_light::{convert_camera, convert_light};
 use super::gltf_material::{convert_material, TextureCache};
 use super::gltf_mesh::convert_primitive;
-use super::units::{candela_to_watts_per_sr, lux_to_watts_per_m2};
 use super::{
-    rigid, Animations, Camera, Channel, Clip, Instance, Interpolation, Light, LightKind,
-    LocalTransform, Material, MaterialId, MeshId, Property, RigNode, Sampler, Scene,
+    Animations, Camera, Channel, Clip, Instance, Interpolation, LocalTransform, Material,
+    MaterialId, MeshId, Property, RigNode, Sampler, Scene,
 };
 use anyhow::{anyhow, bail, ensure, Context, Result};
 use glam::{Mat4, Quat, Vec3, Vec4};
 use std::collections::{HashMap, HashSet};
-use std::f32::consts::FRAC_PI_2;
 use std::path::Path;
 
 /// Extensions the loader understands; a file that *requires* any other is rejected.
@@ -34,8 +41,27 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_ior",
     "KHR_materials_specular",
     "KHR_materials_emissive_strength",
+    "KHR_materials_unlit",
+    "KHR_materials_pbrSpecularGlossiness",
+    "KHR_materials_variants",
+    "KHR_materials_clearcoat",
+    "KHR_materials_sheen",
     "KHR_texture_transform",
 ];
+
+/// Extensions accepted but approximated: the base material is rendered without them.
+const APPROXIMATED_EXTENSIONS: &[&str] = &["KHR_materials_clearcoat", "KHR_materials_sheen"];
+
+/// What the loader does beyond reading the file (the command line's scene flags).
+#[derive(Clone, Debug, Default)]
+pub struct LoadOptions {
+    /// Add the default key light to a scene with no light and no emitter
+    /// ([`Scene::add_default_light`]; `ispm` does unless `--no-default-light`).
+    pub default_light: bool,
+    /// KHR_materials_variants: show the variant of this name (`--variant`); `None`: the
+    /// file's default materials. A name the file lacks is an error listing its variants.
+    pub variant: Option<String>,
+}
 
 /// Deepest node hierarchy accepted (deeper is almost surely a cycle).
 const MAX_NODE_DEPTH: usize = 256;
@@ -44,9 +70,15 @@ const MAX_INSTANCES: usize = 1 << 20;
 /// Most keyframes one animation sampler may hold.
 const MAX_KEYFRAMES: usize = 1 << 22;
 
-/// Load a scene from a `.gltf` or `.glb` file. External buffers and images are resolved
-/// relative to the file's directory.
+/// Load a scene from a `.gltf` or `.glb` file, as the file says (no default light, default
+/// material variant). External buffers and images are resolved relative to the file's
+/// directory.
 pub fn load(path: &Path) -> Result<Scene> {
+    load_with(path, &LoadOptions::default())
+}
+
+/// [`load`] with [`LoadOptions`].
+pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene> {
     let name = path.display().to_string();
     let meta = std::fs::metadata(path).map_err(|e| match e.kind() {
         std::io::ErrorKind::NotFound => anyhow!("{name}: file not found"),
@@ -65,17 +97,37 @@ pub fn load(path: &Path) -> Result<Scene> {
     if is_glb && !bytes.is_empty() && !bytes.starts_with(b"glTF") {
         bail!("{name}: not a GLB file (bad magic)");
     }
-    load_from_slice(&bytes, &name, path.parent())
+    load_from_slice_with(&bytes, &name, path.parent(), options)
 }
 
-/// Load a scene from the bytes of a `.gltf` (JSON) or `.glb` (binary) file. `name` appears in
-/// every error and warning; `base_dir` resolves external buffers and images (`None`: the scene
-/// must be self-contained).
+/// Load a scene from the bytes of a `.gltf` (JSON) or `.glb` (binary) file, as the file says.
+/// `name` appears in every error and warning; `base_dir` resolves external buffers and images
+/// (`None`: the scene must be self-contained).
 pub fn load_from_slice(bytes: &[u8], name: &str, base_dir: Option<&Path>) -> Result<Scene> {
-    load_inner(bytes, name, base_dir).map_err(|e| anyhow!("{name}: {e:#}"))
+    load_from_slice_with(bytes, name, base_dir, &LoadOptions::default())
 }
 
-fn load_inner(bytes: &[u8], file: &str, base_dir: Option<&Path>) -> Result<Scene> {
+/// [`load_from_slice`] with [`LoadOptions`].
+pub fn load_from_slice_with(
+    bytes: &[u8],
+    name: &str,
+    base_dir: Option<&Path>,
+    options: &LoadOptions,
+) -> Result<Scene> {
+    let mut scene =
+        load_inner(bytes, name, base_dir, options).map_err(|e| anyhow!("{name}: {e:#}"))?;
+    if options.default_light {
+        scene.add_default_light();
+    }
+    Ok(scene)
+}
+
+fn load_inner(
+    bytes: &[u8],
+    file: &str,
+    base_dir: Option<&Path>,
+    options: &LoadOptions,
+) -> Result<Scene> {
     ensure!(!bytes.is_empty(), "file is empty");
     let (json, bin) = if bytes.starts_with(b"glTF") {
         let glb = split_glb(bytes)?;
@@ -84,9 +136,21 @@ fn load_inner(bytes: &[u8], file: &str, base_dir: Option<&Path>) -> Result<Scene
         (bytes, None)
     };
     let doc = parse_document(json)?;
+    let approximated: Vec<&str> = doc
+        .extensions_used()
+        .filter(|e| APPROXIMATED_EXTENSIONS.contains(e))
+        .collect();
+    if !approximated.is_empty() {
+        log::warn!(
+            "{file}: {} approximated: the base material is rendered without the coat or sheen",
+            approximated.join(", ")
+        );
+    }
+    let variant = variant_index(&doc, options.variant.as_deref())?;
     let buffers = Buffers::resolve(&doc, bin, base_dir)?;
     let mut builder = Builder {
         file,
+        variant,
         textures: TextureCache::new(&buffers, base_dir),
         buffers: &buffers,
         scene: Scene::default(),
@@ -105,8 +169,15 @@ fn load_inner(bytes: &[u8], file: &str, base_dir: Option<&Path>) -> Result<Scene
 
 /// Parses and validates the JSON; checks `extensionsRequired` against what we support.
 fn parse_document(json: &[u8]) -> Result<gltf::Document> {
-    let mut root: gltf::json::Root =
-        gltf::json::deserialize::from_slice(json).map_err(|e| anyhow!("malformed JSON: {e}"))?;
+    use gltf::json::deserialize::from_slice;
+    let mut root: gltf::json::Root = match from_slice(json) {
+        Ok(root) => root,
+        Err(e) => match with_scene_nodes(json) {
+            Some(patched) => from_slice(&patched),
+            None => Err(e),
+        }
+        .map_err(|e| anyhow!("malformed JSON: {e}"))?,
+    };
     let unsupported: Vec<&str> = root
         .extensions_required
         .iter()
@@ -153,6 +224,7 @@ fn parse_document(json: &[u8]) -> Result<gltf::Document> {
             }
         }
     }
+    check_variant_mappings(&root)?;
     use gltf::json::validation::{Error as Invalid, Validate};
     let mut errors = Vec::new();
     root.validate(&root, gltf::json::Path::new, &mut |path, err| {
@@ -175,8 +247,80 @@ fn parse_document(json: &[u8]) -> Result<gltf::Document> {
     Ok(gltf::Document::from_json_without_validation(root))
 }
 
+/// The JSON with `"nodes": []` added to every scene without one, or `None` when none lacks it.
+/// glTF makes a scene's `nodes` optional (an empty scene); the gltf crate requires it.
+fn with_scene_nodes(json: &[u8]) -> Option<Vec<u8>> {
+    let mut doc: serde_json::Value = serde_json::from_slice(json).ok()?;
+    let mut patched = false;
+    for scene in doc.get_mut("scenes")?.as_array_mut()? {
+        if let Some(scene) = scene.as_object_mut() {
+            if !scene.contains_key("nodes") {
+                scene.insert("nodes".into(), serde_json::Value::Array(Vec::new()));
+                patched = true;
+            }
+        }
+    }
+    patched.then(|| serde_json::to_vec(&doc).ok()).flatten()
+}
+
+/// KHR_materials_variants mappings name existing materials and variants (neither the validator
+/// nor the gltf crate checks: it would silently show the default material).
+fn check_variant_mappings(root: &gltf::json::Root) -> Result<()> {
+    let variants = root
+        .extensions
+        .as_ref()
+        .and_then(|e| e.khr_materials_variants.as_ref())
+        .map_or(0, |v| v.variants.len());
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let mappings = prim
+                .extensions
+                .as_ref()
+                .and_then(|e| e.khr_materials_variants.as_ref())
+                .map_or(&[][..], |v| &v.mappings[..]);
+            for (k, mapping) in mappings.iter().enumerate() {
+                let at = format!("meshes[{m}].primitives[{p}] KHR_materials_variants mapping {k}");
+                ensure!(
+                    (mapping.material as usize) < root.materials.len(),
+                    "invalid glTF: {at} names material {} of {}",
+                    mapping.material,
+                    root.materials.len()
+                );
+                if let Some(&v) = mapping.variants.iter().find(|&&v| v as usize >= variants) {
+                    bail!("invalid glTF: {at} names variant {v} of {variants}");
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The index of the KHR_materials_variants variant named `wanted` (`None`: the default
+/// materials); an unknown name is an error listing the file's variants.
+fn variant_index(doc: &gltf::Document, wanted: Option<&str>) -> Result<Option<usize>> {
+    let Some(wanted) = wanted else {
+        return Ok(None);
+    };
+    let names: Vec<&str> = doc
+        .variants()
+        .map(|v| v.map(|v| v.name()).collect())
+        .unwrap_or_default();
+    match names.iter().position(|&n| n == wanted) {
+        Some(i) => Ok(Some(i)),
+        None if names.is_empty() => {
+            bail!("no material variant {wanted:?}: the file has no material variants")
+        }
+        None => bail!(
+            "no material variant {wanted:?} (the file's variants: {})",
+            names.join(", ")
+        ),
+    }
+}
+
 struct Builder<'f, 'a, 'b> {
     file: &'f str,
+    /// The KHR_materials_variants variant shown (`None`: the default materials).
+    variant: Option<usize>,
     buffers: &'b Buffers<'a>,
     textures: TextureCache<'a, 'b>,
     scene: Scene,
@@ -385,7 +529,12 @@ impl Builder<'_, '_, '_> {
         let mut ids = Vec::new();
         for prim in mesh.primitives() {
             let name = format!("{mesh_name}/{}", prim.index());
-            let material = match prim.material().index() {
+            let variant = self.variant.and_then(|v| {
+                prim.mappings()
+                    .find(|m| m.variants().contains(&(v as u32)))
+                    .and_then(|m| m.material().index())
+            });
+            let material = match variant.or(prim.material().index()) {
                 Some(i) => i,
                 None => self.default_material(),
             };
@@ -413,10 +562,12 @@ impl Builder<'_, '_, '_> {
     }
 
     fn finish(mut self) -> Result<Scene> {
-        ensure!(
-            !self.scene.instances.is_empty(),
-            "no triangle geometry in the scene"
-        );
+        if self.scene.instances.is_empty() {
+            log::warn!(
+                "{}: the scene has no triangle geometry: it renders empty (the background)",
+                self.file
+            );
+        }
         self.scene.textures = std::mem::take(&mut self.textures.textures);
         if !self.rig.clips.is_empty() {
             // The rig is kept only for a scene that moves; it starts at t = 0.
@@ -540,129 +691,4 @@ fn read_sampler(
         times,
         values,
     })
-}
-
-fn convert_light(
-    file: &str,
-    light: &gltf::khr_lights_punctual::Light,
-    world: Mat4,
-) -> Result<Option<Light>> {
-    let name = light
-        .name()
-        .map(str::to_owned)
-        .unwrap_or_else(|| format!("light{}", light.index()));
-    let color = Vec3::from_array(light.color());
-    let intensity = light.intensity();
-    ensure!(
-        color.is_finite() && intensity.is_finite(),
-        "light {name}: non-finite colour or intensity"
-    );
-    ensure!(
-        color.cmpge(Vec3::ZERO).all() && intensity >= 0.0,
-        "light {name}: negative colour or intensity"
-    );
-    let Some(direction) = world.transform_vector3(Vec3::NEG_Z).try_normalize() else {
-        log::warn!("{file}: light {name}: node transform collapses its direction; light skipped");
-        return Ok(None);
-    };
-    let position = world.transform_point3(Vec3::ZERO);
-    use gltf::khr_lights_punctual::Kind;
-    let (kind, scale) = match light.kind() {
-        Kind::Point => (LightKind::Point, candela_to_watts_per_sr(intensity)),
-        Kind::Directional => (LightKind::Directional, lux_to_watts_per_m2(intensity)),
-        Kind::Spot {
-            inner_cone_angle,
-            outer_cone_angle,
-        } => {
-            let (inner, outer) = spot_cone(file, &name, inner_cone_angle, outer_cone_angle)?;
-            (
-                LightKind::Spot {
-                    inner_cone_angle: inner,
-                    outer_cone_angle: outer,
-                },
-                candela_to_watts_per_sr(intensity),
-            )
-        }
-    };
-    Ok(Some(Light {
-        name,
-        kind,
-        position,
-        direction,
-        intensity: color * scale,
-    }))
-}
-
-/// Validates spot cone angles: repairs small slips (with a warning), rejects nonsense.
-fn spot_cone(file: &str, name: &str, inner: f32, outer: f32) -> Result<(f32, f32)> {
-    const SLACK: f32 = 0.1;
-    ensure!(
-        inner.is_finite()
-            && outer.is_finite()
-            && outer > 0.0
-            && outer <= FRAC_PI_2 + SLACK
-            && inner >= -SLACK
-            && inner <= outer + SLACK,
-        "light {name}: absurd spot cone angles inner {inner}, outer {outer} (need 0 ≤ inner < outer ≤ π/2)"
-    );
-    let o = outer.min(FRAC_PI_2);
-    let i = inner.max(0.0).min(o * 0.999);
-    if (i, o) != (inner, outer) {
-        log::warn!(
-            "{file}: light {name}: spot cone angles ({inner}, {outer}) repaired to ({i}, {o})"
-        );
-    }
-    Ok((i, o))
-}
-
-fn convert_camera(file: &str, camera: &gltf::Camera, world: Mat4) -> Result<Option<Camera>> {
-    let name = camera
-        .name()
-        .map(str::to_owned)
-        .unwrap_or_else(|| format!("camera{}", camera.index()));
-    let p = match camera.projection() {
-        gltf::camera::Projection::Perspective(p) => p,
-        gltf::camera::Projection::Orthographic(_) => {
-            log::warn!("{file}: camera {name}: orthographic cameras are not supported; skipped");
-            return Ok(None);
-        }
-    };
-    let (yfov, znear, zfar) = (p.yfov(), p.znear(), p.zfar());
-    ensure!(
-        yfov.is_finite() && yfov > 0.0 && yfov < std::f32::consts::PI,
-        "camera {name}: yfov {yfov} outside (0, π)"
-    );
-    ensure!(
-        znear.is_finite() && znear > 0.0,
-        "camera {name}: znear {znear} must be > 0"
-    );
-    if let Some(f) = zfar {
-        ensure!(
-            f.is_finite() && f > znear,
-            "camera {name}: zfar {f} must exceed znear {znear}"
-        );
-    }
-    // Cameras are rigid: scale in the node hierarchy is dropped.
-    Ok(Some(Camera {
-        transform: rigid(world),
-        yfov,
-        znear,
-        zfar,
-    }))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn spot_cone_slightly_off_is_repaired_and_absurd_is_rejected() {
-        assert_eq!(spot_cone("f", "l", 0.2, 0.5).unwrap(), (0.2, 0.5));
-        let (i, o) = spot_cone("f", "l", 0.5, FRAC_PI_2 + 0.05).unwrap();
-        assert!(i < o && o <= FRAC_PI_2);
-        let (i, o) = spot_cone("f", "l", 0.6, 0.6).unwrap();
-        assert!(i < o);
-        assert!(spot_cone("f", "l", 0.1, 3.0).is_err());
-        assert!(spot_cone("f", "l", f32::NAN, 0.5).is_err());
-    }
 }

@@ -10,7 +10,9 @@
 mod animation;
 pub mod authoring;
 pub mod bundled;
+pub mod default_light;
 mod gltf_data;
+mod gltf_light;
 mod gltf_material;
 mod gltf_mesh;
 pub mod load;
@@ -48,6 +50,9 @@ pub struct Scene {
     /// What moves and how: glTF animation clips with the node hierarchy they drive, and the
     /// built-in light orbit ([`Scene::pose_at`]; empty for a static scene).
     pub animations: Animations,
+    /// `lights[0]` is the loader's default key light, not the file's: the file has no light
+    /// and no emissive surface ([`default_light`]).
+    pub default_light: bool,
 }
 
 /// An indexed triangle mesh in object space with one material (one glTF primitive).
@@ -74,6 +79,12 @@ pub struct Instance {
     pub transform: Mat4,
 }
 
+/// Largest emitted radiance a [`Material`] has, W/(m²·sr) (6.8 million nits, brighter than any
+/// lamp's surface): the loader scales brighter emission down to it with a warning, so radiance
+/// stays finite in every half-float buffer (the largest half float is 65504) and in photon
+/// powers.
+pub const MAX_EMISSION: f32 = 1e4;
+
 /// Parameters of the über-BSDF (DESIGN.md §2; `photon::bsdf` owns the formulas).
 ///
 /// The lobes are, in the order importance sampling picks them: Lambertian (`lambertian`),
@@ -97,10 +108,14 @@ pub struct Material {
     /// When true the glossy and transmitted weights follow the exact dielectric Fresnel term for
     /// `ior` (glass, water, plastics); when false `glossy` is used as it is (metals, paint).
     pub fresnel: bool,
-    /// Emitted radiance, W/(m²·sr), linear RGB.
+    /// Emitted radiance, W/(m²·sr), linear RGB, each channel in [0, [`MAX_EMISSION`]].
     pub emission: Vec3,
     /// Rendered from both sides (glTF `doubleSided`).
     pub double_sided: bool,
+    /// KHR_materials_unlit: `emission` is the colour the surface is shown at (its base colour)
+    /// and every reflectance is 0. The eye sees it; it is no light source: emitters, photon
+    /// emission and the default-light rule skip it ([`Material::is_emitter`]).
+    pub unlit: bool,
 }
 
 impl Default for Material {
@@ -117,6 +132,7 @@ impl Default for Material {
             fresnel: false,
             emission: Vec3::ZERO,
             double_sided: false,
+            unlit: false,
         }
     }
 }
@@ -126,6 +142,12 @@ impl Material {
     pub fn has_delta_lobe(&self) -> bool {
         (self.glossy.max_element() > 0.0 && self.exponent.is_infinite())
             || self.transmission.max_element() > 0.0
+    }
+
+    /// True when the surface emits light into the scene: non-zero emission on a lit material
+    /// (an unlit material's emission is only its displayed colour).
+    pub fn is_emitter(&self) -> bool {
+        !self.unlit && self.emission.max_element() > 0.0
     }
 }
 

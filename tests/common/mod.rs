@@ -4,6 +4,7 @@
 
 pub mod animated;
 pub mod cli;
+pub mod gltf_doc;
 pub mod golden;
 pub mod hard;
 
