@@ -56,7 +56,11 @@ fn panel_room() -> Scene {
         Vec3::new(0.0, 1.0, 0.0),
         40f32.to_radians(),
     );
-    ispm::scene::load::load_from_slice(&w.glb(), "panel-room", None).expect("panel room")
+    let glb = w.glb();
+    // For `ispm render` (the cost measured in docs/overview.md, "Emissive surfaces").
+    let file = common::image_dir("emission").join("panel-room.glb");
+    std::fs::write(file, &glb).expect("write panel-room.glb");
+    ispm::scene::load::load_from_slice(&glb, "panel-room", None).expect("panel room")
 }
 
 /// The path tracer's image of `scene` at pixel centres, RGBA.
