@@ -20,12 +20,15 @@
 //! below a stated fraction of the emitted power); every doubt keeps the work on.
 //! [`Effects::All`] reproduces the unplanned frame: every variant, light and pass.
 
+mod emitters;
 mod enclosure;
 mod reach;
 #[cfg(test)]
 mod tests;
 
 pub use enclosure::{Enclosures, Probe, StaticEnclosures};
+
+use emitters::{emitters_decision, has_area_samples};
 
 use crate::frame::{Method, RenderSettings, SkippedPass};
 use crate::photon::bsdf::{bounce_albedo, BsdfVariant, MaterialLobes};
@@ -297,30 +300,6 @@ pub struct SceneAnalysis {
     enclosures: Enclosures,
     /// Emissive surfaces as lights, before looking at the lights.
     emitters: Decision,
-}
-
-/// Whether `scene`'s lights include emitters' area samples (`scene::emitters`).
-fn has_area_samples(scene: &Scene) -> bool {
-    scene.lights.iter().any(|l| l.kind == LightKind::AreaSample)
-}
-
-/// Whether emissive surfaces light the scene, and why.
-fn emitters_decision(scene: &Scene, settings: &RenderSettings) -> Decision {
-    let emitters = Emitters::of(scene);
-    if emitters.is_empty() {
-        return Decision::no("no surface emits light");
-    }
-    let what = emitters.describe(scene);
-    if settings.emitter_lights == 0 {
-        return Decision::no(format!(
-            "{what}; no area samples (emitter_lights 0): seen, not lighting"
-        ));
-    }
-    Decision::yes(format!(
-        "{what}: {} area-sample lights per frame (direct light with shadows, photons by power), \
-         new points every accumulated frame",
-        settings.emitter_lights
-    ))
 }
 
 /// Whether the analysis of `scene` welds its closed surfaces (`plan/enclosure.rs`): only a

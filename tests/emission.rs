@@ -5,7 +5,8 @@
 //! - one unit rule: a panel of luminance L (nits, KHR_materials_emissive_strength) and a point
 //!   light of intensity I (candela) of the same luminous flux (π·L·A = 4π·I lumens) give a
 //!   closed room the same mean irradiance (within 2 %);
-//! - the effects plan treats emitters as lights, and says so.
+//! - the effects plan treats emitters as lights, and says so;
+//! - the area samples move every accumulated frame and follow a moving emissive instance.
 //!
 //! `cargo test --test emission -- --nocapture` prints every measured number.
 
@@ -328,4 +329,53 @@ fn the_effects_plan_treats_an_emitter_as_a_light() {
     let plan = EffectsPlan::analyse(&dark, &settings, &dark.camera);
     assert!(!plan.emitters.needed && plan.lights.is_empty());
     assert!(!plan.indirect.needed, "{}", plan.indirect.reason);
+}
+
+/// The area-sample lights' positions as the renderer's photon views hold them (world space).
+fn area_sample_positions(renderer: &Renderer) -> Vec<Vec3> {
+    let plan = renderer.photons().expect("photon part").plan();
+    let mut lights: Vec<(usize, Vec3)> = plan
+        .views
+        .iter()
+        .zip(&plan.view_lights)
+        .map(|(v, &l)| (l, (v.light.truncate().as_dvec3() + plan.origin).as_vec3()))
+        .collect();
+    lights.dedup_by_key(|(l, _)| *l);
+    lights.into_iter().map(|(_, p)| p).collect()
+}
+
+#[test]
+fn area_samples_move_every_accumulated_frame_and_follow_a_moving_emitter() {
+    let scene = panel_room();
+    let gpu = common::gpu();
+    let settings = RenderSettings {
+        photons: 4_000,
+        width: 32,
+        height: 32,
+        shadow_resolution: 64,
+        accumulate: true,
+        ..Default::default()
+    };
+    let mut renderer = Renderer::new(&gpu, &scene, settings).expect("renderer");
+    let on_panel = |p: Vec3, dx: f32| {
+        (p.x - dx).abs() <= 0.25 && p.z.abs() <= 0.25 && (p.y - 1.99).abs() < 1e-2 && p.y < 1.99
+    };
+    renderer.render().expect("frame 0");
+    let first = area_sample_positions(&renderer);
+    assert_eq!(first.len(), 4);
+    assert!(first.iter().all(|&p| on_panel(p, 0.0)), "{first:?}");
+    renderer.render().expect("frame 1");
+    let second = area_sample_positions(&renderer);
+    assert!(second.iter().all(|&p| on_panel(p, 0.0)), "{second:?}");
+    assert!(first.iter().zip(&second).all(|(a, b)| a != b), "new points");
+    // The panel moves 0.4 m along x: the accumulation restarts with points on it there.
+    let panel = scene.instances.iter().position(|i| i.name == "panel");
+    let mut transforms = renderer.instance_transforms();
+    transforms[panel.expect("panel")] *= glam::Mat4::from_translation(Vec3::new(0.4, 0.0, 0.0));
+    renderer.set_instance_transforms(&transforms).expect("move");
+    let moved = renderer.render().expect("frame after the move");
+    assert_eq!(moved.stats.accumulated_frames, 1);
+    let third = area_sample_positions(&renderer);
+    assert!(third.iter().all(|&p| on_panel(p, 0.4)), "{third:?}");
+    common::assert_validation_clean(&gpu);
 }
