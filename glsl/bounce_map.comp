@@ -184,9 +184,8 @@ void main() {
         // Solid angle of the texel: its area on the plane at unit distance, foreshortened.
         float omega = side * side / pow(1.0 + dot(q, q), 1.5);
         power = view.intensity.rgb * omega * part;
-        if (view.kind.x == LIGHT_SPOT) {
-            power *= spot_falloff_cos(view.intensity.w, view.axis.w, dot(view.axis.xyz, emitted));
-        }
+        power *= light_falloff(view.kind.x, view.intensity.w, view.axis.w,
+                               dot(view.axis.xyz, emitted));
     }
     // The budget: the texel sends its photon with probability keep, which then carries 1/keep
     // of its power (src/ispm.rs, "Budget").

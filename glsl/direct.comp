@@ -42,6 +42,6 @@ void main() {
     Bsdf bsdf = material_bsdf(m, albedo);
     vec3 wo = normalize(-p);
 
-    vec3 radiance = m.emission.rgb + direct_light(bsdf, p, n, n_mesh, wo);
+    vec3 radiance = material_emission(m, nw.w) + direct_light(bsdf, p, n, n_mesh, wo);
     imageStore(out_radiance, px, vec4(radiance, 1.0));
 }

@@ -33,6 +33,6 @@ void main() {
     }
     Bsdf bsdf = material_bsdf(m, albedo);
     vec3 wo = normalize(frame.viewer.xyz - p);
-    vec3 radiance = m.emission.rgb + direct_light(bsdf, p, n, n * side, wo);
+    vec3 radiance = material_emission(m, side) + direct_light(bsdf, p, n, n * side, wo);
     out_radiance = vec4(radiance, 1.0);
 }

@@ -80,7 +80,7 @@ void main() {
     }
     Bsdf bsdf = material_bsdf(m, albedo);
     vec3 wo = normalize(frame.viewer.xyz - p);
-    vec3 radiance = m.emission.rgb + direct_light(bsdf, p, n, n_mesh, wo);
+    vec3 radiance = material_emission(m, side) + direct_light(bsdf, p, n, n_mesh, wo);
     BsdfOriented o;
     if (bsdf_orient(bsdf, wo, n_mesh, n_mesh, o)) {
         vec3 c[4];

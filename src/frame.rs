@@ -56,6 +56,7 @@ use crate::translucent_frame::{TranslucentFrame, TranslucentResources};
 use glam::{DMat4, UVec4, Vec4};
 use std::sync::Arc;
 
+mod emission;
 mod motion;
 
 /// Texels by which shadow cube faces overlap (normal offset 1.5 + PCF 1 + bilinear 0.5).
@@ -141,6 +142,10 @@ pub struct RenderSettings {
     /// Off: every frame stands alone and a still frame reuses the photon map (real-time
     /// frames, `ispm bench`).
     pub accumulate: bool,
+    /// Points sampled on the emissive surfaces per frame, each a light (`scene::emitters`):
+    /// new points every frame of an accumulation, the same ones in a frame that stands alone.
+    /// 0: emissive surfaces are seen but light nothing.
+    pub emitter_lights: u32,
 }
 
 impl Default for RenderSettings {
@@ -166,6 +171,7 @@ impl Default for RenderSettings {
             storage_buffer_range: None,
             check_values: false,
             accumulate: false,
+            emitter_lights: crate::scene::emitters::DEFAULT_EMITTER_LIGHTS,
         }
     }
 }
@@ -333,7 +339,13 @@ pub struct Renderer {
     gpu: Arc<Gpu>,
     settings: RenderSettings,
     camera: Camera,
+    /// The scene's lights, then the emitters' area samples (`frame/emission.rs`).
     lights: Vec<Light>,
+    /// How many of `lights` are the scene's own (the rest are area samples).
+    scene_lights: usize,
+    /// The scene's emissive surfaces, and the photon sample their area samples are placed for.
+    emitters: crate::scene::emitters::Emitters,
+    emitter_sample: u32,
     /// The scene as loaded, with the current lights (the plan is re-made from it when they
     /// change).
     source: Scene,
@@ -458,6 +470,14 @@ impl Renderer {
             settings.width,
             settings.height
         );
+        // Emissive surfaces are lights: the scene's lights, then the area samples of frame 0.
+        let emitters = crate::scene::emitters::Emitters::of(scene);
+        let scene_lights = scene.lights.len();
+        let mut source = scene.clone();
+        source
+            .lights
+            .extend(emitters.lights(scene, 0, settings.emitter_lights));
+        let scene = &source;
         let analysis = SceneAnalysis::new(scene, &settings);
         let plan = analysis.plan(scene, &scene.camera);
         log::info!("{plan}");
@@ -526,11 +546,12 @@ impl Renderer {
             },
         )?;
         let display = tonemap::output(gpu, settings.width, settings.height)?;
-        let accumulate = if settings.accumulate && settings.method == Method::Ispm {
-            Some(AccumulatePass::new(gpu, &radiance)?)
-        } else {
-            None
-        };
+        let accumulate =
+            if settings.accumulate && (settings.method == Method::Ispm || plan.accumulate) {
+                Some(AccumulatePass::new(gpu, &radiance)?)
+            } else {
+                None
+            };
         let shadow_maps = ShadowMapPass::new(gpu)?;
         let eye_gbuffer = EyeGBufferPass::new(gpu, "eye_gbuffer", &gpu_scene, &[&frame_uniforms])?;
         let direct = DirectPass::new(
@@ -600,7 +621,10 @@ impl Renderer {
             settings,
             camera: scene.camera,
             lights: scene.lights.clone(),
-            source: scene.clone(),
+            scene_lights,
+            emitters,
+            emitter_sample: 0,
+            source,
             plan,
             analysis,
             photon_map: None,
@@ -654,14 +678,24 @@ impl Renderer {
     /// lights call for indirect light this renderer was planned without (create a new one).
     pub fn set_lights(&mut self, lights: &[Light]) -> anyhow::Result<()> {
         anyhow::ensure!(
-            lights.len() == self.lights.len(),
+            lights.len() == self.scene_lights,
             "{} lights given, the scene has {}",
             lights.len(),
-            self.lights.len()
+            self.scene_lights
         );
-        if lights == self.lights.as_slice() {
+        if lights == self.lights() {
             return Ok(()); // nothing changed: the photon map stays valid
         }
+        let mut all = lights.to_vec();
+        all.extend_from_slice(&self.lights[self.scene_lights..]);
+        self.apply_lights(&all)?;
+        self.restart_accumulation(true);
+        Ok(())
+    }
+
+    /// The frame's lights (the scene's and the area samples) become `lights`: the plan is made
+    /// again for them and the photon part moved to them; the accumulation goes on.
+    fn apply_lights(&mut self, lights: &[Light]) -> anyhow::Result<()> {
         // The shadow views were sized for the scene's lights: a light that changes kind (or a
         // spot whose cone needs a cube) may need more.
         let views = LightSetup::new(
@@ -698,7 +732,6 @@ impl Renderer {
         self.lights = lights.to_vec();
         self.plan = plan;
         self.photon_map = None;
-        self.restart_accumulation(true);
         Ok(())
     }
 
@@ -824,9 +857,9 @@ impl Renderer {
         &self.plan
     }
 
-    /// The scene's lights as the next frame uses them.
+    /// The scene's lights as the next frame uses them (without the emitters' area samples).
     pub fn lights(&self) -> &[Light] {
-        &self.lights
+        &self.lights[..self.scene_lights]
     }
 
     /// Renders one frame, waits for it, and reads the images back.
@@ -859,9 +892,10 @@ impl Renderer {
         gpu.collect_garbage();
         let timestamps = self.slots[slot].timestamps.clone();
         timestamps.reset(self.frame_index);
+        // Progressive accumulation: a still frame joins the mean with a new photon sample (and
+        // new points on the emitters, before the lights are set up).
+        let accumulated = self.next_accumulation()?;
         let frame = self.prepare();
-        // Progressive accumulation: a still frame joins the mean with a new photon sample.
-        let accumulated = self.next_accumulation();
         // Nothing moved and no light changed since the photon map was traced: draw it again
         // (issue #9), without light G-buffers, bounce map, readback, trace or upload.
         let reuse = match &self.photon_map {
@@ -970,11 +1004,11 @@ impl Renderer {
     /// accumulation gets a new, independent photon map (sample `last_sample + 1`) and kernels
     /// shrunk as probabilistic progressive photon mapping shrinks them
     /// ([`crate::photon::progressive::progressive_scale`]).
-    fn next_accumulation(&mut self) -> u32 {
-        let Some(photons) = self.photons.as_mut().filter(|_| self.accumulate.is_some()) else {
+    fn next_accumulation(&mut self) -> anyhow::Result<u32> {
+        if self.accumulate.is_none() {
             self.accumulated = 0;
-            return 0;
-        };
+            return Ok(0);
+        }
         let frames = if self.still && self.plan.accumulate {
             self.accumulated
         } else {
@@ -982,12 +1016,15 @@ impl Renderer {
         };
         if frames > 0 {
             self.last_sample = self.last_sample.wrapping_add(1).max(1);
-            photons.set_sample(self.last_sample);
             self.photon_map = None;
         }
-        photons.set_radius_scale(crate::photon::progressive::progressive_scale(frames));
+        if let Some(photons) = &mut self.photons {
+            photons.set_sample(self.last_sample);
+            photons.set_radius_scale(crate::photon::progressive::progressive_scale(frames));
+        }
         self.accumulated = frames;
-        frames
+        self.place_area_samples(self.last_sample)?;
+        Ok(frames)
     }
 
     /// Waits for every frame in flight and reads back the last one.

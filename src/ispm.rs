@@ -78,10 +78,12 @@
 //! rasterising them on the CPU (`coverage.rs`). The stats count the photons the bounce map
 //! really sent (`FrameStats::emitted_photons`).
 
-use crate::layout::{BounceView, FrameUniforms, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
+use crate::layout::{
+    BounceView, FrameUniforms, LIGHT_AREA_SAMPLE, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT,
+};
 use crate::lighting::LightSetup;
 use crate::photon::bvh::SceneBvh;
-use crate::photon::emit::{photon_budget_among, spot_falloff, spot_falloff_integral};
+use crate::photon::emit::{light_falloff, photon_budget_among, spot_falloff_integral};
 use crate::photon::rng::hash2;
 use crate::photon::trace::PhotonState;
 use crate::photon::types::BounceMapPhoton;
@@ -501,7 +503,9 @@ impl BouncePlan {
             let (cos_outer, cos_inner) = (gpu_light.direction.w, gpu_light.intensity.w);
             let axis = gpu_light.direction.truncate().as_dvec3();
             let ortho = kind == LIGHT_DIRECTIONAL;
-            debug_assert!(kind == LIGHT_POINT || kind == LIGHT_SPOT || ortho);
+            // Spots and emitters' area samples light a cone (a hemisphere) of their views.
+            let coned = kind == LIGHT_SPOT || kind == LIGHT_AREA_SAMPLE;
+            debug_assert!(kind == LIGHT_POINT || coned || ortho);
             let matrices: Vec<DMat4> = (first..first + count)
                 .map(|v| setup.view_matrices[v])
                 .collect();
@@ -513,9 +517,8 @@ impl BouncePlan {
             let direction = |v: usize, ndc: DVec2| {
                 (unproject(&inverses[v], ndc, FAR) - unproject(&inverses[v], ndc, NEAR)).normalize()
             };
-            let in_cone = |v: usize, ndc: DVec2| {
-                kind != LIGHT_SPOT || axis.dot(direction(v, ndc)) > f64::from(cos_outer)
-            };
+            let in_cone =
+                |v: usize, ndc: DVec2| !coned || axis.dot(direction(v, ndc)) > f64::from(cos_outer);
             let rects: Vec<Option<(DVec2, DVec2)>> = matrices
                 .iter()
                 .map(|m| {
@@ -528,7 +531,7 @@ impl BouncePlan {
                 .collect();
             // The probe: the fraction of the main texels inside the cone.
             let mut inside = 0usize;
-            if kind == LIGHT_SPOT {
+            if coned {
                 for v in 0..count {
                     for y in 0..PROBE {
                         for x in 0..PROBE {
@@ -713,9 +716,9 @@ impl BouncePlan {
                             let ndc = texel_ndc(x, y, res, res);
                             let q = ndc * half;
                             let mut w = side * side / (1.0 + q.length_squared()).powf(1.5);
-                            if kind == LIGHT_SPOT {
+                            if coned {
                                 let cd = axis.dot(direction(v, ndc)) as f32;
-                                w *= f64::from(spot_falloff(cos_inner, cos_outer, cd));
+                                w *= f64::from(light_falloff(kind, cos_inner, cos_outer, cd));
                             }
                             sum += w;
                         }
@@ -732,6 +735,7 @@ impl BouncePlan {
                         * f64::from(spot_falloff_integral(inner_cone_angle, outer_cone_angle))
                 }
                 LightKind::Directional => sum,
+                LightKind::AreaSample => std::f64::consts::PI,
             };
             let scale = if sum > 0.0 { exact / sum } else { 0.0 };
             let light_rel = (light.position.as_dvec3() - origin).as_vec3();

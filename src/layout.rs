@@ -146,9 +146,7 @@ pub const MATERIAL_FRESNEL: u32 = 1;
 pub const MATERIAL_TEXTURED: u32 = 2;
 pub const MATERIAL_DOUBLE_SIDED: u32 = 4;
 
-pub const LIGHT_POINT: u32 = 0;
-pub const LIGHT_SPOT: u32 = 1;
-pub const LIGHT_DIRECTIONAL: u32 = 2;
+pub use crate::shared_constants::{LIGHT_AREA_SAMPLE, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
 
 /// A shared struct's name and its members' (name, offset), for the SPIR-V layout test.
 pub struct LayoutDescription {

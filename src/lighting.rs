@@ -5,6 +5,7 @@
 //! ```text
 //!   spot, outer cone ≤ 60°  → 1 perspective view along the axis (fov = 2·outer + margin)
 //!   point, or a wider spot  → 6 perspective views of 90°, the faces of a cube
+//!   emitter's area sample   → the same cube (its hemisphere needs 5 faces at most)
 //!   directional             → 1 orthographic view fitted around the scene's bounds
 //! ```
 //!
@@ -19,7 +20,9 @@
 //! precision of reversed depth is relative to the distance, so a light 0.1 mm from a surface
 //! still sends its photons onto it (hard case "a light touching a surface", docs/stability.md).
 
-use crate::layout::{GpuLight, ShadowView, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
+use crate::layout::{
+    GpuLight, ShadowView, LIGHT_AREA_SAMPLE, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT,
+};
 use crate::scene::{Aabb, Light, LightKind};
 use glam::{DMat4, DVec3, UVec4, Vec3};
 
@@ -177,6 +180,8 @@ impl LightSetup {
                     outer_cone_angle,
                 } => (LIGHT_SPOT, outer_cone_angle.cos(), inner_cone_angle.cos()),
                 LightKind::Directional => (LIGHT_DIRECTIONAL, -1.0, -1.0),
+                // A hemisphere: the "cone" is everything in front of the surface.
+                LightKind::AreaSample => (LIGHT_AREA_SAMPLE, 0.0, 1.0),
             };
             let to_relative = DMat4::from_translation(camera);
             match light.kind {
@@ -190,7 +195,7 @@ impl LightSetup {
                     let m = depth.apply(perspective(fov, near, far) * view * to_relative);
                     setup.push_view(m, (2.0 * (fov * 0.5).tan() / res) as f32, false);
                 }
-                LightKind::Point | LightKind::Spot { .. } => {
+                LightKind::Point | LightKind::Spot { .. } | LightKind::AreaSample => {
                     let (near, far) = near_far(pos, bounds, depth.near());
                     let half = (1.0 + 2.0 * f64::from(margin) / res).atan();
                     let proj = perspective(2.0 * half, near, far);

@@ -402,6 +402,10 @@ struct RenderArgs {
     /// of its views around the mirrors and glass it lights, at a higher texel density (0: none).
     #[arg(long, default_value_t = ispm::ispm::CAUSTIC_SHARE, value_parser = parse_share)]
     caustic_share: f32,
+    /// Points sampled on the emissive surfaces per frame, each a shadow-mapped light that emits
+    /// photons (new points every accumulated frame; 0: emitters are seen but light nothing).
+    #[arg(long, value_name = "N", default_value_t = ispm::scene::emitters::DEFAULT_EMITTER_LIGHTS)]
+    emitter_lights: u32,
     /// Render from the file's camera N (0-based, in node order; default: the first).
     #[arg(long, value_name = "N")]
     camera: Option<usize>,
@@ -783,6 +787,7 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
         schedule: args.schedule,
         effects: args.effects,
         caustic_share: args.caustic_share,
+        emitter_lights: args.emitter_lights.min(64),
         check_values: args.check_values,
         accumulate: !args.no_accumulate,
         ..Default::default()

@@ -20,6 +20,7 @@
 //! below a stated fraction of the emitted power); every doubt keeps the work on.
 //! [`Effects::All`] reproduces the unplanned frame: every variant, light and pass.
 
+mod emitters;
 mod enclosure;
 mod reach;
 #[cfg(test)]
@@ -27,9 +28,12 @@ mod tests;
 
 pub use enclosure::{Enclosures, Probe, StaticEnclosures};
 
+use emitters::{emitters_decision, has_area_samples};
+
 use crate::frame::{Method, RenderSettings, SkippedPass};
 use crate::photon::bsdf::{bounce_albedo, BsdfVariant, MaterialLobes};
 use crate::photon::emit::{photon_budget, photon_budget_among};
+use crate::scene::emitters::Emitters;
 use crate::scene::{Aabb, Camera, LightKind, Material, Scene};
 use glam::Vec3;
 use std::fmt;
@@ -195,7 +199,10 @@ pub struct EffectsPlan {
     /// Photon-mapped indirect light: light G-buffers, bounce map, readback, CPU trace, upload,
     /// photon volumes (+ upsample) and composite.
     pub indirect: Decision,
-    /// One entry per `Scene::lights`, in order.
+    /// Emissive surfaces as lights (issue #18): their area samples are among `lights`, new
+    /// points every accumulated frame (`scene::emitters`).
+    pub emitters: Decision,
+    /// One entry per `Scene::lights`, in order (a renderer's area samples last).
     pub lights: Vec<LightPlan>,
     /// The most bounces a photon needs (0 without indirect light), at most `--bounces`.
     pub max_bounces: u32,
@@ -203,7 +210,8 @@ pub struct EffectsPlan {
     /// The subsample factor the frame uses (upsample runs above 1).
     pub subsample: u32,
     /// Whether still frames are averaged (`RenderSettings::accumulate`, and only where the
-    /// frames differ: a frame with photon-mapped indirect light).
+    /// frames differ: a frame with photon-mapped indirect light, or lit by emitters' area
+    /// samples).
     pub accumulate: bool,
     /// What moves, and what that costs per frame.
     pub motion: MotionPlan,
@@ -290,6 +298,8 @@ pub struct SceneAnalysis {
     /// without the translucent pass).
     delta_bounds: Aabb,
     enclosures: Enclosures,
+    /// Emissive surfaces as lights, before looking at the lights.
+    emitters: Decision,
 }
 
 /// Whether the analysis of `scene` welds its closed surfaces (`plan/enclosure.rs`): only a
@@ -400,7 +410,9 @@ impl SceneAnalysis {
         } else {
             Enclosures::default()
         };
+        let emitters = emitters_decision(scene, settings);
         Self {
+            emitters,
             settings: settings.clone(),
             bounds,
             subsample,
@@ -528,7 +540,8 @@ impl SceneAnalysis {
         } else {
             (0, "no indirect light".to_string())
         };
-        let accumulate = settings.accumulate && indirect.needed;
+        let sampled = has_area_samples(scene);
+        let accumulate = settings.accumulate && (indirect.needed || sampled);
         EffectsPlan {
             effects: Effects::Auto,
             translucent: self.translucent.clone(),
@@ -540,6 +553,7 @@ impl SceneAnalysis {
             max_bounces_reason,
             subsample: self.subsample,
             accumulate,
+            emitters: self.emitters.clone(),
             motion: MotionPlan::of(scene),
         }
     }
@@ -547,8 +561,11 @@ impl SceneAnalysis {
 
 impl EffectsPlan {
     /// Analyses `scene` rendered with `settings` from `camera` (a [`SceneAnalysis`] used once).
+    /// Its emissive surfaces are lights: the plan has their area samples of frame 0 after the
+    /// scene's lights, as a renderer of it does.
     pub fn analyse(scene: &Scene, settings: &RenderSettings, camera: &Camera) -> Self {
-        SceneAnalysis::new(scene, settings).plan(scene, camera)
+        let scene = Emitters::with_area_samples(scene, settings.emitter_lights);
+        SceneAnalysis::new(&scene, settings).plan(&scene, camera)
     }
 
     /// `--effects all`: the unplanned frame.
@@ -593,7 +610,8 @@ impl EffectsPlan {
             max_bounces: if ispm { settings.bounces.max(1) } else { 0 },
             max_bounces_reason: "--effects all: --bounces (at least 1)".to_string(),
             subsample,
-            accumulate: settings.accumulate && ispm,
+            accumulate: settings.accumulate && (ispm || has_area_samples(scene)),
+            emitters: emitters_decision(scene, settings),
             motion: MotionPlan::of(scene),
         }
     }
@@ -791,7 +809,15 @@ impl EffectsPlan {
 impl EffectsPlan {
     /// The accumulate pass: run when still frames are averaged.
     fn accumulate_pass(&self) -> PassPlan {
-        if self.accumulate {
+        if self.accumulate && !self.indirect.needed {
+            PassPlan {
+                name: "accumulate",
+                run: true,
+                reason: "progressive: still frames are averaged, each with new points on the \
+                         emissive surfaces (reset when anything moves)"
+                    .to_string(),
+            }
+        } else if self.accumulate {
             PassPlan {
                 name: "accumulate",
                 run: true,
@@ -799,7 +825,7 @@ impl EffectsPlan {
                          smaller kernels (reset when anything moves)"
                     .to_string(),
             }
-        } else if !self.indirect.needed {
+        } else if !self.indirect.needed && !self.emitters.needed {
             PassPlan {
                 name: "accumulate",
                 run: false,
@@ -833,6 +859,7 @@ impl fmt::Display for EffectsPlan {
             ),
             ("glossy lobe (shaders, CPU trace)", &self.glossy),
             ("indirect light (photons)", &self.indirect),
+            ("emissive surfaces as lights", &self.emitters),
         ] {
             writeln!(f, "{what}: {} — {}", yes(d.needed), d.reason)?;
         }

@@ -43,6 +43,15 @@ pub const SPEC_ID_GLOSSY_LOBE: u32 = 0;
 // Delta lobes: perfect mirror and refraction.
 pub const SPEC_ID_DELTA_LOBES: u32 = 1;
 
+// Kinds of light (`GpuLight.shadow.x`, `BounceView.kind.x`; `lighting.rs`).
+pub const LIGHT_POINT: u32 = 0;
+// KHR_lights_punctual spot: falloff between the inner and outer cone.
+pub const LIGHT_SPOT: u32 = 1;
+pub const LIGHT_DIRECTIONAL: u32 = 2;
+// A point sampled on an emissive surface (`scene::emitters`): falloff max(0, cos θ) about the
+// surface's normal, nothing behind it.
+pub const LIGHT_AREA_SAMPLE: u32 = 3;
+
 // Roles of a light view in the bounce map (`BounceView.kind.y`; caustic views, src/ispm.rs).
 // Every texel carries its photon.
 pub const BOUNCE_VIEW_WHOLE: u32 = 0;

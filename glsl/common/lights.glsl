@@ -1,4 +1,4 @@
-// Punctual lights and their shadow-map lookups (KHR_lights_punctual conventions).
+// Punctual lights (and emitters' area samples) and their shadow-map lookups (KHR_lights_punctual conventions).
 #ifndef LIGHTS_GLSL
 #define LIGHTS_GLSL
 #include "shared.glsl"
@@ -18,9 +18,17 @@ float spot_falloff_cos(float cos_inner, float cos_outer, float cd) {
     return t * t;
 }
 
-float spot_falloff(GpuLight light, vec3 to_point) {
-    return spot_falloff_cos(light.intensity.w, light.direction.w,
-                            dot(light.direction.xyz, to_point));
+// How a light's intensity falls off with `cd`, the cosine between its axis and the direction
+// to the point: the spot cone, max(0, cos) for an emitter's area sample (a one-sided Lambertian
+// point), 1 otherwise (the twin of photon::emit::light_falloff).
+float light_falloff(uint kind, float cos_inner, float cos_outer, float cd) {
+    if (kind == LIGHT_SPOT) {
+        return spot_falloff_cos(cos_inner, cos_outer, cd);
+    }
+    if (kind == LIGHT_AREA_SAMPLE) {
+        return max(cd, 0.0);
+    }
+    return 1.0;
 }
 
 LightSample sample_light(GpuLight light, vec3 p) {
@@ -34,9 +42,8 @@ LightSample sample_light(GpuLight light, vec3 p) {
     float dist2 = max(dot(d, d), 1e-12);
     s.wi = d * inversesqrt(dist2);
     s.irradiance = light.intensity.rgb / dist2;
-    if (light.shadow.x == LIGHT_SPOT) {
-        s.irradiance *= spot_falloff(light, -s.wi);
-    }
+    s.irradiance *= light_falloff(light.shadow.x, light.intensity.w, light.direction.w,
+                                  dot(light.direction.xyz, -s.wi));
     return s;
 }
 

@@ -85,8 +85,4 @@ const uint MATERIAL_FRESNEL = 1u;
 const uint MATERIAL_TEXTURED = 2u;
 const uint MATERIAL_DOUBLE_SIDED = 4u;
 
-const uint LIGHT_POINT = 0u;
-const uint LIGHT_SPOT = 1u;
-const uint LIGHT_DIRECTIONAL = 2u;
-
 #endif

@@ -65,9 +65,12 @@ impl Renderer {
         for &(i, m) in &moved {
             self.source.instances[i].transform = m;
         }
+        let indices: Vec<usize> = moved.iter().map(|&(i, _)| i).collect();
+        let emitters_before = self.move_emitters(&indices);
         let (analysis, plan) = match self.plan_moved_instances(&moved) {
             Ok(planned) => planned,
             Err(e) => {
+                self.restore_emitters(emitters_before);
                 for (&(i, _), m) in moved.iter().zip(before) {
                     self.source.instances[i].transform = m;
                 }

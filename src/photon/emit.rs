@@ -18,8 +18,10 @@
 //! that seed so that the first bounce ([`super::trace::first_bounce`]) is reproducible too.
 
 use super::rng::{hash2, seed_bounce_map_texel, Rng};
-use super::sampling::{concentric_disk, uniform_sphere, Frame};
+use super::sampling::{concentric_disk, cosine_hemisphere, uniform_sphere, Frame};
+use crate::scene::emitters::Emitters;
 use crate::scene::{Aabb, Light, LightKind, Scene};
+use crate::shared_constants::{LIGHT_AREA_SAMPLE, LIGHT_SPOT};
 use glam::Vec3;
 use std::f32::consts::{PI, TAU};
 
@@ -43,6 +45,17 @@ pub fn spot_falloff(cos_inner: f32, cos_outer: f32, cd: f32) -> f32 {
     let scale = 1.0 / (cos_inner - cos_outer).max(1e-4);
     let t = ((cd - cos_outer) * scale).clamp(0.0, 1.0);
     t * t
+}
+
+/// How a light of GPU kind `kind` (`LIGHT_*`) falls off with `cd`, the cosine between its axis
+/// and the direction to the point: the spot cone, `max(0, cd)` for an emitter's area sample, 1
+/// otherwise (the twin of `light_falloff` in `glsl/common/lights.glsl`).
+pub fn light_falloff(kind: u32, cos_inner: f32, cos_outer: f32, cd: f32) -> f32 {
+    match kind {
+        LIGHT_SPOT => spot_falloff(cos_inner, cos_outer, cd),
+        LIGHT_AREA_SAMPLE => cd.max(0.0),
+        _ => 1.0,
+    }
 }
 
 /// `∫_{cos_o}^{1} falloff(c) dc` in closed form, for cone angles in radians (computed in
@@ -106,6 +119,8 @@ pub fn light_flux(light: &Light, scene_bounds: &Aabb) -> Vec3 {
             let (_, r) = bounding_sphere(scene_bounds);
             intensity * (PI * r * r)
         }
+        // ∫ I·max(0, cos θ) dω = π·I.
+        LightKind::AreaSample => intensity * PI,
     }
 }
 
@@ -180,6 +195,11 @@ fn emit_one(light: &Light, bounds: &Aabb, rng: &mut Rng) -> (Vec3, Vec3) {
             let origin = c - dir * (r * 1.01) + frame.to_world(Vec3::new(disk.x, disk.y, 0.0));
             (origin, dir)
         }
+        LightKind::AreaSample => {
+            let normal = light.direction.try_normalize().unwrap_or(Vec3::NEG_Y);
+            let local = cosine_hemisphere(rng.next_2());
+            (light.position, Frame::from_normal(normal).to_world(local))
+        }
     }
 }
 
@@ -213,14 +233,68 @@ pub fn emit_from_light(
         .collect()
 }
 
-/// About `photons` photons from all lights, budgeted by power ([`photon_budget`]).
+/// About `photons` photons from all lights and emissive surfaces, budgeted by power: the
+/// emitters together get `N·Φ̄_e/Φ̄_total` (rounded), the lights the rest ([`photon_budget`]).
 pub fn emit_photons(scene: &Scene, photons: usize, global_seed: u32) -> Vec<EmittedPhoton> {
-    photon_budget(scene, photons)
+    let emitters = Emitters::of(scene);
+    let bounds = scene.bounds();
+    let lights: f64 = scene
+        .lights
+        .iter()
+        .map(|l| f64::from(mean(light_flux(l, &bounds))))
+        .sum();
+    let emitted = f64::from(mean(emitters.flux()));
+    let total = lights + emitted;
+    let from_emitters = if total > 0.0 && total.is_finite() && !emitters.is_empty() {
+        ((photons as f64) * emitted / total).round() as usize
+    } else {
+        0
+    };
+    let mut out: Vec<EmittedPhoton> = photon_budget(scene, photons - from_emitters)
         .into_iter()
         .enumerate()
         .flat_map(|(i, n)| emit_from_light(scene, i, n, global_seed))
+        .collect();
+    out.extend(emit_from_emitters(
+        scene,
+        &emitters,
+        from_emitters,
+        global_seed,
+    ));
+    out
+}
+
+/// `count` photons from the emissive surfaces (`scene::emitters`), whose powers sum to their
+/// flux in expectation: each starts at a point drawn ∝ power and uniformly by area (a hair in
+/// front of its face), in a cosine-distributed direction about the face's normal (a Lambertian
+/// emitter), carrying the flux its point stands for over `count`. Their `light` is
+/// `scene.lights.len()`.
+pub fn emit_from_emitters(
+    scene: &Scene,
+    emitters: &Emitters,
+    count: usize,
+    global_seed: u32,
+) -> Vec<EmittedPhoton> {
+    let stream = hash2(global_seed, EMITTER_STREAM);
+    (0..count)
+        .filter_map(|i| {
+            let seed = hash2(stream, i as u32);
+            let mut rng = Rng::new(seed);
+            let s = emitters.sample(rng.next_3())?;
+            let local = cosine_hemisphere(rng.next_2());
+            Some(EmittedPhoton {
+                origin: emitters.in_front(s.position, s.normal),
+                direction: Frame::from_normal(s.normal).to_world(local),
+                power: s.flux / count as f32,
+                light: scene.lights.len() as u32,
+                seed,
+            })
+        })
         .collect()
 }
+
+/// Salt of the emitters' photon seeds.
+const EMITTER_STREAM: u32 = 0x0e31_77e5;
 
 #[cfg(test)]
 mod tests {
@@ -246,8 +320,9 @@ mod tests {
         }
     }
 
-    fn kinds() -> [LightKind; 4] {
+    fn kinds() -> [LightKind; 5] {
         [
+            LightKind::AreaSample,
             LightKind::Point,
             LightKind::Spot {
                 inner_cone_angle: 0.3,
@@ -322,6 +397,36 @@ mod tests {
             (inside_inner - expected).abs() < 0.015,
             "{inside_inner} vs {expected}"
         );
+    }
+
+    #[test]
+    fn emissive_surfaces_emit_photons_by_power_that_sum_to_their_flux() {
+        // The icosphere (radius 3) glows with L_e = 0.5 from its outer side, and a point light.
+        let mut s = scene_with(vec![light(LightKind::Point, Vec3::ONE)]);
+        s.materials[0].emission = Vec3::new(0.5, 0.25, 1.0);
+        let emitters = Emitters::of(&s);
+        let flux = emitters.flux().as_dvec3();
+        let photons = emit_photons(&s, 20_000, 5);
+        let from_surface: Vec<_> = photons.iter().filter(|p| p.light == 1).collect();
+        // Budget ∝ mean flux: emitter vs the point light's 4π.
+        let share = mean(emitters.flux()) / (mean(emitters.flux()) + 4.0 * PI);
+        let expected = (20_000.0 * share).round() as usize;
+        assert_eq!(from_surface.len(), expected);
+        let sum = from_surface
+            .iter()
+            .fold(glam::DVec3::ZERO, |a, p| a + p.power.as_dvec3());
+        assert!(
+            ((sum - flux).abs() / flux).max_element() < 1e-3,
+            "{sum} vs {flux}"
+        );
+        // Outwards, cosine-distributed: E[cos θ] = 2/3 about each facet's outward normal.
+        let mean_cos: f32 = from_surface
+            .iter()
+            .map(|p| p.direction.dot(p.origin.normalize()))
+            .sum::<f32>()
+            / from_surface.len() as f32;
+        // (Facets within ~20° of the radial direction: a little under 2/3.)
+        assert!(mean_cos > 0.6 && mean_cos < 0.68, "{mean_cos}");
     }
 
     #[test]

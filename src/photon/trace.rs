@@ -188,6 +188,18 @@ pub fn bsdf_at(scene: &Scene, hit: &Hit) -> Bsdf {
     Bsdf::new(material, lambertian_at(scene, material, hit.uv))
 }
 
+/// The radiance the surface at `hit` emits back along the ray: emitters emit from their front
+/// side only, unless double-sided (`scene::emitters`; the GPU's twin is `material_emission`
+/// in `glsl/common/material.glsl`).
+pub fn emitted(scene: &Scene, hit: &Hit) -> Vec3 {
+    let material = &scene.materials[hit.material];
+    if hit.front_face || material.double_sided {
+        material.emission
+    } else {
+        Vec3::ZERO
+    }
+}
+
 /// True when `power` is finite and positive in some channel.
 pub fn carries_power(power: Vec3) -> bool {
     power.is_finite() && power.max_element() > 0.0

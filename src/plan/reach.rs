@@ -88,12 +88,18 @@ pub fn visible_box(camera: &Camera, aspect: f32, bounds: &Aabb) -> Aabb {
     intersect(&frustum, bounds)
 }
 
-/// Can light from `light` arrive anywhere inside the sphere `(centre, radius)`? Point and
-/// directional lights: yes (a directional light's box is fitted to the scene). Spot lights:
+/// Can light from `light` arrive anywhere inside the sphere `(centre, radius)`? An emitter's
+/// area sample: when the sphere reaches in front of it. Point and directional lights: yes (a directional light's box is fitted to the scene). Spot lights:
 /// when the cone (outer angle, widened by [`CONE_MARGIN`]) meets the sphere: the angle between
 /// the axis and the direction to the centre is at most the cone's half-angle plus the angle
 /// the sphere subtends, or the apex is inside the sphere.
 pub fn light_reaches(light: &Light, (centre, radius): (Vec3, f32)) -> bool {
+    if light.kind == LightKind::AreaSample {
+        // A hemisphere: the sphere must reach in front of the light's plane.
+        let normal = light.direction.normalize_or(Vec3::NEG_Y).as_dvec3();
+        let ahead = normal.dot(centre.as_dvec3() - light.position.as_dvec3());
+        return ahead > -f64::from(radius);
+    }
     let LightKind::Spot {
         outer_cone_angle, ..
     } = light.kind

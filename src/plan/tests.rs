@@ -506,11 +506,12 @@ fn the_pass_list_covers_every_stage_and_prints_one_line_per_decision() {
     assert!(pass(&passes, "upsample").run);
     let text = p.to_string();
     let lines: Vec<&str> = text.lines().collect();
-    // effects, 4 decisions, max bounces, motion, the lights, the passes.
+    // effects, 5 decisions (emitters the last), max bounces, motion, the lights, the passes.
     assert_eq!(
         lines.len(),
-        1 + 4 + 1 + 1 + scene.lights.len() + passes.len()
+        1 + 5 + 1 + 1 + scene.lights.len() + passes.len()
     );
+    assert!(text.contains("emissive surfaces as lights: no — no surface emits light"));
     assert!(
         text.contains("motion: static — nothing is animated"),
         "{text}"

@@ -9,7 +9,7 @@
 //! other side of the surface from ωo). `docs/references.md` lists the tests that decide this.
 
 use super::photon_index::PhotonGrid;
-use super::{direct_light, eye_path, Accumulator, Ctx, HdrImage};
+use super::{direct_light, emitter_light, eye_path, Accumulator, Ctx, HdrImage};
 use crate::photon::bsdf::Bsdf;
 use crate::photon::density::{knn_radii, Neighbours};
 use crate::photon::emit::emit_photons;
@@ -98,7 +98,9 @@ fn gather_passes(ctx: &Ctx, map: &GatherMap, first_pass: u32, acc: &mut Accumula
         let image = ctx.pass(first_pass + pass, |x, y, rng| {
             let ray = ctx.camera_ray(x, y, rng);
             eye_path(ctx, ray, rng, EYE_DEPTH, |hit, bsdf, wo| {
-                direct_light(ctx.scene, ctx.bvh, hit, bsdf, wo) + map.radiance(hit, bsdf, wo)
+                direct_light(ctx.scene, ctx.bvh, hit, bsdf, wo)
+                    + emitter_light(ctx, hit, bsdf, wo)
+                    + map.radiance(hit, bsdf, wo)
             })
         });
         match image {

@@ -14,6 +14,7 @@
 //! and stop at the next row when `cancel` is set, returning the last complete pass.
 //! Never touches Vulkan.
 
+mod emitter_light;
 pub mod gather;
 mod image;
 mod path_trace;
@@ -27,7 +28,8 @@ use crate::photon::bvh::SceneBvh;
 use crate::photon::emit::spot_falloff;
 use crate::photon::ray::{Hit, Ray};
 use crate::photon::rng::{hash2, Rng};
-use crate::photon::trace::{bsdf_at, has_finite_lobe};
+use crate::photon::trace::{bsdf_at, emitted, has_finite_lobe};
+use crate::scene::emitters::Emitters;
 use crate::scene::{LightKind, Scene};
 use anyhow::{bail, Result};
 use glam::Vec3;
@@ -95,9 +97,11 @@ pub fn render(
     cancel: &AtomicBool,
 ) -> Result<HdrImage> {
     let bvh = SceneBvh::new(scene);
+    let emitters = Emitters::of(scene);
     let ctx = Ctx {
         scene,
         bvh: &bvh,
+        emitters: &emitters,
         settings,
         progress,
         cancel,
@@ -113,6 +117,8 @@ pub fn render(
 pub(crate) struct Ctx<'a> {
     pub scene: &'a Scene,
     pub bvh: &'a SceneBvh,
+    /// The scene's emissive surfaces (direct light by [`emitter_light::emitter_light`]).
+    pub emitters: &'a Emitters,
     pub settings: &'a RefSettings,
     pub progress: Option<&'a ProgressBar>,
     pub cancel: &'a AtomicBool,
@@ -233,6 +239,8 @@ impl Ctx<'_> {
     }
 }
 
+pub(crate) use emitter_light::emitter_light;
+
 /// Direct light from every punctual light at `hit` (finite lobes; shadow rays).
 pub(crate) fn direct_light(
     scene: &Scene,
@@ -248,7 +256,7 @@ pub(crate) fn direct_light(
                 let wi = -light.direction.normalize_or_zero();
                 (wi, light.intensity, hit.spawn_ray(wi))
             }
-            LightKind::Point | LightKind::Spot { .. } => {
+            LightKind::Point | LightKind::Spot { .. } | LightKind::AreaSample => {
                 let to = light.position - hit.position;
                 let d2 = to.length_squared();
                 if d2.is_nan() || d2 <= 0.0 {
@@ -266,6 +274,9 @@ pub(crate) fn direct_light(
                         outer_cone_angle.cos(),
                         light.direction.normalize_or_zero().dot(-wi),
                     );
+                }
+                if light.kind == LightKind::AreaSample {
+                    e *= light.direction.normalize_or_zero().dot(-wi).max(0.0);
                 }
                 (wi, e, hit.spawn_ray_to(light.position))
             }
@@ -304,7 +315,7 @@ pub(crate) fn eye_path(
         };
         let bsdf = bsdf_at(ctx.scene, &hit);
         let wo = -ray.dir;
-        radiance += throughput * ctx.scene.materials[hit.material].emission;
+        radiance += throughput * emitted(ctx.scene, &hit);
         if has_finite_lobe(&bsdf) {
             radiance += throughput * finite(&hit, &bsdf, wo);
         }

@@ -11,6 +11,7 @@ mod animation;
 pub mod authoring;
 pub mod bundled;
 pub mod default_light;
+pub mod emitters;
 mod gltf_data;
 mod gltf_light;
 mod gltf_material;
@@ -169,8 +170,8 @@ pub struct Light {
     pub position: Vec3,
     /// World-space unit vector along which the light travels (spot and directional).
     pub direction: Vec3,
-    /// Linear RGB radiant intensity in W/sr for point and spot lights; irradiance in W/m² on a
-    /// surface facing the light for directional lights.
+    /// Linear RGB radiant intensity in W/sr for point and spot lights (along `direction` for
+    /// area samples); irradiance in W/m² on a surface facing the light for directional lights.
     pub intensity: Vec3,
 }
 
@@ -183,6 +184,10 @@ pub enum LightKind {
         outer_cone_angle: f32,
     },
     Directional,
+    /// A point sampled on an emissive surface (`emitters`, issue #18; never in a glTF file): a
+    /// one-sided Lambertian emitter whose radiant intensity is `intensity·max(0, cos θ)`, θ from
+    /// `direction` (the surface's normal), so its flux is `π·intensity`.
+    AreaSample,
 }
 
 /// A perspective camera.

@@ -8,6 +8,19 @@
 //!   I [W/sr] = I [cd]  / 683        E [W/m²] = E [lx] / 683
 //! ```
 //!
+//! Emission (glTF `emissiveFactor` × KHR_materials_emissive_strength, a luminance in nits =
+//! cd/m²) follows the same rule (`gltf_material.rs`):
+//!
+//! ```text
+//!   L_e [W/(m²·sr)] = L [nits] / 683
+//! ```
+//!
+//! So the photometric power of every source maps to watts by the one factor 1/683: a point
+//! light of I cd sends 4π·I lm = 4π·I/683 W, a one-sided Lambertian panel of luminance L and
+//! area A sends π·L·A lm = π·(L/683)·A W (`scene::emitters`), and a panel and a point light of
+//! the same lumens light a room equally (`tests/emission.rs` measures the mean irradiance of a
+//! closed room under each: equal within 0.3 %).
+//!
 //! This is the convention of pbrt-v4 and Filament for "white" lights. It makes a light's
 //! colour a pure chromaticity multiplier (linear RGB, as glTF stores it), and keeps the
 //! numbers that reach the renderer at the scale an exposure of 0 EV expects.
@@ -15,7 +28,7 @@
 /// Lumens per watt (photometric definition at 555 nm).
 pub const LUMENS_PER_WATT: f32 = 683.0;
 
-/// Candela (lm/sr) → W/sr.
+/// Candela (lm/sr) → W/sr; also nits (cd/m²) → W/(m²·sr), the emission's luminance.
 pub fn candela_to_watts_per_sr(cd: f32) -> f32 {
     cd / LUMENS_PER_WATT
 }

@@ -24,6 +24,9 @@ pub struct MaterialSpec {
     pub ior: f32,
     pub fresnel: bool,
     pub double_sided: bool,
+    /// `emissiveFactor` and its KHR_materials_emissive_strength (luminance in nits for factor
+    /// 1; `None`: not emissive). The loader turns it into W/(m²·sr) by `scene::units`.
+    pub emission: Option<([f32; 3], f32)>,
 }
 
 impl MaterialSpec {
@@ -43,6 +46,7 @@ impl MaterialSpec {
             ior: 1.5,
             fresnel: false,
             double_sided: false,
+            emission: None,
         }
     }
 
@@ -207,6 +211,16 @@ impl GltfWriter {
         if let Some(ior) = m.ior_ext {
             ext.insert("KHR_materials_ior".into(), json!({"ior": ior}));
             self.extensions.insert("KHR_materials_ior");
+        }
+        if let Some((factor, strength)) = m.emission {
+            v["emissiveFactor"] = json!(factor);
+            if strength != 1.0 {
+                ext.insert(
+                    "KHR_materials_emissive_strength".into(),
+                    json!({"emissiveStrength": strength}),
+                );
+                self.extensions.insert("KHR_materials_emissive_strength");
+            }
         }
         if !ext.is_empty() {
             v["extensions"] = Value::Object(ext);
