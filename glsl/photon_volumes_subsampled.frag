@@ -5,6 +5,10 @@
 // full-resolution BSDF:
 //   out_irradiance = Φ · κ            (front side only; times c_L/π at full resolution)
 //   out_glossy     = f_glossy · Φ · κ (the non-Lambertian lobes, as radiance at this sample)
+//   out_global     = the global photons' share of out_irradiance; a: their Σ κ·r
+//   out_weight     = r: the global photons' Σ κ; gba: their share of out_glossy
+// (the last two for the support normalisation, src/passes/support.rs; a global photon stays on
+// its own surface, as at full resolution).
 // There is no depth attachment at this size, so no hardware depth test: the kernel test alone
 // discards the surfaces a volume does not contain (see passes/photon_volumes.rs).
 #include "shared.glsl"
@@ -34,6 +38,8 @@ layout(location = 2) flat in vec3 v_center;  // the photon's eye-relative positi
 
 layout(location = 0) out vec4 out_irradiance;
 layout(location = 1) out vec4 out_glossy;
+layout(location = 2) out vec4 out_global;
+layout(location = 3) out vec4 out_weight;
 
 void main() {
     // The same centre sample as upsample.comp's subsample_centre.
@@ -53,6 +59,10 @@ void main() {
     float rho_p;
     vec3 wi = unpack_direction(photon.direction, rho_p);
     vec3 n_s = normalize(texelFetch(g_normal, px, 0).xyz);
+    bool global_photon = !(rho_p > CAUSTIC_PATH_DENSITY);
+    if (global_photon && abs(dot(normalize(photon.normal), n_s)) < SUPPORT_NORMAL_COS) {
+        discard;
+    }
     GpuMaterial m = materials[texelFetch(g_material, px, 0).x];
     Bsdf bsdf = material_bsdf(m, texelFetch(g_albedo, px, 0).rgb);
     BsdfOriented o;
@@ -73,4 +83,6 @@ void main() {
     vec3 glossy = max(f - c[LOBE_LAMBERTIAN] * (1.0 / PI), vec3(0.0));
     out_irradiance = vec4(flux, 1.0);
     out_glossy = vec4(glossy * flux, 0.0);
+    out_global = global_photon ? vec4(flux, kappa * v_radius.x) : vec4(0.0);
+    out_weight = global_photon ? vec4(kappa, glossy * flux) : vec4(0.0);
 }

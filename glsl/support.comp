@@ -2,7 +2,10 @@
 // Support normalisation of the global photons' estimate (src/passes/support.rs): the share
 // f(s) of the cone kernel around pixel s that lies on s's own surface, measured in screen
 // space from the eye G-buffer, and total ← total − G + G / max(f, SUPPORT_FRACTION_MIN).
-// Caustic photons (not in G) are left alone.
+// Caustic photons (not in G) are left alone. At --subsample N > 1 (SUBSAMPLED) the targets
+// are the low-resolution ones: each pixel stands for the G-buffer pixel at the centre of its
+// N×N block (as in photon_volumes_subsampled.frag), the irradiance and glossy estimates are
+// both normalised, and the global photons' glossy share is global_weight's gba.
 #include "shared.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -13,12 +16,20 @@ layout(set = 0, binding = 2) uniform sampler2D g_normal;
 layout(set = 0, binding = 3, rgba32f) uniform image2D total;
 layout(set = 0, binding = 4, rgba32f) uniform readonly image2D global_share;  // a: Σ κ·r
 layout(set = 0, binding = 5, rgba32f) uniform image2D global_weight;  // r: Σ κ; g ← f
+// At --subsample N > 1: the low-resolution glossy estimate (otherwise `total` again, unused).
+layout(set = 0, binding = 6, rgba32f) uniform image2D total_glossy;
+
+layout(constant_id = 0) const bool SUBSAMPLED = false;
 
 layout(push_constant) uniform Push {
-    uint width;
+    uint width;      // the targets'
     uint height;
+    uint g_width;    // the eye G-buffer's
+    uint g_height;
+    uint subsample;
     uint pad0;
     uint pad1;
+    uint pad2;
 } push;
 
 const int RINGS = 4;
@@ -40,7 +51,7 @@ float present(vec3 s, vec3 n, float r, vec3 y) {
     if (any(lessThan(uv, vec2(0.0))) || any(greaterThanEqual(uv, vec2(1.0)))) {
         return 1.0;
     }
-    ivec2 q = ivec2(uv * vec2(push.width, push.height));
+    ivec2 q = ivec2(uv * vec2(push.g_width, push.g_height));
     vec4 p = texelFetch(g_position, q, 0);
     if (p.w == 0.0) {
         return 0.0;  // nothing behind the edge
@@ -59,16 +70,20 @@ float present(vec3 s, vec3 n, float r, vec3 y) {
 }
 
 void main() {
-    ivec2 px = ivec2(gl_GlobalInvocationID.xy);
-    if (px.x >= int(push.width) || px.y >= int(push.height)) {
+    ivec2 id = ivec2(gl_GlobalInvocationID.xy);
+    if (id.x >= int(push.width) || id.y >= int(push.height)) {
         return;
     }
-    vec4 weight = imageLoad(global_weight, px);
+    // The G-buffer pixel this target pixel shades.
+    int block = int(push.subsample);
+    ivec2 px = SUBSAMPLED ? min(id * block + block / 2, ivec2(push.g_width, push.g_height) - 1)
+                          : id;
+    vec4 weight = imageLoad(global_weight, id);
     float w = weight.r;
     if (!(w > 0.0)) {
         return;  // no global photon here: nothing to normalise
     }
-    vec4 g = imageLoad(global_share, px);
+    vec4 g = imageLoad(global_share, id);
     vec4 pos = texelFetch(g_position, px, 0);
     if (pos.w == 0.0) {
         return;
@@ -98,9 +113,14 @@ void main() {
         }
     }
     float f = on / all_;
-    vec4 old = imageLoad(total, px);
-    vec3 rgb = old.rgb + g.rgb * (1.0 / max(f, SUPPORT_FRACTION_MIN) - 1.0);
-    imageStore(total, px, vec4(rgb, old.a));
-    // The fraction, for the estimator-equivalence test (PhotonFrame::read_support_fraction).
-    imageStore(global_weight, px, vec4(w, f, weight.ba));
+    float scale = 1.0 / max(f, SUPPORT_FRACTION_MIN) - 1.0;
+    vec4 old = imageLoad(total, id);
+    imageStore(total, id, vec4(old.rgb + g.rgb * scale, old.a));
+    if (SUBSAMPLED) {
+        vec4 glossy = imageLoad(total_glossy, id);
+        imageStore(total_glossy, id, vec4(glossy.rgb + weight.gba * scale, glossy.a));
+    } else {
+        // The fraction, for the estimator-equivalence test (PhotonFrame::read_support_fraction).
+        imageStore(global_weight, id, vec4(w, f, weight.ba));
+    }
 }

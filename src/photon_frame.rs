@@ -146,7 +146,11 @@ pub struct PhotonFrame {
 
 struct Subsampled {
     low: [Image; 2],
+    /// The global photons' share of `low` and the pass that normalises it by its kernel's
+    /// support on the surface (`passes/support.rs`).
+    support: ([Image; 2], SupportPass),
     upsample: UpsamplePass,
+    subsample: u32,
 }
 
 /// The random seed of photon sample `sample` of a renderer seeded `seed`: `seed` itself for
@@ -312,11 +316,22 @@ impl PhotonFrame {
                 settings.upsample,
                 settings.bsdf_variant,
             )?;
-            (indirect, Some(Subsampled { low, upsample }))
+            let images = photon_volumes::support_targets(gpu, w, h)?;
+            let pass = SupportPass::new(gpu, (frame, gbuffer), (&low[0], Some(&low[1])), &images)?;
+            let support = (images, pass);
+            (
+                indirect,
+                Some(Subsampled {
+                    low,
+                    support,
+                    upsample,
+                    subsample,
+                }),
+            )
         };
         let support = if subsample == 1 {
             let images = photon_volumes::support_targets(gpu, radiance.width, radiance.height)?;
-            let pass = SupportPass::new(gpu, (frame, gbuffer), &indirect, &images)?;
+            let pass = SupportPass::new(gpu, (frame, gbuffer), (&indirect, None), &images)?;
             Some((images, pass))
         } else {
             None

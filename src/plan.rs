@@ -771,9 +771,9 @@ impl EffectsPlan {
         } else if self.subsample > 1 {
             pass(
                 "support",
-                false,
+                true,
                 &format!(
-                    "--subsample {}: the low-resolution estimate is not normalised",
+                    "the photon volumes' kernels at surface boundaries (the 1/{} estimate)",
                     self.subsample
                 ),
             )

@@ -48,7 +48,7 @@ fn accumulated_indirect_and_normals(
     photons: usize,
     checkpoints: &[u32],
 ) -> (Vec<Vec<f32>>, Vec<Vec3>) {
-    accumulated_indirect_seeded_and_normals(scene, photons, 1, checkpoints)
+    accumulated_indirect_seeded_and_normals(scene, photons, (1, 1), checkpoints)
 }
 
 /// [`accumulated_indirect`] with the renderer's seed `seed`.
@@ -58,13 +58,14 @@ fn accumulated_indirect_seeded(
     seed: u32,
     checkpoints: &[u32],
 ) -> Vec<Vec<f32>> {
-    accumulated_indirect_seeded_and_normals(scene, photons, seed, checkpoints).0
+    accumulated_indirect_seeded_and_normals(scene, photons, (seed, 1), checkpoints).0
 }
 
+/// [`accumulated_indirect_and_normals`] with the renderer's seed and `--subsample`.
 fn accumulated_indirect_seeded_and_normals(
     scene: &Scene,
     photons: usize,
-    seed: u32,
+    (seed, subsample): (u32, u32),
     checkpoints: &[u32],
 ) -> (Vec<Vec<f32>>, Vec<Vec3>) {
     let gpu = common::gpu();
@@ -84,6 +85,7 @@ fn accumulated_indirect_seeded_and_normals(
         scene,
         RenderSettings {
             seed,
+            subsample,
             ..settings(photons, true)
         },
     )
@@ -200,9 +202,20 @@ fn near_creases(normals: &[Vec3], size: usize, reach: i32) -> Vec<bool> {
 
 #[test]
 fn corners_and_edges_of_a_closed_room_are_within_five_percent_of_the_path_tracer() {
+    corners_and_edges_within_five_percent(1);
+}
+
+#[test]
+fn corners_and_edges_stay_within_five_percent_at_subsample_2() {
+    // The support normalisation runs on the low-resolution targets too (passes/support.rs).
+    corners_and_edges_within_five_percent(2);
+}
+
+fn corners_and_edges_within_five_percent(subsample: u32) {
     let scene = ispm::reference::scenes::cornell(2);
     let reference = path_traced(&scene, REFERENCE_PASSES);
-    let (images, normals) = accumulated_indirect_and_normals(&scene, 10_000, &[1, 32]);
+    let (images, normals) =
+        accumulated_indirect_seeded_and_normals(&scene, 10_000, (1, subsample), &[1, 32]);
     let size = CONVERGENCE_SIZE as usize;
     let edges = near_creases(&normals, size, 2);
     let count = edges.iter().filter(|&&e| e).count();
@@ -228,8 +241,9 @@ fn corners_and_edges_of_a_closed_room_are_within_five_percent_of_the_path_tracer
     };
     let (ratios, others) = (ratios(&edges), ratios(&elsewhere));
     eprintln!(
-        "cornell(2), ISPM / path tracer of the indirect light: within 2 pixels of creases \
-         ({count} pixels) {:.4} (1 frame), {:.4} (32 frames); elsewhere {:.4}, {:.4}",
+        "cornell(2) at subsample {subsample}, ISPM / path tracer of the indirect light: within 2 \
+         pixels of creases ({count} pixels) {:.4} (1 frame), {:.4} (32 frames); elsewhere \
+         {:.4}, {:.4}",
         ratios[0], ratios[1], others[0], others[1]
     );
     assert!(

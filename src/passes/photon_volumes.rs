@@ -102,9 +102,11 @@ pub fn low_targets(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<[I
                 width,
                 height,
                 layers: 1,
-                // TRANSFER_DST: the value check's test seam (`value_check.rs`).
+                // TRANSFER_DST: the value check's test seam (`value_check.rs`); STORAGE: the
+                // support normalisation rewrites them (`passes/support.rs`).
                 usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
                     | vk::ImageUsageFlags::SAMPLED
+                    | vk::ImageUsageFlags::STORAGE
                     | vk::ImageUsageFlags::TRANSFER_DST,
                 view: ViewKind::D2,
             },
@@ -116,9 +118,11 @@ pub fn low_targets(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<[I
     ])
 }
 
-/// The global photons' share of the estimate beside the full-resolution [`target`], for the
-/// support normalisation (`passes/support.rs`): `[global, weight]`, global's RGB what the
-/// global photons alone added and its alpha their `Σ κ·r`, weight's R their `Σ κ`.
+/// The global photons' share of the estimate beside the full-resolution [`target`] (or, at
+/// `--subsample N > 1`, beside the [`low_targets`], at their size), for the support
+/// normalisation (`passes/support.rs`): `[global, weight]`, global's RGB what the global photons
+/// alone added and its alpha their `Σ κ·r`, weight's R their `Σ κ` (and at low resolution its
+/// GBA their share of the glossy target).
 pub fn support_targets(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<[Image; 2]> {
     let image = |name: &str| {
         Image::new(
@@ -222,7 +226,7 @@ impl PhotonVolumesPass {
         } else {
             (
                 &crate::gpu::shader_table::PHOTON_VOLUMES_SUBSAMPLED_FRAG,
-                &[FORMAT, FORMAT][..],
+                &[FORMAT, FORMAT, FORMAT, FORMAT][..],
                 None,
             )
         };

@@ -43,22 +43,32 @@
 //! last frame stays in the weight target's G channel (`PhotonFrame::read_support_fraction`,
 //! the estimator-equivalence test's CPU gather divides by it).
 //!
-//! Not done: at `--subsample N > 1` the low-resolution targets are not normalised (the creases
-//! keep the old bias there); curved surfaces whose curvature over r̄ exceeds the tolerances
+//! At `--subsample N > 1` the pass runs on the low-resolution targets
+//! ([`super::photon_volumes::low_targets`] and the support targets beside them), each pixel
+//! standing for the G-buffer pixel at the centre of its N×N block: the irradiance and the glossy
+//! estimate are both normalised (the global photons' glossy share rides in the weight target's
+//! GBA), before the upsample. Not done: curved surfaces whose curvature over r̄ exceeds the tolerances
 //! count as partly off (slightly brightened); f is measured on visible geometry only (a crease
 //! hidden from the camera is unknown and counts as surface).
 
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
-use crate::gpu::{Access, BindingKind, Buffer, Cmd, Filter, Gpu, Image, Sampler, Write};
+use crate::gpu::{
+    Access, BindingKind, Buffer, Cmd, Filter, Gpu, Image, Sampler, SpecConstant, Write,
+};
 use std::sync::Arc;
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct Push {
+    /// The targets' size.
     width: u32,
     height: u32,
-    pad: [u32; 2],
+    /// The eye G-buffer's.
+    g_width: u32,
+    g_height: u32,
+    subsample: u32,
+    pad: [u32; 3],
 }
 
 pub struct SupportPass {
@@ -69,11 +79,12 @@ pub struct SupportPass {
 impl SupportPass {
     /// The pass over `total` (the full-resolution photon-volume target) and the two
     /// [`super::photon_volumes::support_targets`] beside it, reading the eye G-buffer and the
-    /// frame's `view_proj`.
+    /// frame's `view_proj`; at `--subsample N > 1`, `glossy` is the low-resolution glossy target
+    /// and `total` the low-resolution irradiance.
     pub fn new(
         gpu: &Arc<Gpu>,
         (frame, gbuffer): (&Buffer, &GBuffer),
-        total: &Image,
+        (total, glossy): (&Image, Option<&Image>),
         support: &[Image; 2],
     ) -> anyhow::Result<Self> {
         let sampler = Sampler::new(gpu, "support.nearest", Filter::Nearest, false)?;
@@ -92,6 +103,7 @@ impl SupportPass {
                 BindingKind::StorageImage,
                 BindingKind::StorageImage,
                 BindingKind::StorageImage,
+                BindingKind::StorageImage,
             ],
             size_of::<Push>() as u32,
             &[
@@ -101,8 +113,9 @@ impl SupportPass {
                 Write::StorageImage(total),
                 Write::StorageImage(&support[0]),
                 Write::StorageImage(&support[1]),
+                Write::StorageImage(glossy.unwrap_or(total)),
             ],
-            &[],
+            &[SpecConstant::bool(0, glossy.is_some())],
         )?;
         Ok(Self {
             kernel,
@@ -110,19 +123,31 @@ impl SupportPass {
         })
     }
 
-    pub fn record(&self, cmd: &Cmd, gbuffer: &GBuffer, total: &Image, support: &[Image; 2]) {
+    /// Normalises `total` (and at `--subsample N > 1` `glossy`, of the `subsample` the pass was
+    /// made for) by the support measured for the global photons of `support`.
+    pub fn record(
+        &self,
+        cmd: &Cmd,
+        gbuffer: &GBuffer,
+        (total, glossy): (&Image, Option<&Image>),
+        support: &[Image; 2],
+        subsample: u32,
+    ) {
         let _scope = cmd.scope("support");
         for image in [&gbuffer.position, &gbuffer.normal] {
             cmd.transition(image, Access::ComputeSampledRead);
         }
-        for image in std::iter::once(total).chain(support) {
+        for image in [total].into_iter().chain(glossy).chain(support) {
             cmd.transition(image, Access::ComputeStorageWrite);
         }
         let (width, height) = (total.width, total.height);
         let push = Push {
             width,
             height,
-            pad: [0; 2],
+            g_width: gbuffer.position.width,
+            g_height: gbuffer.position.height,
+            subsample: subsample.max(1),
+            pad: [0; 3],
         };
         self.kernel
             .dispatch_with(cmd, &push, super::image_groups(width, height));

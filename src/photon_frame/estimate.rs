@@ -79,11 +79,14 @@ impl PhotonFrame {
                     .expect("the support targets exist at subsample 1");
                 let targets = [&self.indirect, &images[0], &images[1]];
                 self.photon_pass.record(cmd, &inputs, volumes, &targets);
-                support.record(cmd, gbuffer, &self.indirect, images);
+                support.record(cmd, gbuffer, (&self.indirect, None), images, 1);
             }
             Some(sub) => {
-                let targets = [&sub.low[0], &sub.low[1]];
+                let (images, support) = &sub.support;
+                let targets = [&sub.low[0], &sub.low[1], &images[0], &images[1]];
                 self.photon_pass.record(cmd, &inputs, volumes, &targets);
+                let low = (&sub.low[0], Some(&sub.low[1]));
+                support.record(cmd, gbuffer, low, images, sub.subsample);
                 if let Some(check) = check.as_deref_mut() {
                     check.image(cmd, Checked::IndirectLowIrradiance, &sub.low[0])?;
                     check.image(cmd, Checked::IndirectLowGlossy, &sub.low[1])?;
@@ -200,7 +203,8 @@ impl PhotonFrame {
 
     /// Reads back, per pixel, the share `f` of the global photons' kernel on the surface that
     /// the support normalisation divided by (`passes/support.rs`; unclamped, 0 where no global
-    /// photon reached the pixel), or `None` when subsampling (not normalised). For the tests.
+    /// photon reached the pixel), or `None` when subsampling (the low-resolution pass keeps the
+    /// glossy share where f would go). For the tests.
     pub fn read_support_fraction(&self) -> anyhow::Result<Option<Vec<f32>>> {
         let Some((images, _)) = &self.support else {
             return Ok(None);
