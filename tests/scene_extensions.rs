@@ -195,6 +195,34 @@ fn unlit_material_shows_its_base_colour_and_reflects_nothing() {
 }
 
 #[test]
+fn an_emissive_texture_scales_the_emission_by_its_mean_colour() {
+    // Blender exports an emission map as emissiveFactor 1 and an emissiveTexture: the surface
+    // must emit (as its mean colour), not stay dark.
+    let mut gltf = object_on_floor();
+    let mut png = Vec::new();
+    image::RgbaImage::from_fn(2, 1, |x, _| {
+        image::Rgba(if x == 0 {
+            [255, 255, 255, 255]
+        } else {
+            [0, 0, 0, 255]
+        })
+    })
+    .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+    .expect("png");
+    let view = gltf.view(&png);
+    gltf.doc["images"] = json!([{"bufferView": view, "mimeType": "image/png"}]);
+    gltf.doc["textures"] = json!([{"source": 0}]);
+    gltf.doc["materials"][OBJECT]["emissiveFactor"] = json!([1.0, 0.5, 1.0]);
+    gltf.doc["materials"][OBJECT]["emissiveTexture"] = json!({"index": 0});
+    let scene = load(&gltf).expect("loads");
+    let m = material(&scene, "box");
+    // (1, 0.5, 1) × the mean of white and black, / 683 (nits → W/(m²·sr)).
+    let expected = Vec3::new(0.5, 0.25, 0.5) / 683.0;
+    assert!(close(m.emission, expected), "{} vs {expected}", m.emission);
+    assert!(m.is_emitter());
+}
+
+#[test]
 fn specular_glossiness_converts_to_metallic_roughness_by_the_published_formula() {
     let mut gltf = object_on_floor();
     let sg = |diffuse: [f32; 4], specular: [f32; 3], gloss: f32| {

@@ -17,6 +17,9 @@
 //! then, per channel, if lambertian + glossy + transmission > 1, lambertian and transmission are
 //! scaled down so the sum is 1. Material `extras` `{"ispm": {...}}` override any field exactly.
 //!
+//! An emissiveTexture scales the emission by the texture's mean linear colour (emission is one
+//! radiance per material: the emitter sampling and the shading read it), with a warning.
+//!
 //! Emission: a non-finite emissiveFactor or emissiveStrength is an error; a negative one is
 //! clamped to 0, and an emitted radiance above [`MAX_EMISSION`] is scaled down to it, each with
 //! a warning (a NaN or Inf radiance would make a NaN picture).
@@ -297,6 +300,17 @@ fn convert_inner(
             log::warn!("{file}: material {name}: KHR_texture_transform is not applied yet");
         }
         out.lambertian_texture = Some(textures.get(&info.texture().source())?);
+    }
+    if let Some(info) = mat.emissive_texture() {
+        // Emission is a per-material radiance (the area-sample lights, the references' emitter
+        // sampling and the shading all read it): an emissive texture counts as its mean colour,
+        // so the surface emits its whole power, evenly.
+        let mean = textures.mean_linear(&info.texture().source())?;
+        out.emission *= mean;
+        log::warn!(
+            "{file}: material {name}: emissive texture applied as its mean colour {mean} (not \
+             sampled per pixel)"
+        );
     }
     if let Some(raw) = mat.extras() {
         let extras: Extras =
