@@ -736,9 +736,14 @@ fn every_perspective_camera_is_kept_in_node_order_and_the_first_is_the_scenes() 
 
 #[test]
 fn scene_without_camera_gets_a_framing_camera() {
+    // A three-quarter view from above (+X, +Y, +Z), looking at the bounds' centre.
     let s = Fixture::triangle().load().unwrap();
     assert!(s.cameras.is_empty());
-    assert!(s.camera.position().z > 0.5);
+    let eye = s.camera.position();
+    assert!(eye.x > 0.3 && eye.y > 0.2 && eye.z > 0.3, "{eye}");
+    let forward = -s.camera.transform.z_axis.truncate().normalize();
+    let to_centre = (s.bounds().center() - eye).normalize();
+    assert!(forward.dot(to_centre) > 0.9999, "{forward} vs {to_centre}");
 }
 
 #[test]

@@ -280,8 +280,12 @@ impl Scene {
 }
 
 impl Camera {
-    /// A camera that frames `bounds`: looking down −Z at the box's centre from far enough back
-    /// that the whole box fits the vertical field of view.
+    /// A camera that frames `bounds`: looking at the box's centre from far enough back that the
+    /// whole box fits the vertical field of view, in a three-quarter view from above (45° round
+    /// from +Z towards +X, 25° up), as Blender's default camera looks at its default cube. A
+    /// front view (down −Z) would see a floor edge-on and, for a file lit from one side, often
+    /// only the faces the light does not reach (Blender's startup scene, exported without its
+    /// camera, rendered black: docs/scenes.md, "Files from Blender").
     pub fn framing(bounds: Aabb) -> Self {
         let mut cam = Camera::default();
         if bounds.is_empty() {
@@ -291,7 +295,13 @@ impl Camera {
         let center = bounds.center();
         let radius = (bounds.extent().length() * 0.5).max(1e-3);
         let dist = radius / (cam.yfov * 0.5).sin();
-        let eye = center + Vec3::new(0.0, 0.0, dist);
+        let (azimuth, elevation) = (45f32.to_radians(), 25f32.to_radians());
+        let towards_eye = Vec3::new(
+            azimuth.sin() * elevation.cos(),
+            elevation.sin(),
+            azimuth.cos() * elevation.cos(),
+        );
+        let eye = center + towards_eye * dist;
         cam.transform = glam::camera::rh::view::look_at_mat4(eye, center, Vec3::Y).inverse();
         cam.znear = (dist - radius).max(radius * 1e-3);
         cam.zfar = Some(dist + radius * 2.0);
