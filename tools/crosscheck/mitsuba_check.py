@@ -414,8 +414,9 @@ def ispm_methods(scene, report=False):
 def render_ispm(exe, gltf, out, w, h, args, scale=1):
     cmd = [str(exe), "render", str(gltf), "-o", str(out), "--size", f"{w}x{h}",
            "--no-default-light"] + args
-    if scale != 1:
-        cmd = [c if c != "64" else str(64 * scale) for c in cmd]
+    if scale != 1 and "--spp" in cmd:
+        i = cmd.index("--spp") + 1
+        cmd[i] = str(int(cmd[i]) * scale)
     env = dict(os.environ)
     env.setdefault("VK_DRIVER_FILES", "/usr/share/vulkan/icd.d/lvp_icd.x86_64.json")
     env.setdefault("LP_NUM_THREADS", "2")
