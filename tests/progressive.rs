@@ -1,7 +1,8 @@
 //! Progressive accumulation and alias-free emission (issue #17), on lavapipe with validation on:
-//! - the mean of still frames converges to the CPU references: its error falls with the frames
-//!   on a closed diffuse room (against the path tracer) and on `caustic-ring` (against
-//!   progressive photon mapping);
+//! - the mean of still frames converges: its error falls with the frames on a closed diffuse
+//!   room (against the path tracer) and on a mirror's caustic (against its closed form); on
+//!   `caustic-ring` two independent accumulations agree better with every frame (its CPU
+//!   reference is too blurred to show the convergence);
 //! - no lattice survives in a caustic: the caustic photons' structure factor has no peak at the
 //!   light view's texel frequency;
 //! - accumulation restarts when anything moves, and `render --frames N` is the mean of N.
@@ -446,4 +447,189 @@ fn the_accumulation_restarts_when_the_camera_moves_and_keeps_its_photons() {
     assert_eq!(lit.stats.accumulated_frames, 1);
     assert_eq!(lit.stats.photon_sample, 0);
     common::assert_validation_clean(&gpu);
+}
+
+/// A spot light aimed at a tilted perfect mirror above a dark floor: everything the floor
+/// receives is a caustic (light → mirror → floor), and it has a closed form, the irradiance of the
+/// mirror image of the light, `E(x) = I(ω)·cos θ_x / |x − L'|²`, with `ω` the light's direction
+/// that the mirror sends to x (its spot falloff) and `L'` the light reflected in the mirror's
+/// plane. The floor's albedo (0.1) keeps the second-order light (floor → mirror → floor) near
+/// 0.4 % of the caustic. The camera sees the floor only.
+fn mirror_caustic_scene() -> (Scene, MirrorCaustic) {
+    use ispm::scene::{Camera, Instance, Light, LightKind, Material, Mesh};
+    let quad = |name: &str, centre: Vec3, u: Vec3, v: Vec3, material: usize| {
+        let n = u.cross(v).normalize();
+        Mesh {
+            name: name.into(),
+            positions: vec![
+                centre - u - v,
+                centre + u - v,
+                centre + u + v,
+                centre - u + v,
+            ],
+            normals: vec![n; 4],
+            uvs: vec![glam::Vec2::ZERO; 4],
+            triangles: vec![[0, 1, 2], [0, 2, 3]],
+            material,
+        }
+    };
+    let albedo = 0.1;
+    let normal = Vec3::new(0.0, -1.0, -1.0).normalize();
+    let (centre, half) = (Vec3::new(0.0, 2.0, 0.0), 0.5);
+    let (u, v) = (Vec3::X * half, Vec3::new(0.0, -1.0, 1.0).normalize() * half);
+    let light = Light {
+        name: "spot".into(),
+        kind: LightKind::Spot {
+            inner_cone_angle: 0.06,
+            outer_cone_angle: 0.1,
+        },
+        position: Vec3::new(0.0, 2.0, -3.0),
+        direction: Vec3::Z,
+        intensity: Vec3::splat(1000.0),
+    };
+    let eye = Vec3::new(2.5, 3.0, 0.0);
+    let view = glam::camera::rh::view::look_at_mat4(eye, Vec3::ZERO, Vec3::Y);
+    let scene = Scene {
+        materials: vec![
+            Material {
+                name: "floor".into(),
+                lambertian: Vec3::splat(albedo),
+                ..Default::default()
+            },
+            Material {
+                name: "mirror".into(),
+                lambertian: Vec3::ZERO,
+                glossy: Vec3::ONE,
+                exponent: f32::INFINITY,
+                ..Default::default()
+            },
+        ],
+        meshes: vec![
+            quad("floor", Vec3::ZERO, Vec3::X * 6.0, Vec3::NEG_Z * 6.0, 0),
+            // u × v must face the light: (1,0,0) × (0,−1,1)/√2 = (0,−1,−1)/√2.
+            quad("mirror", centre, u, v, 1),
+        ],
+        instances: vec![
+            Instance {
+                name: "floor".into(),
+                mesh: 0,
+                transform: glam::Mat4::IDENTITY,
+            },
+            Instance {
+                name: "mirror".into(),
+                mesh: 1,
+                transform: glam::Mat4::IDENTITY,
+            },
+        ],
+        lights: vec![light.clone()],
+        camera: Camera {
+            transform: view.inverse(),
+            yfov: 25f32.to_radians(),
+            znear: 1e-2,
+            zfar: None,
+        },
+        ..Scene::default()
+    };
+    let caustic = MirrorCaustic {
+        light,
+        centre,
+        normal,
+        axes: (u, v),
+        albedo,
+    };
+    (scene, caustic)
+}
+
+struct MirrorCaustic {
+    light: ispm::scene::Light,
+    centre: Vec3,
+    normal: Vec3,
+    axes: (Vec3, Vec3),
+    albedo: f32,
+}
+
+impl MirrorCaustic {
+    /// The radiance the floor (y = 0) reflects at `x`: albedo/π times the caustic's irradiance.
+    fn radiance(&self, x: Vec3) -> f32 {
+        let ispm::scene::LightKind::Spot {
+            inner_cone_angle,
+            outer_cone_angle,
+        } = self.light.kind
+        else {
+            unreachable!("a spot")
+        };
+        let n = self.normal;
+        let image = self.light.position - 2.0 * (self.light.position - self.centre).dot(n) * n;
+        let to_x = x - image;
+        let d = to_x.length();
+        let w = to_x / d;
+        // Where the path crosses the mirror's plane: on the mirror, or no caustic at x.
+        let t = (self.centre - image).dot(n) / w.dot(n);
+        let m = image + w * t - self.centre;
+        let (u, v) = self.axes;
+        if t <= 0.0
+            || t >= d
+            || m.dot(u).abs() > u.length_squared()
+            || m.dot(v).abs() > v.length_squared()
+        {
+            return 0.0;
+        }
+        let omega = w - 2.0 * w.dot(n) * n;
+        let falloff = ispm::photon::emit::spot_falloff(
+            inner_cone_angle.cos(),
+            outer_cone_angle.cos(),
+            omega.dot(self.light.direction.normalize()),
+        );
+        let cos_x = -w.y;
+        let irradiance = self.light.intensity.x * falloff * cos_x / (d * d);
+        self.albedo / std::f32::consts::PI * irradiance
+    }
+}
+
+#[test]
+fn a_mirrors_caustic_converges_to_its_closed_form() {
+    // Against the closed form, not a reference renderer: the error of the accumulated mean
+    // must keep falling with the frames, to at most 0.3× one frame's after 32. Measured (4000
+    // photons a frame, 64²): relMSE 0.00112, 0.00045, 0.00023, 0.00015 at 1, 4, 16, 32 frames
+    // (0.13×), mean 1.0003 of the closed form; at 20 000 photons 0.00021 → 0.00007, mean 1.0001.
+    let (scene, caustic) = mirror_caustic_scene();
+    let size = CONVERGENCE_SIZE;
+    let cam = &scene.camera;
+    let t = (cam.yfov * 0.5).tan();
+    let reference: Vec<f32> = (0..size * size)
+        .flat_map(|i| {
+            let (x, y) = (i % size, i / size);
+            let ndc_x = (x as f32 + 0.5) / size as f32 * 2.0 - 1.0;
+            let ndc_y = 1.0 - (y as f32 + 0.5) / size as f32 * 2.0;
+            let dir = cam
+                .transform
+                .transform_vector3(Vec3::new(ndc_x * t, ndc_y * t, -1.0));
+            let origin = cam.position();
+            let hit = origin + dir * (-origin.y / dir.y);
+            let l = caustic.radiance(hit);
+            [l, l, l, 1.0]
+        })
+        .collect();
+    let lit = reference.chunks_exact(4).filter(|p| p[0] > 0.05).count();
+    assert!(
+        lit > (size * size / 8) as usize,
+        "{lit} pixels in the caustic"
+    );
+    let checkpoints = [1, 4, 16, 32];
+    let images = accumulated_indirect_seeded(&scene, 4_000, 1, &checkpoints);
+    let errors = curve("mirror caustic", &images, &checkpoints, &reference);
+    let mean = |image: &[f32]| image.chunks_exact(4).map(|p| f64::from(p[0])).sum::<f64>();
+    let ratio = mean(&images[3]) / mean(&reference);
+    eprintln!("mirror caustic: ISPM / closed form, mean over the image {ratio:.4} after 32 frames");
+    assert!(
+        errors.windows(2).all(|w| w[1] < w[0]),
+        "the error must fall with every checkpoint: {errors:?}"
+    );
+    assert!(
+        errors[3] <= 0.3 * errors[0],
+        "32 frames: {:.5} against {:.5} for one",
+        errors[3],
+        errors[0]
+    );
+    assert!((ratio - 1.0).abs() < 0.03, "mean ratio {ratio:.4}");
 }
