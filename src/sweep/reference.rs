@@ -10,11 +10,18 @@
 //!   (`RefSettings::jitter` off), as the rasteriser samples, so edges compare like with like.
 //! - **The cache**: `<cache>/<key>.exr` and `<key>-direct.exr`, the key a 64-bit FNV-1a hash of
 //!   the scene's content (`Debug` of the loaded [`Scene`]: meshes, materials, textures, lights,
-//!   camera) and of the reference settings and size. `--reference-cache DIR`, else
+//!   camera), of the reference settings and size, and of [`REFERENCE_REVISION`] (the
+//!   references' physics: a cache written by an older renderer is not reused). `--reference-cache DIR`, else
 //!   `$XDG_CACHE_HOME/ispm/references`, else `~/.cache/ispm/references`. Files are written
 //!   atomically, so an interrupted render leaves no cache entry.
 
 use super::hash::{fnv1a, fnv1a_debug, hex};
+
+/// The revision of the CPU references' physics, part of every cache key: bump it whenever a
+/// change makes `path-trace` or `progressive` render a scene differently (2: emissive surfaces
+/// sampled as lights, emission counted once), so that no cached reference of the old physics is
+/// compared with the new renderer.
+pub const REFERENCE_REVISION: u32 = 2;
 use crate::metrics::rgba;
 use crate::reference::{self, Method, RefSettings};
 use crate::scene::Scene;
@@ -127,7 +134,7 @@ pub fn references(
     };
     let key = hex(fnv1a(
         format!(
-            "{:016x} {method:?} {total_settings:?} {direct_settings:?}",
+            "{:016x} {method:?} {total_settings:?} {direct_settings:?} r{REFERENCE_REVISION}",
             scene_hash(scene)
         )
         .as_bytes(),
