@@ -824,7 +824,18 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
     let capture = ispm::timing::finish_capture();
     check_validation(&gpu)?;
     match format {
-        OutputFormat::Png => write_png(&args.output, frame.width, frame.height, &frame.ldr)?,
+        OutputFormat::Png => {
+            write_png(&args.output, frame.width, frame.height, &frame.ldr)?;
+            // Never a silent black picture: a dark one says which exposure would show it.
+            if let Some(ev) = ispm::output::exposure_hint(&frame.hdr, &frame.ldr, args.exposure) {
+                eprintln!(
+                    "note: {} came out nearly black at --exposure {}; --exposure {ev} brings its \
+                     lit pixels to mid-grey",
+                    args.output.display(),
+                    args.exposure
+                );
+            }
+        }
         OutputFormat::Exr => write_exr(&args.output, frame.width, frame.height, &frame.hdr)?,
     }
     if let Some(path) = &args.stats {

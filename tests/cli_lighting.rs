@@ -265,3 +265,31 @@ fn an_unknown_variant_and_a_non_finite_emission_fail_with_one_line() {
         &out,
     );
 }
+
+#[test]
+fn a_picture_that_comes_out_black_says_which_exposure_shows_it() {
+    // The default light's frame at −10 EV is black as a PNG; `render` names the exposure that
+    // brings it back (about +1 of the default exposure's mean, 0 ± 1.5 stops here), and a
+    // well-exposed frame gets no note.
+    let dir = tempfile::tempdir().expect("tempdir");
+    let scene = object_on_floor().write(dir.path(), "dim");
+    let dark = dir.path().join("dark.png");
+    let o = render(&scene, &dark, &["--exposure", "-10"]);
+    assert!(mean_rgb(&dark).element_sum() / 3.0 < 2.0);
+    let err = stderr(&o);
+    let note = err
+        .lines()
+        .find(|l| l.starts_with("note: ") && l.contains("came out nearly black"))
+        .unwrap_or_else(|| panic!("no exposure note: {err}"));
+    let ev: f32 = note
+        .split("; --exposure ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no exposure in {note:?}"));
+    assert!(ev.abs() <= 1.5, "{note}");
+    let shown = dir.path().join("shown.png");
+    let o = render(&scene, &shown, &["--exposure", &ev.to_string()]);
+    assert!(mean_rgb(&shown).element_sum() / 3.0 > LIT);
+    assert!(!stderr(&o).contains("nearly black"), "{}", stderr(&o));
+}
