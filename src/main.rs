@@ -885,13 +885,22 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
         );
     }
     eprintln!(
-        "wrote {} ({}x{}, {} triangles, {} lights, {} photons emitted and {} stored per frame, \
+        "wrote {} ({}x{}, {} triangles, {} lights{}, {} photons emitted and {} stored per frame, \
          mean of {} frame{})",
         args.output.display(),
         frame.width,
         frame.height,
         triangles,
         scene.lights.len(),
+        match frame
+            .stats
+            .light_plan
+            .len()
+            .saturating_sub(scene.lights.len())
+        {
+            0 => String::new(),
+            n => format!(" and {n} points on its emitters"),
+        },
         frame.stats.emitted_photons,
         frame.stats.stored_photons,
         frame.stats.accumulated_frames,

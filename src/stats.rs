@@ -53,6 +53,8 @@ pub fn frame_json(
     json!({
         "triangles": triangles,
         "lights": scene.lights.len(),
+        // The lights the frame drew beyond the file's: points sampled on its emitters.
+        "area_sample_lights": s.light_plan.len().saturating_sub(scene.lights.len()),
         "emitted_photons": s.emitted_photons,
         "bounce_map_records": s.bounce_map_records,
         "bounce_map_photons": s.bounce_map_photons,
