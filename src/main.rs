@@ -827,7 +827,7 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
         OutputFormat::Png => {
             write_png(&args.output, frame.width, frame.height, &frame.ldr)?;
             // Never a silent black picture: a dark one says which exposure would show it.
-            if let Some(ev) = ispm::output::exposure_hint(&frame.hdr, &frame.ldr, args.exposure) {
+            if let Some(ev) = ispm::output::exposure_hint(&frame.hdr, &frame.ldr) {
                 eprintln!(
                     "note: {} came out nearly black at --exposure {}; --exposure {ev} brings its \
                      lit pixels to mid-grey",

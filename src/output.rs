@@ -126,11 +126,11 @@ pub fn read_exr(path: &Path) -> anyhow::Result<(u32, u32, Vec<f32>)> {
 pub const DARK_MEAN_SRGB: f64 = 2.0;
 
 /// For a PNG that came out nearly black (mean sRGB value below [`DARK_MEAN_SRGB`] of 255) though
-/// its radiance is not zero: the exposure, in stops added to `exposure_ev` and rounded to half a
+/// its radiance (`hdr`, before exposure) is not zero: the exposure in stops, rounded to half a
 /// stop, that brings the log-average luminance of its lit pixels to mid-grey (0.18), as a
 /// camera's metering would. `None` for a picture that is not dark, or that is black because
 /// nothing in it is lit.
-pub fn exposure_hint(hdr: &[f32], ldr: &[u8], exposure_ev: f32) -> Option<f32> {
+pub fn exposure_hint(hdr: &[f32], ldr: &[u8]) -> Option<f32> {
     let pixels = ldr.len() / 4;
     if pixels == 0 {
         return None;
@@ -154,9 +154,9 @@ pub fn exposure_hint(hdr: &[f32], ldr: &[u8], exposure_ev: f32) -> Option<f32> {
     if lit == 0 {
         return None;
     }
-    let log_average = (sum / lit as f64).exp() * f64::from(exposure_ev).exp2();
+    let log_average = (sum / lit as f64).exp();
     let stops = (0.18 / log_average).log2();
-    Some(((stops * 2.0).round() / 2.0) as f32 + exposure_ev)
+    Some(((stops * 2.0).round() / 2.0) as f32)
 }
 
 #[cfg(test)]
@@ -168,16 +168,17 @@ mod exposure_tests {
         // Radiance 0.18 / 2^9 everywhere, tonemapped to black: +9 stops.
         let hdr = [0.18 / 512.0, 0.18 / 512.0, 0.18 / 512.0, 1.0].repeat(16);
         let black = [0u8, 0, 0, 255].repeat(16);
-        assert_eq!(exposure_hint(&hdr, &black, 0.0), Some(9.0));
-        // Already at +3: 6 more, so +9 in all.
-        let at_three = [0.18 / 64.0, 0.18 / 64.0, 0.18 / 64.0, 1.0].repeat(16);
-        assert_eq!(exposure_hint(&at_three, &black, 3.0), Some(9.0));
+        assert_eq!(exposure_hint(&hdr, &black), Some(9.0));
+        // The radiance is before exposure: 0.18 / 2^6 needs +6 in all, whatever the exposure
+        // the dark picture was made at.
+        let six = [0.18 / 64.0, 0.18 / 64.0, 0.18 / 64.0, 1.0].repeat(16);
+        assert_eq!(exposure_hint(&six, &black), Some(6.0));
         // Nothing lit: no hint. Not dark: no hint.
         assert_eq!(
-            exposure_hint(&[0.0, 0.0, 0.0, 1.0].repeat(16), &black, 0.0),
+            exposure_hint(&[0.0, 0.0, 0.0, 1.0].repeat(16), &black),
             None
         );
         let grey = [128u8, 128, 128, 255].repeat(16);
-        assert_eq!(exposure_hint(&hdr, &grey, 0.0), None);
+        assert_eq!(exposure_hint(&hdr, &grey), None);
     }
 }
