@@ -20,7 +20,7 @@ use glam::Vec3;
 use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
 use ispm::scene::Scene;
 use references::{
-    first_hits, path_traced, CONVERGENCE_BOUNCES, CONVERGENCE_SIZE, REFERENCE_PASSES,
+    first_hits, path_traced, pixel_ray, CONVERGENCE_BOUNCES, CONVERGENCE_SIZE, REFERENCE_PASSES,
 };
 
 fn settings(photons: usize, accumulate: bool) -> RenderSettings {
@@ -594,17 +594,9 @@ fn a_mirrors_caustic_converges_to_its_closed_form() {
     // (0.13×), mean 1.0003 of the closed form; at 20 000 photons 0.00021 → 0.00007, mean 1.0001.
     let (scene, caustic) = mirror_caustic_scene();
     let size = CONVERGENCE_SIZE;
-    let cam = &scene.camera;
-    let t = (cam.yfov * 0.5).tan();
     let reference: Vec<f32> = (0..size * size)
         .flat_map(|i| {
-            let (x, y) = (i % size, i / size);
-            let ndc_x = (x as f32 + 0.5) / size as f32 * 2.0 - 1.0;
-            let ndc_y = 1.0 - (y as f32 + 0.5) / size as f32 * 2.0;
-            let dir = cam
-                .transform
-                .transform_vector3(Vec3::new(ndc_x * t, ndc_y * t, -1.0));
-            let origin = cam.position();
+            let (origin, dir) = pixel_ray(&scene, size, i);
             let hit = origin + dir * (-origin.y / dir.y);
             let l = caustic.radiance(hit);
             [l, l, l, 1.0]

@@ -163,19 +163,25 @@ pub fn progressive_indirect(scene: &Scene) -> Vec<f32> {
 /// translucent pass's, and ISPM's G-buffer sees past them), `Some(false)` any other.
 pub fn first_hits(scene: &Scene, size: u32) -> Vec<Option<bool>> {
     let bvh = ispm::photon::bvh::SceneBvh::new(scene);
-    let cam = &scene.camera;
-    let t = (cam.yfov * 0.5).tan();
-    let origin = cam.position();
     (0..size * size)
         .map(|i| {
-            let (x, y) = (i % size, i / size);
-            let ndc_x = (x as f32 + 0.5) / size as f32 * 2.0 - 1.0;
-            let ndc_y = 1.0 - (y as f32 + 0.5) / size as f32 * 2.0;
-            let dir = cam
-                .transform
-                .transform_vector3(Vec3::new(ndc_x * t, ndc_y * t, -1.0));
+            let (origin, dir) = pixel_ray(scene, size, i);
             bvh.intersect(&ispm::photon::ray::Ray::new(origin, dir))
                 .map(|h| scene.materials[h.material].has_delta_lobe())
         })
         .collect()
+}
+
+/// The camera ray (origin, unnormalised direction) through the centre of pixel `i` (row-major)
+/// of a `size`² image of `scene`.
+pub fn pixel_ray(scene: &Scene, size: u32, i: u32) -> (Vec3, Vec3) {
+    let cam = &scene.camera;
+    let t = (cam.yfov * 0.5).tan();
+    let (x, y) = (i % size, i / size);
+    let ndc_x = (x as f32 + 0.5) / size as f32 * 2.0 - 1.0;
+    let ndc_y = 1.0 - (y as f32 + 0.5) / size as f32 * 2.0;
+    let dir = cam
+        .transform
+        .transform_vector3(Vec3::new(ndc_x * t, ndc_y * t, -1.0));
+    (cam.position(), dir)
 }
