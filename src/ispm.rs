@@ -253,6 +253,16 @@ pub struct Caster {
     pub bounds: Aabb,
 }
 
+impl Caster {
+    /// Its vertices in the clip space of the view `m` (`origin`-relative world → clip).
+    fn clip(&self, m: &DMat4, origin: DVec3) -> Vec<DVec4> {
+        self.vertices
+            .iter()
+            .map(|p| *m * (*p - origin).extend(1.0))
+            .collect()
+    }
+}
+
 /// The instances of `scene` whose material has a delta lobe (mirror, glass).
 pub fn casters(scene: &Scene) -> Vec<Caster> {
     let mut out = Vec::new();
@@ -301,11 +311,7 @@ fn caster_rect(m: &DMat4, casters: &[Caster], origin: DVec3) -> Option<(DVec2, D
         hi = hi.max(p);
     };
     for caster in casters {
-        let clip: Vec<DVec4> = caster
-            .vertices
-            .iter()
-            .map(|p| *m * (*p - origin).extend(1.0))
-            .collect();
+        let clip = caster.clip(m, origin);
         if clip.iter().all(|c| c.w > EPS) {
             clip.into_iter().for_each(&mut add);
             continue;

@@ -24,11 +24,7 @@ pub(super) fn covered_texels(
     let size = DVec2::new(f64::from(width), f64::from(height));
     let to_grid = |c: DVec4| (DVec2::new(c.x, c.y) / c.w - lo) / (hi - lo) * size;
     for caster in casters {
-        let clip: Vec<DVec4> = caster
-            .vertices
-            .iter()
-            .map(|p| *m * (*p - origin).extend(1.0))
-            .collect();
+        let clip = caster.clip(m, origin);
         for t in &caster.triangles {
             let [a, b, c] = t.map(|i| clip[i as usize]);
             if a.w <= EPS || b.w <= EPS || c.w <= EPS {
