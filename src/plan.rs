@@ -33,6 +33,7 @@ use emitters::{emitters_decision, has_area_samples};
 use crate::frame::{Method, RenderSettings, SkippedPass};
 use crate::photon::bsdf::{bounce_albedo, BsdfVariant, MaterialLobes};
 use crate::photon::emit::{photon_budget, photon_budget_among};
+use crate::photon::trace::MAX_BOUNCES;
 use crate::scene::emitters::Emitters;
 use crate::scene::{Aabb, Camera, LightKind, Material, Scene};
 use glam::Vec3;
@@ -664,7 +665,8 @@ impl EffectsPlan {
 
     /// The suggested bounce cap: the smallest K with a^(K+1)/(1 − a) < [`BOUNCE_POWER_CUTOFF`]
     /// for the brightest material's [`bounce_albedo`] a (the expected power of all photons past
-    /// bounce K, relative to the emitted power), at least 1, at most `--bounces`.
+    /// bounce K, relative to the emitted power), at least 1, at most `--bounces` (by default the
+    /// safety cap `MAX_BOUNCES`: Russian roulette ends the paths, the count is set by energy).
     fn bounce_depth(used: &[Used], bounces: u32) -> (u32, String) {
         let brightest = used
             .iter()
@@ -680,15 +682,30 @@ impl EffectsPlan {
             Some(k) => (
                 k,
                 format!(
-                    "brightest material '{}' keeps {albedo:.3} per bounce: photons past bounce {k} \
-                     carry < {BOUNCE_POWER_CUTOFF:e} of the emitted power",
+                    "Russian roulette ends the photon paths; brightest material '{}' keeps \
+                     {albedo:.3} per bounce: photons past bounce {k} carry < \
+                     {BOUNCE_POWER_CUTOFF:e} of the emitted power",
+                    material.name
+                ),
+            ),
+            _ if bounces >= MAX_BOUNCES => (
+                bounces,
+                format!(
+                    "Russian roulette ends the photon paths; {bounces} is only the safety cap \
+                     (brightest material '{}' keeps {albedo:.3} per bounce)",
                     material.name
                 ),
             ),
             _ => (
                 bounces,
                 format!(
-                    "--bounces {bounces} (brightest material '{}' keeps {albedo:.3} per bounce)",
+                    "--bounces {bounces}: photons past it carry up to {} of the emitted power \
+                     (brightest material '{}' keeps {albedo:.3} per bounce)",
+                    if a < 1.0 {
+                        format!("{:.1e}", tail(bounces))
+                    } else {
+                        "all".to_string()
+                    },
                     material.name
                 ),
             ),
