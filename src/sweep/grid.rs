@@ -309,9 +309,9 @@ mod tests {
         assert_eq!(
             labels,
             [
-                "ispm p1000 b8 r1 s1 c0.5",
-                "ispm p1000 b8 r1 s2 c0.5 joint",
-                "ispm p1000 b8 r1 s2 c0.5 bilinear"
+                "ispm p1000 b256 r1 s1 c0.5",
+                "ispm p1000 b256 r1 s2 c0.5 joint",
+                "ispm p1000 b256 r1 s2 c0.5 bilinear"
             ]
         );
     }
@@ -325,9 +325,9 @@ mod tests {
         assert_eq!(
             labels,
             [
-                "ispm p1000 b8 r1 s1 c0.5",
-                "ispm p1000 b8 r1 s1 c0.5 a8",
-                "photon-gather p1000 b8 r1 s1 c0",
+                "ispm p1000 b256 r1 s1 c0.5",
+                "ispm p1000 b256 r1 s1 c0.5 a8",
+                "photon-gather p1000 b256 r1 s1 c0",
             ]
         );
         // Results written before the knob read as one frame.
