@@ -118,33 +118,6 @@ vec3 uniform_sphere(vec2 u) {
     return vec3(r * cos(phi), r * sin(phi), z);
 }
 
-// ---- bsdf/glossy_albedo.rs ------------------------------------------------------------------
-
-// Lower grid index and fraction of x in [0, steps - 1].
-void glossy_albedo_cell(float x, int steps, out int i, out float f) {
-    x = clamp(x, 0.0, float(steps - 1));
-    i = min(int(floor(x)), steps - 2);
-    f = x - float(i);
-}
-
-// E(sigma, mu_o), bilinear in u = log2(1 + sigma) / (6 log2 10) and v = sqrt(mu_o).
-float bsdf_glossy_albedo(float exponent, float cos_o) {
-    float u = log2(1.0 + max(exponent, 0.0)) / GLOSSY_ALBEDO_SIGMA_AXIS_LOG2_SPAN
-              * float(GLOSSY_ALBEDO_SIGMA_STEPS - 1);
-    float v = sqrt(clamp(cos_o, 0.0, 1.0)) * float(GLOSSY_ALBEDO_MU_STEPS - 1);
-    int i;
-    int j;
-    float fu;
-    float fv;
-    glossy_albedo_cell(u, GLOSSY_ALBEDO_SIGMA_STEPS, i, fu);
-    glossy_albedo_cell(v, GLOSSY_ALBEDO_MU_STEPS, j, fv);
-    int k = i * GLOSSY_ALBEDO_MU_STEPS + j;
-    int m = k + GLOSSY_ALBEDO_MU_STEPS;
-    float lo = GLOSSY_ALBEDO[k] + (GLOSSY_ALBEDO[k + 1] - GLOSSY_ALBEDO[k]) * fv;
-    float hi = GLOSSY_ALBEDO[m] + (GLOSSY_ALBEDO[m + 1] - GLOSSY_ALBEDO[m]) * fv;
-    return lo + (hi - lo) * fu;
-}
-
 // ---- bsdf.rs --------------------------------------------------------------------------------
 
 float bsdf_mean(vec3 v) {

@@ -2,6 +2,7 @@
 //! a rule could misfire, one built not to).
 
 use super::*;
+use crate::photon::trace::MAX_BOUNCES;
 use crate::reference::scenes::{closed_box, cornell, grey_box};
 use crate::scene::Light;
 use glam::Mat4;
