@@ -100,7 +100,10 @@ pub struct RenderSettings {
     /// map then carries exactly each light's flux in every frame, not only on average (the
     /// tests of that sum use it). Default false.
     pub whole_light_grids: bool,
-    /// Most scattering events a photon may take.
+    /// Most scattering events a photon may take. Default [`MAX_BOUNCES`], a safety net:
+    /// Russian roulette ends the paths (`photon::trace`, "Bounces").
+    ///
+    /// [`MAX_BOUNCES`]: crate::photon::trace::MAX_BOUNCES
     pub bounces: u32,
     /// Largest kernel radius in metres (`None`: relative to the scene and photon count).
     pub radius: Option<f32>,
@@ -154,7 +157,7 @@ impl Default for RenderSettings {
             method: Method::Ispm,
             photons: 100_000,
             whole_light_grids: false,
-            bounces: 8,
+            bounces: crate::photon::trace::MAX_BOUNCES,
             radius: None,
             seed: 0,
             width: 640,

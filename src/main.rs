@@ -89,8 +89,9 @@ struct SweepArgs {
     /// Reference: photons per progressive photon mapping iteration.
     #[arg(long, default_value_t = 100_000)]
     reference_photons: usize,
-    /// Reference: most bounces of a light path.
-    #[arg(long, default_value_t = 16)]
+    /// Reference: most bounces of a light path (default: until Russian roulette ends it, at
+    /// most 256).
+    #[arg(long, default_value_t = ispm::photon::trace::MAX_BOUNCES)]
     reference_bounces: u32,
     /// Where references are cached (default: $XDG_CACHE_HOME/ispm/references).
     #[arg(long, value_name = "DIR")]
@@ -236,8 +237,8 @@ struct QualityArgs {
     /// the image size; 1: full resolution). Default 1, or the --quality preset's.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     subsample: Option<u32>,
-    /// Most scattering events per photon, and per path for the references (default 8, or the
-    /// --quality preset's).
+    /// Most scattering events per photon, and per path for the references (default: until
+    /// Russian roulette ends the path, at most 256; a lower N cuts the light after N bounces).
     #[arg(long)]
     bounces: Option<u32>,
     /// Largest photon kernel radius in metres (default: from the scene size and photon count,
@@ -308,8 +309,9 @@ struct PlanArgs {
     /// Photons emitted per frame, split over the active lights by power.
     #[arg(long, default_value_t = 100_000)]
     photons: usize,
-    /// Most scattering events per photon.
-    #[arg(long, default_value_t = 8)]
+    /// Most scattering events per photon (default: until Russian roulette ends the path, at
+    /// most 256).
+    #[arg(long, default_value_t = ispm::photon::trace::MAX_BOUNCES)]
     bounces: u32,
     /// Photon volumes at 1/N resolution.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]

@@ -376,7 +376,11 @@ impl Overlay {
                         .logarithmic(true)
                         .text("photons"),
                 );
-                ui.add(egui::Slider::new(&mut s.bounces, 0..=16).text("bounces"));
+                ui.add(
+                    egui::Slider::new(&mut s.bounces, 0..=crate::photon::trace::MAX_BOUNCES)
+                        .logarithmic(true)
+                        .text("bounces"),
+                );
                 let mut auto = s.radius.is_none();
                 ui.horizontal(|ui| {
                     ui.checkbox(&mut auto, "kernel radius auto");

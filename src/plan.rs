@@ -20,6 +20,7 @@
 //! below a stated fraction of the emitted power); every doubt keeps the work on.
 //! [`Effects::All`] reproduces the unplanned frame: every variant, light and pass.
 
+mod bounces;
 mod emitters;
 mod enclosure;
 mod reach;
@@ -31,7 +32,7 @@ pub use enclosure::{Enclosures, Probe, StaticEnclosures};
 use emitters::{emitters_decision, has_area_samples};
 
 use crate::frame::{Method, RenderSettings, SkippedPass};
-use crate::photon::bsdf::{bounce_albedo, BsdfVariant, MaterialLobes};
+use crate::photon::bsdf::{BsdfVariant, MaterialLobes};
 use crate::photon::emit::{photon_budget, photon_budget_among};
 use crate::scene::emitters::Emitters;
 use crate::scene::{Aabb, Camera, LightKind, Material, Scene};
@@ -419,7 +420,7 @@ impl SceneAnalysis {
             translucent,
             delta,
             glossy,
-            bounces: EffectsPlan::bounce_depth(&used, settings.bounces),
+            bounces: bounces::bounce_depth(&used, settings.bounces),
             indirect,
             delta_bounds,
             enclosures,
@@ -660,39 +661,6 @@ impl EffectsPlan {
             "material '{}' scatters light and material '{}' shows the photons stored on it",
             scatterer.material.name, receiver.material.name
         ))
-    }
-
-    /// The suggested bounce cap: the smallest K with a^(K+1)/(1 − a) < [`BOUNCE_POWER_CUTOFF`]
-    /// for the brightest material's [`bounce_albedo`] a (the expected power of all photons past
-    /// bounce K, relative to the emitted power), at least 1, at most `--bounces`.
-    fn bounce_depth(used: &[Used], bounces: u32) -> (u32, String) {
-        let brightest = used
-            .iter()
-            .map(|u| (&u.material, bounce_albedo(&u.material)))
-            .max_by(|a, b| a.1.total_cmp(&b.1));
-        let Some((material, albedo)) = brightest else {
-            return (bounces, "no materials".to_string());
-        };
-        let a = f64::from(albedo);
-        let tail = |k: u32| a.powi(k as i32 + 1) / (1.0 - a);
-        let cap = (1..bounces).find(|&k| a < 1.0 && tail(k) < BOUNCE_POWER_CUTOFF);
-        match cap {
-            Some(k) => (
-                k,
-                format!(
-                    "brightest material '{}' keeps {albedo:.3} per bounce: photons past bounce {k} \
-                     carry < {BOUNCE_POWER_CUTOFF:e} of the emitted power",
-                    material.name
-                ),
-            ),
-            _ => (
-                bounces,
-                format!(
-                    "--bounces {bounces} (brightest material '{}' keeps {albedo:.3} per bounce)",
-                    material.name
-                ),
-            ),
-        }
     }
 
     /// The über-BSDF lobes the shaders need.

@@ -40,8 +40,8 @@ pub struct Preset {
 impl Quality {
     /// The preset's knobs: points of the front of the four bundled scenes' sweeps taken
     /// together (docs/accuracy.md §5.3: geometric means over the scenes of the frame time and
-    /// of the relMSE over each scene's best, 160×120, lavapipe). Bounces stay 8: fewer bounces
-    /// measured worse and not measurably faster.
+    /// of the relMSE over each scene's best, 160×120, lavapipe). Bounces are not a knob: Russian
+    /// roulette ends the paths ([`DEFAULT_BOUNCES`] is only the safety cap).
     pub fn preset(self) -> Preset {
         let (photons, radius_scale, subsample) = match self {
             // The fastest point of the front (61.9 ms, 1.97× the best error).
@@ -86,7 +86,9 @@ pub struct Explicit {
 
 /// The flags' own defaults (no `--quality`).
 pub const DEFAULT_PHOTONS: usize = 100_000;
-pub const DEFAULT_BOUNCES: u32 = 8;
+/// No bounce count: Russian roulette ends the paths, this is only the safety cap (issue #19: the
+/// old fixed 8 bounces cost an albedo-0.8 room 13 % of its light, `tests/physics_energy.rs`).
+pub const DEFAULT_BOUNCES: u32 = crate::photon::trace::MAX_BOUNCES;
 
 /// Resolves the knobs for a scene with `bounds` (module docs).
 pub fn resolve(quality: Option<Quality>, explicit: Explicit, bounds: &Aabb) -> Knobs {

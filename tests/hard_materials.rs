@@ -61,10 +61,12 @@ fn box_of(material: Material) -> Scene {
 
 #[test]
 fn glossy_exponent_zero_and_very_large() {
-    // A closed box of glossy walls (ρS = 1): the bounce map keeps at most the flux (the lobe
-    // loses what falls below the horizon: at σ = 0 the half vectors are uniform over the
-    // hemisphere and most reflected directions go below it), nearly all of it for a sharp lobe.
-    for (exponent, least) in [(0.0, 0.1), (1e6, 0.95)] {
+    // A closed box of glossy walls (ρS = 1): the bounce map keeps the flux, whatever the
+    // exponent. The energy-compensated lobe (issue #19) keeps what its shape loses (at σ = 0 the
+    // half vectors are uniform over the hemisphere and most reflected directions go below it:
+    // the GPU's first bounce kept only 0.1–0.45 of the flux before); this checks the GLSL twin
+    // of the compensation (`bsdf_glossy_albedo`) on the GPU.
+    for (exponent, least) in [(0.0, 0.98), (1e6, 0.98)] {
         let scene = box_of(Material {
             lambertian: Vec3::ZERO,
             glossy: Vec3::ONE,
@@ -79,7 +81,7 @@ fn glossy_exponent_zero_and_very_large() {
         let kept = f.bounce_map_power().element_sum() / 3.0 / flux(&scene);
         eprintln!("glossy exponent {exponent}: the first bounce keeps {kept:.4} of the flux");
         assert!(
-            (least..=1.0 + 1e-3).contains(&kept),
+            (least..=1.02).contains(&kept),
             "exponent {exponent}: {kept}"
         );
     }

@@ -239,9 +239,11 @@ fn specular_glossiness_converts_to_metallic_roughness_by_the_published_formula()
     gltf.uses("KHR_materials_pbrSpecularGlossiness", true);
     let scene = load(&gltf).expect("a file requiring the extension loads");
 
-    // A dielectric stays one: base colour = diffuse, metallic 0, roughness = 1 − glossiness.
+    // A dielectric stays one: base colour = diffuse, metallic 0, roughness = 1 − glossiness;
+    // its Lambertian part is (1 − F0)·0.5 (glTF's fresnel_mix, and the extension's own
+    // c_diff = diffuse·(1 − max specular)).
     let plastic = material(&scene, "plastic");
-    assert!(close(plastic.lambertian, Vec3::splat(0.5)));
+    assert!(close(plastic.lambertian, Vec3::splat(0.48)));
     assert!(close(plastic.glossy, Vec3::splat(0.04)) && plastic.fresnel);
     let alpha = 0.7f32 * 0.7;
     assert!((plastic.exponent - (2.0 / (alpha * alpha) - 2.0)).abs() < 1e-3);
@@ -255,7 +257,7 @@ fn specular_glossiness_converts_to_metallic_roughness_by_the_published_formula()
     let (base, metallic) = (Vec3::new(0.710_632, 0.491_766, 0.272_900), 0.313_194);
     let mixed = material(&scene, "mixed");
     assert!(
-        close(mixed.lambertian, (1.0 - metallic) * base),
+        close(mixed.lambertian, (1.0 - metallic) * 0.96 * base),
         "{mixed:?}"
     );
     assert!(close(

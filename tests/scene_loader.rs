@@ -769,6 +769,10 @@ fn materials_map_metallic_roughness_to_uber_bsdf() {
         "α = r², σ = 2/α² − 2"
     );
     assert!((m[1].glossy.x - 0.04).abs() < 1e-6, "F0 of η = 1.5");
+    assert!(
+        (m[1].lambertian.x - 0.48).abs() < 1e-6,
+        "(1 − F0)·c: glTF's fresnel_mix"
+    );
     assert!(m[2].transmission.x > 0.9 && m[2].ior == 1.33 && m[2].lambertian == Vec3::ZERO);
     assert!(
         (m[3].emission - Vec3::ONE).length() < 1e-6,

@@ -3,7 +3,8 @@
 // docs of bsdf.rs state the conventions and formulas; in short:
 //   wo, wi point away from the surface; normals are flipped to wo's side of the GEOMETRIC
 //   normal, which also decides eta (front: ior, back: 1/ior).
-//   Lambertian c_L/pi; glossy c_S D(h) / (4 (wi.h) max(cos_o, cos_i)), D = (s+1)/(2pi) cos^s;
+//   Lambertian c_L/pi; glossy c_S D(h) / (4 (wi.h) max(cos_o, cos_i) E(s, cos_o)),
+//   D = (s+1)/(2pi) cos^s, E the shape's directional albedo (glossy_albedo.glsl);
 //   mirror (exponent = +inf, test with isinf) and refraction are delta lobes; TIR reflects.
 //   Fresnel (optional): S = (F - F0)/(1 - F0); c_S = rhoS + (1 - rhoS) S, c_L, c_T *= 1 - S.
 // Inputs are assumed sanitised (bsdf_make does what Bsdf::new does); GPUs may not honour NaN
@@ -17,6 +18,7 @@
 #define ISPM_BSDF_GLSL
 
 #include "shared_constants.glsl"
+#include "glossy_albedo.glsl"
 
 layout(constant_id = SPEC_ID_GLOSSY_LOBE) const bool BSDF_GLOSSY_LOBE = true;
 layout(constant_id = SPEC_ID_DELTA_LOBES) const bool BSDF_DELTA_LOBES = true;
@@ -264,7 +266,8 @@ vec2 bsdf_glossy_shape_and_pdf(Bsdf bsdf, BsdfOriented o, vec3 wi, float cos_i) 
         return vec2(0.0);
     }
     float d = blinn_phong_half_vector_pdf(dot(h, o.n), bsdf.exponent);
-    return vec2(d / (4.0 * wo_h * max(o.cos_o, cos_i)), d / (4.0 * wo_h));
+    float e = bsdf_glossy_albedo(bsdf.exponent, o.cos_o);
+    return vec2(d / (4.0 * wo_h * max(o.cos_o, cos_i) * e), d / (4.0 * wo_h));
 }
 
 // f (non-delta lobes) and the mixture pdf of wi, sharing the glossy lobe's evaluation.
@@ -393,7 +396,7 @@ bool bsdf_sample_lobe(Bsdf bsdf, uint lobe, vec3 wo, vec3 n_s, vec3 n_g, vec2 u,
     } else if (BSDF_GLOSSY_LOBE && lobe == LOBE_GLOSSY) {
         float cos_i = min(dot(wi, o.n), 1.0);
         pdf = bsdf_glossy_shape_and_pdf(bsdf, o, wi, cos_i).y;
-        weight = c * (cos_i / max(o.cos_o, cos_i));
+        weight = c * (cos_i / (max(o.cos_o, cos_i) * bsdf_glossy_albedo(bsdf.exponent, o.cos_o)));
     }
     if (!(pdf > 0.0) || isinf(pdf)) {
         return false;

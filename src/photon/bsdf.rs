@@ -13,12 +13,19 @@
 //!
 //! # Lobes, with their reflectances c (RGB) and shapes g (∫ g cos dω ≤ 1)
 //! - **Lambertian** `c_L/π`, sampled by cosine-weighted hemisphere sampling.
-//! - **Glossy**, normalised Blinn–Phong in the Ashikhmin–Shirley form
-//!   `c_S · D(h) / (4 (wi·h) max(cos θo, cos θi))` with `D(h) = (σ+1)/(2π)·cosσ θh` the pdf of
-//!   the half vector. Substituting `dωi = 4 (wi·h) dωh` gives the directional albedo
-//!   `c_S ∫ D(h) cos θi / max(cos θo, cos θi) dωh ≤ c_S ∫ D dωh = c_S`: energy ≤ 1 for any σ
-//!   and any angle, the estimator `f cos/pdf = c_S cos θi / max(cos θo, cos θi) ≤ c_S` is bounded
-//!   (good for Russian roulette), the lobe is reciprocal, and σ → ∞ tends to the mirror.
+//! - **Glossy**, normalised Blinn–Phong in the Ashikhmin–Shirley form, energy-compensated:
+//!   `c_S · D(h) / (4 (wi·h) max(cos θo, cos θi) E(σ, cos θo))` with `D(h) = (σ+1)/(2π)·cosσ θh`
+//!   the pdf of the half vector. Substituting `dωi = 4 (wi·h) dωh` gives the uncompensated
+//!   shape's directional albedo `E(σ, μo) = ∫ D(h) cos θi / max(μo, cos θi) dωh ≤ 1`, which
+//!   loses much of the light of a rough lobe (half vectors that reflect `wo` below the horizon,
+//!   and the max): 0.14 at σ = 0 and normal incidence, 0.45 at grazing, about 0.5 at grazing
+//!   for any σ. **Glossy energy compensation** (issue #19) divides by E, tabulated in
+//!   `glsl/common/glossy_albedo.glsl` ([`glossy_albedo`]), so the lobe reflects exactly c_S at
+//!   every angle (to the table's ±0.5 %): a white glossy room conserves energy like a white
+//!   Lambertian one. The estimator `f cos/pdf = c_S cos θi / (max(cos θo, cos θi) E) ≤ c_S/E`
+//!   stays bounded (E > 0.13). Like the Fresnel weights below, E depends on `wo` alone, so the
+//!   lobe is not reciprocal (the photon tracer takes the photon's incident direction as `wo`);
+//!   σ → ∞ tends to the mirror.
 //! - **Mirror** (σ = ∞) and **refraction** (Snell, η as above): delta lobes with weight `c`.
 //!   Under total internal reflection the refraction lobe reflects (its energy goes to the mirror
 //!   direction, `eta` = 1). Refracted photons carry power, so no 1/η² radiance scaling is applied.
@@ -45,10 +52,12 @@
 
 #[cfg(test)]
 mod chi_square;
+pub mod glossy_albedo;
 mod lobes;
 #[cfg(test)]
 mod tests;
 
+use glossy_albedo::glossy_albedo;
 pub use lobes::{bounce_albedo, BsdfVariant, MaterialLobes};
 
 use super::sampling::{
@@ -300,7 +309,8 @@ impl Bsdf {
             return (0.0, 0.0);
         }
         let d = blinn_phong_half_vector_pdf(h.dot(o.frame.n), self.exponent);
-        (d / (4.0 * wo_h * o.cos_o.max(cos_i)), d / (4.0 * wo_h))
+        let e = glossy_albedo(self.exponent, o.cos_o);
+        (d / (4.0 * wo_h * o.cos_o.max(cos_i) * e), d / (4.0 * wo_h))
     }
 
     /// f (non-delta lobes) and the mixture pdf of `wi`, sharing the glossy lobe's evaluation.
@@ -434,7 +444,8 @@ impl Bsdf {
             Lobe::Glossy => {
                 let cos_i = wi.dot(o.frame.n).min(1.0);
                 let pdf = self.glossy_shape_and_pdf(o, wi, cos_i).1;
-                (c * (cos_i / o.cos_o.max(cos_i)), pdf)
+                let e = glossy_albedo(self.exponent, o.cos_o);
+                (c * (cos_i / (o.cos_o.max(cos_i) * e)), pdf)
             }
             Lobe::Mirror | Lobe::Refraction => (c, 1.0),
         };

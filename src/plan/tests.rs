@@ -2,6 +2,7 @@
 //! a rule could misfire, one built not to).
 
 use super::*;
+use crate::photon::trace::MAX_BOUNCES;
 use crate::reference::scenes::{closed_box, cornell, grey_box};
 use crate::scene::Light;
 use glam::Mat4;
@@ -457,12 +458,24 @@ fn the_bounce_depth_follows_the_brightest_albedo_capped_by_bounces() {
         &dark.camera,
     );
     assert_eq!(capped.max_bounces, 4);
-    // A bright box keeps every bounce --bounces allows.
-    assert_eq!(plan(&grey_box(0.8, 1.0)).max_bounces, 8);
-    // The brightest material decides, not the average.
+    assert!(capped
+        .max_bounces_reason
+        .starts_with("--bounces 4: photons past it carry up to"));
+    // A bright box needs many bounces: 0.8^(K+1)/0.2 < 1e-3 first at K = 38 (the old default
+    // of 8 bounces cut 13 % of its light).
+    assert_eq!(plan(&grey_box(0.8, 1.0)).max_bounces, 38);
+    // The brightest material decides, not the average: 0.9^(K+1)/0.1 < 1e-3 at K = 87.
     let mut mixed = grey_box(0.1, 1.0);
     mixed.materials[3] = diffuse("bright", 0.9);
-    assert_eq!(plan(&mixed).max_bounces, 8);
+    assert_eq!(plan(&mixed).max_bounces, 87);
+    // A white room loses nothing: only the safety cap ends its paths.
+    let white = plan(&grey_box(1.0, 1.0));
+    assert_eq!(
+        white.max_bounces, MAX_BOUNCES,
+        "{}",
+        white.max_bounces_reason
+    );
+    assert!(white.max_bounces_reason.contains("safety cap"));
 }
 
 #[test]
@@ -480,7 +493,7 @@ fn effects_all_forces_every_variant_light_and_photon_pass_on() {
     assert_eq!(all.bsdf_variant(), BsdfVariant::ALL);
     assert!(all.lights.iter().all(|l| l.direct));
     assert_eq!(all.lights[0].photons + all.lights[1].photons, 10_000);
-    assert_eq!(all.max_bounces, 8);
+    assert_eq!(all.max_bounces, MAX_BOUNCES);
     let passes = all.passes();
     assert!(pass(&passes, "bounce_map").run);
     // No instance is glass or a mirror: the translucent pass has nothing to draw either way.

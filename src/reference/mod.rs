@@ -28,7 +28,7 @@ use crate::photon::bvh::SceneBvh;
 use crate::photon::emit::spot_falloff;
 use crate::photon::ray::{Hit, Ray};
 use crate::photon::rng::{hash2, Rng};
-use crate::photon::trace::{bsdf_at, emitted, has_finite_lobe};
+use crate::photon::trace::{bsdf_at, emitted, has_finite_lobe, MAX_BOUNCES};
 use crate::scene::emitters::Emitters;
 use crate::scene::{LightKind, Scene};
 use anyhow::{bail, Result};
@@ -59,7 +59,8 @@ pub struct RefSettings {
     pub jitter: bool,
     /// Photons emitted per photon map (per iteration for `progressive`).
     pub photons: usize,
-    /// Most bounces of a light path (photon scattering events; path-trace depth − 1).
+    /// Most bounces of a light path (photon scattering events; path-trace depth − 1). Default
+    /// [`MAX_BOUNCES`], a safety net: Russian roulette ends the paths.
     pub bounces: u32,
     /// Progressive photon mapping iterations.
     pub iterations: u32,
@@ -79,7 +80,7 @@ impl Default for RefSettings {
             spp: 16,
             jitter: true,
             photons: 200_000,
-            bounces: 16,
+            bounces: MAX_BOUNCES,
             iterations: 16,
             radius: None,
             alpha: 2.0 / 3.0,

@@ -8,8 +8,8 @@
 //!   α = r²;  exponent σ = 2/α² − 2  (Blinn–Phong equivalent of GGX α; r = 0 or σ ≥ 1e6 ⇒ ∞, a mirror)
 //!   F0 = ((η − 1)/(η + 1))² · s · sc
 //!   glossy       = m·c + (1 − m)·F0
-//!   lambertian   = (1 − m)·(1 − t)·c
-//!   transmission = (1 − m)·t·c
+//!   lambertian   = (1 − m)·(1 − max F0)·(1 − t)·c   (glTF's fresnel_mix: the base × (1 − F))
+//!   transmission = (1 − m)·(1 − max F0)·t·c
 //!   fresnel      = m < 0.5          (dielectrics follow Fresnel, metals use `glossy` as is)
 //!   emission     = emissiveFactor · emissiveStrength / 683   (nits → W/(m²·sr))
 //! ```
@@ -279,13 +279,16 @@ fn convert_inner(
     let ior = if ior == 0.0 { 1.5 } else { ior };
     let f0 = (((ior - 1.0) / (ior + 1.0)).powi(2) * s.clamp(0.0, 1.0) * sc).min(Vec3::ONE);
 
+    // glTF's fresnel_mix weights the dielectric base (diffuse and transmission) by 1 − F,
+    // F = F0 at normal incidence; the Fresnel ramp (`fresnel`) takes it from there to grazing.
+    let base_weight = (1.0 - m) * (1.0 - f0.max_element());
     let mut out = Material {
         name: name.to_owned(),
-        lambertian: (1.0 - m) * (1.0 - t) * c,
+        lambertian: base_weight * (1.0 - t) * c,
         lambertian_texture: None,
         glossy: m * c + (1.0 - m) * f0,
         exponent: exponent_from_roughness(rough),
-        transmission: (1.0 - m) * t * c,
+        transmission: base_weight * t * c,
         ior,
         fresnel: m < 0.5,
         emission: emission(file, name, mat)?,

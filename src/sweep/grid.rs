@@ -7,7 +7,7 @@
 //! | knob | what it sets | default values |
 //! |---|---|---|
 //! | `photons` | photons emitted per frame (`--photons`) | 10k, 40k, 160k |
-//! | `bounces` | most scattering events per photon (`--bounces`) | 8 |
+//! | `bounces` | most scattering events per photon (`--bounces`) | 256 (the safety cap: Russian roulette ends the paths) |
 //! | `radius` | kernel `r_max` as a multiple of the scene-relative default (`--radius`) | 0.5, 1, 2 |
 //! | `subsample` | photon volumes at 1/N resolution (`--subsample`) | 1, 2, 4 |
 //! | `caustic-share` | bounce-map resolution: the share of photons on the caustic views (`--caustic-share`) | 0.5 |
@@ -129,7 +129,7 @@ impl Default for Grid {
         Self {
             method: vec![SweepMethod::Ispm],
             photons: vec![10_000, 40_000, 160_000],
-            bounces: vec![8],
+            bounces: vec![crate::photon::trace::MAX_BOUNCES],
             radius: vec![0.5, 1.0, 2.0],
             subsample: vec![1, 2, 4],
             caustic_share: vec![crate::ispm::CAUSTIC_SHARE],
@@ -309,9 +309,9 @@ mod tests {
         assert_eq!(
             labels,
             [
-                "ispm p1000 b8 r1 s1 c0.5",
-                "ispm p1000 b8 r1 s2 c0.5 joint",
-                "ispm p1000 b8 r1 s2 c0.5 bilinear"
+                "ispm p1000 b256 r1 s1 c0.5",
+                "ispm p1000 b256 r1 s2 c0.5 joint",
+                "ispm p1000 b256 r1 s2 c0.5 bilinear"
             ]
         );
     }
@@ -325,9 +325,9 @@ mod tests {
         assert_eq!(
             labels,
             [
-                "ispm p1000 b8 r1 s1 c0.5",
-                "ispm p1000 b8 r1 s1 c0.5 a8",
-                "photon-gather p1000 b8 r1 s1 c0",
+                "ispm p1000 b256 r1 s1 c0.5",
+                "ispm p1000 b256 r1 s1 c0.5 a8",
+                "photon-gather p1000 b256 r1 s1 c0",
             ]
         );
         // Results written before the knob read as one frame.

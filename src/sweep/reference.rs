@@ -38,7 +38,7 @@ pub struct ReferenceSpec {
     pub passes: u32,
     /// Progressive photon mapping: photons per iteration.
     pub photons: usize,
-    /// Most bounces of a light path.
+    /// Most bounces of a light path (default: the safety cap; Russian roulette ends them).
     pub bounces: u32,
 }
 
@@ -47,7 +47,7 @@ impl Default for ReferenceSpec {
         Self {
             passes: 256,
             photons: 100_000,
-            bounces: 16,
+            bounces: crate::photon::trace::MAX_BOUNCES,
         }
     }
 }

@@ -173,13 +173,19 @@ fn white_furnace_lambertian_reflects_exactly_its_albedo() {
     }
 }
 
+/// The energy-compensated glossy lobe reflects its reflectance, not less (issue #19: the
+/// uncompensated σ = 0 lobe kept 14 % at normal incidence), and not more. (At cos θo = 0.02
+/// this grid over wi does not resolve the lobe; `glossy_albedo`'s tests sample it there.)
 #[test]
-fn glossy_lobe_reflects_at_most_its_reflectance_by_quadrature() {
+fn glossy_lobe_reflects_its_reflectance_by_quadrature() {
     for e in [0.0, 1.0, 10.0, 100.0] {
         let b = bsdf(0.0, 1.0, e, 0.0, 1.5, false);
-        for cos_o in COS_THETA_O {
+        for cos_o in [1.0, 0.7, 0.2] {
             let a = albedo_quadrature(&b, wo_at(cos_o), 2000, 256);
-            assert!(a.max_element() <= 1.0 + 2e-3, "σ={e} cos θo={cos_o}: {a}");
+            assert!(
+                (a - Vec3::ONE).abs().max_element() <= 0.01,
+                "σ={e} cos θo={cos_o}: {a}"
+            );
         }
     }
 }
@@ -209,7 +215,8 @@ fn every_lobe_and_mixture_conserves_energy() {
     for (name, b) in cases {
         for cos_o in COS_THETA_O {
             let (mean, err) = albedo_estimate(&b, wo_at(cos_o), 100_000, 11);
-            let excess = mean - Vec3::ONE - 4.0 * err - Vec3::splat(1e-4);
+            // The glossy lobe's energy compensation is exact to its fitted E (±0.5 %).
+            let excess = mean - Vec3::ONE - 4.0 * err - Vec3::splat(5e-3);
             assert!(
                 excess.max_element() <= 0.0,
                 "{name} at cos θo={cos_o}: {mean} ± {err}"
@@ -569,6 +576,7 @@ fn glsl_twin_defines_every_function_and_uses_the_shared_constants() {
         "BSDF_MIN_LENGTH_SQUARED",
         "BSDF_MIN_COS",
         "GLOSSY_EXPONENT_MAX",
+        "#include \"glossy_albedo.glsl\"",
     ] {
         assert!(glsl.contains(c), "bsdf.glsl does not use {c}");
     }
