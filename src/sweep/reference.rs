@@ -19,9 +19,10 @@ use super::hash::{fnv1a, fnv1a_debug, hex};
 
 /// The revision of the CPU references' physics, part of every cache key: bump it whenever a
 /// change makes `path-trace` or `progressive` render a scene differently (2: emissive surfaces
-/// sampled as lights, emission counted once), so that no cached reference of the old physics is
+/// sampled as lights, emission counted once; 3: Russian-roulette path depth, energy-compensated
+/// glossy lobe, glTF dielectric base weighted by 1 − F0), so that no cached reference of the old physics is
 /// compared with the new renderer.
-pub const REFERENCE_REVISION: u32 = 2;
+pub const REFERENCE_REVISION: u32 = 3;
 use crate::metrics::rgba;
 use crate::reference::{self, Method, RefSettings};
 use crate::scene::Scene;
