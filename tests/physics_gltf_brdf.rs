@@ -22,6 +22,7 @@ use common::gltf_doc::object_on_floor;
 use glam::Vec3;
 use ispm::photon::bsdf::Bsdf;
 use ispm::photon::rng::Rng;
+use rayon::prelude::*;
 use serde_json::json;
 use std::f32::consts::PI;
 
@@ -70,17 +71,11 @@ fn gltf_albedo(c: f32, r: f32, m: f32, cos_o: f32) -> f32 {
 
 /// The über-BSDF's directional albedo (red channel) from its own sampling weights.
 fn our_albedo(b: &Bsdf, cos_o: f32) -> f32 {
-    let mut rng = Rng::new(7);
-    let sum: f64 = (0..SAMPLES)
-        .filter_map(|_| b.sample(wo(cos_o), Vec3::Z, Vec3::Z, rng.next_3()))
-        .map(|s| f64::from(s.weight.x))
-        .sum();
-    (sum / SAMPLES as f64) as f32
+    albedo_n(b, cos_o, SAMPLES, 7)
 }
 
 /// The über-BSDFs the loader makes of glTF materials `(c, r, m)` (no extras).
 fn loaded(configs: &[(f32, f32, f32)]) -> Vec<Bsdf> {
-    let mut doc = object_on_floor();
     let materials: Vec<_> = configs
         .iter()
         .map(|&(c, r, m)| {
@@ -88,10 +83,138 @@ fn loaded(configs: &[(f32, f32, f32)]) -> Vec<Bsdf> {
                    "metallicFactor": m, "roughnessFactor": r}})
         })
         .collect();
+    loaded_json(materials, "materials")
+}
+
+/// The über-BSDFs the loader makes of glTF material objects, written into one file `name`
+/// (every material extension the loader reads declared as used).
+fn loaded_json(materials: Vec<serde_json::Value>, name: &str) -> Vec<Bsdf> {
+    let mut doc = object_on_floor();
     doc.doc["materials"] = json!(materials);
+    for ext in [
+        "KHR_materials_transmission",
+        "KHR_materials_ior",
+        "KHR_materials_specular",
+        "KHR_materials_pbrSpecularGlossiness",
+    ] {
+        doc.uses(ext, false);
+    }
     let dir = common::image_dir("physics_gltf_brdf");
-    let scene = ispm::scene::load::load(&doc.write(&dir, "materials")).expect("load");
+    let scene = ispm::scene::load::load(&doc.write(&dir, name)).expect("load");
     scene.materials.iter().map(|m| Bsdf::new(m, None)).collect()
+}
+
+/// The über-BSDF's directional albedo (red channel) with `n` samples and a seed of its own.
+fn albedo_n(b: &Bsdf, cos_o: f32, n: usize, seed: u32) -> f32 {
+    let mut rng = Rng::new(seed);
+    let sum: f64 = (0..n)
+        .filter_map(|_| b.sample(wo(cos_o), Vec3::Z, Vec3::Z, rng.next_3()))
+        .map(|s| f64::from(s.weight.x))
+        .sum();
+    (sum / n as f64) as f32
+}
+
+#[test]
+fn every_white_material_the_loader_makes_keeps_all_light_and_gains_none() {
+    // A white furnace over every configuration the metallic-roughness loader can produce:
+    // roughness × metallic × transmission × ior × KHR_materials_specular, plus
+    // KHR_materials_pbrSpecularGlossiness. With a white base, glTF's fresnel_mix splits the
+    // light between the base (diffuse or transmission) and the specular layer, and a white
+    // metal reflects everything: the über-BSDF must then keep all the light it gets, at every
+    // angle — reflected plus transmitted — and never more. Spec-gloss materials are converted
+    // by the extension's formula, whose white is not always energy-preserving: they are held to
+    // "no gain" only.
+    const N: usize = 50_000;
+    let mut configs = Vec::new();
+    for r in [0.0f32, 0.05, 0.2, 0.5, 0.8, 1.0] {
+        for m in [0.0f32, 0.3, 0.7, 1.0] {
+            for t in [0.0f32, 0.5, 1.0] {
+                for ior in [1.0f32, 1.33, 1.5, 2.4] {
+                    for (s, sc) in [(1.0f32, [1.0f32; 3]), (0.5, [1.0, 1.0, 1.0])] {
+                        configs.push((
+                            format!("r {r} m {m} t {t} ior {ior} specular {s}"),
+                            json!({"pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, 1.0],
+                                    "metallicFactor": m, "roughnessFactor": r},
+                                   "extensions": {
+                                       "KHR_materials_transmission": {"transmissionFactor": t},
+                                       "KHR_materials_ior": {"ior": ior},
+                                       "KHR_materials_specular": {"specularFactor": s,
+                                                                  "specularColorFactor": sc}}}),
+                            true,
+                        ));
+                    }
+                }
+            }
+        }
+    }
+    for gloss in [0.0f32, 0.5, 1.0] {
+        for (d, sp) in [(1.0f32, 0.04f32), (0.5, 0.5), (0.0, 1.0), (1.0, 1.0)] {
+            configs.push((
+                format!("spec-gloss diffuse {d} specular {sp} glossiness {gloss}"),
+                json!({"extensions": {"KHR_materials_pbrSpecularGlossiness": {
+                    "diffuseFactor": [d, d, d, 1.0], "specularFactor": [sp, sp, sp],
+                    "glossinessFactor": gloss}}}),
+                false,
+            ));
+        }
+    }
+    let bsdfs = loaded_json(configs.iter().map(|c| c.1.clone()).collect(), "furnace");
+    let (mut lowest, mut highest, mut sum_range) = (f32::MAX, f32::MIN, (f32::MAX, f32::MIN));
+    for ((what, _, conserving), b) in configs.iter().zip(&bsdfs) {
+        // Exactly: the lobes' reflectances at ωo, Σ c_j, are the light the BSDF hands on (each
+        // lobe's shape reflects its c_j: Lambertian and delta lobes exactly, the compensated
+        // glossy lobe to ±0.5 %, `a_white_lambertian_reflects_exactly_one…`).
+        for k in 0..=64 {
+            let cos_o = 1.0 - k as f32 / 64.0 * 0.99;
+            let sum: f32 = b.albedo_weights(wo(cos_o), Vec3::Z, Vec3::Z).iter().sum();
+            assert!(
+                sum <= 1.0 + 1e-5,
+                "{what} at cos θo {cos_o}: lobe reflectances sum to {sum} > 1"
+            );
+            if *conserving {
+                sum_range = (sum_range.0.min(sum), sum_range.1.max(sum));
+                assert!(
+                    sum >= 1.0 - 1e-5,
+                    "{what} at cos θo {cos_o}: lobe reflectances sum to {sum} < 1"
+                );
+            }
+        }
+    }
+    // By sampling, as the tracers see it: 50k samples a point, so the mean's noise (up to 0.6 %
+    // at σ = 0, whose weights reach 1/E ≈ 7) over 2 940 points and the glossy table's ±0.5 %
+    // take the bounds to ±1.5 % (measured: 0.9948–1.0061 at 100k samples).
+    let sampled: Vec<Vec<f32>> = bsdfs
+        .par_iter()
+        .map(|b| {
+            (COS_O.iter().enumerate())
+                .map(|(k, &cos_o)| albedo_n(b, cos_o, N, 11 + k as u32))
+                .collect()
+        })
+        .collect();
+    for ((what, _, conserving), albedos) in configs.iter().zip(&sampled) {
+        for (cos_o, &a) in COS_O.into_iter().zip(albedos) {
+            assert!(
+                a <= 1.015,
+                "{what} at cos θo {cos_o}: sampled albedo {a} > 1 (gains energy)"
+            );
+            if *conserving {
+                lowest = lowest.min(a);
+                highest = highest.max(a);
+                assert!(
+                    a >= 0.985,
+                    "{what} at cos θo {cos_o}: sampled albedo {a} < 1 (a white material loses \
+                     light)"
+                );
+            }
+        }
+    }
+    eprintln!(
+        "{} configurations: white metallic-roughness lobe sums in [{:.6}, {:.6}], sampled \
+         albedo in [{lowest:.4}, {highest:.4}]",
+        configs.len(),
+        sum_range.0,
+        sum_range.1
+    );
 }
 
 #[test]
@@ -101,12 +224,13 @@ fn gltf_materials_reflect_at_most_one_and_near_the_gltf_brdf() {
     let cases: [((f32, f32, f32), f32); 8] = [
         // White rough dielectric: 0.999–1.001 against glTF's 0.972–1.001.
         ((1.0, 1.0, 0.0), 0.04),
-        // Grey rough dielectrics: the Fresnel ramp on N·V hands grazing light to the glossy
-        // lobe, where glTF's F(V·H) of a rough surface stays small: 0.952 vs 0.814 at
-        // cos θo = 0.05, within 0.04 down to cos θo = 0.4.
-        ((0.8, 1.0, 0.0), 0.15),
+        // Grey rough dielectrics: the Fresnel ramp scaled by 1 − r (fresnel_ramp_share) follows
+        // glTF's F(V·H) of a rough surface: 0.808 flat vs 0.780–0.814 at r = 1, 0.520–0.699
+        // vs 0.517–0.668 at r = 0.5 (with the full ramp: up to 0.952 and 0.875, 0.14 and 0.21
+        // above glTF at grazing).
+        ((0.8, 1.0, 0.0), 0.035),
         ((1.0, 0.5, 0.0), 0.02),
-        ((0.5, 0.5, 0.0), 0.22),
+        ((0.5, 0.5, 0.0), 0.04),
         // Smooth metal (glTF's estimate is noisy here: a sharp lobe, cosine-sampled).
         ((1.0, 0.2, 1.0), 0.05),
         // Rough metals, energy-compensated: 1.0 against glTF's 0.84–0.94 and 0.31–0.85.

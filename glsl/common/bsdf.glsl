@@ -174,6 +174,15 @@ float fresnel_ramp(float cos_i, float eta) {
     return clamp((fresnel_dielectric(cos_i, eta) - f0) / (1.0 - f0), 0.0, 1.0);
 }
 
+// The share of the Fresnel ramp a lobe of exponent sigma keeps, 1 - r (r: the perceptual
+// roughness of sigma); twin of fresnel_ramp_share in src/photon/bsdf.rs.
+float fresnel_ramp_share(float exponent) {
+    if (isnan(exponent) || exponent <= 0.0) {
+        return 0.0;
+    }
+    return 1.0 - pow(2.0 / (exponent + 2.0), 0.25);
+}
+
 float path_density_factor(uint lobe, vec3 reflectance) {
     float rho = bsdf_mean(reflectance);
     if (lobe == LOBE_LAMBERTIAN) {
@@ -224,7 +233,7 @@ bool bsdf_orient(Bsdf bsdf, vec3 wo, vec3 n_s, vec3 n_g, out BsdfOriented o) {
 }
 
 void bsdf_lobe_reflectances(Bsdf bsdf, BsdfOriented o, out vec3 c[4]) {
-    float s = bsdf.fresnel ? fresnel_ramp(o.cos_o, o.eta) : 0.0;
+    float s = bsdf.fresnel ? fresnel_ramp(o.cos_o, o.eta) * fresnel_ramp_share(bsdf.exponent) : 0.0;
     vec3 specular = bsdf.glossy + (vec3(1.0) - bsdf.glossy) * s;
     bool mirror = bsdf_is_mirror(bsdf);
     c[LOBE_LAMBERTIAN] = bsdf.lambertian * (1.0 - s);

@@ -37,7 +37,12 @@
 //! `c_L = ρL·(1 − S)`, `c_T = ρt·(1 − S)`, so `c_L + c_S + c_T ≤ 1` still holds, ρS stays the
 //! reflectance at normal incidence, and ρS = F0, ρt = 1 − F0 is exactly a smooth dielectric. S
 //! uses the shading normal (not the half vector), so the lobe weights depend on `wo` alone and
-//! the photon tracer can play Russian roulette before sampling. Without Fresnel, c = ρ.
+//! the photon tracer can play Russian roulette before sampling. On a rough surface S is scaled
+//! by `1 − r` ([`fresnel_ramp_share`], r the perceptual roughness of σ), as Lagarde's
+//! roughness-aware Schlick does: the microfacets of a rough surface see little Fresnel gain at
+//! grazing angles, and with the full ramp a grey rough glTF dielectric reflected up to 0.88
+//! at grazing where glTF's BRDF reflects 0.53 (issue #19; `tests/physics_gltf_brdf.rs`).
+//! Without Fresnel, c = ρ.
 //! [`Bsdf::new`] scales ρL + ρS + ρt down to ≤ 1 per channel if a texture pushed it over, and
 //! clamps a finite σ to `GLOSSY_EXPONENT_MAX` = 10⁶ (a 0.1°-wide lobe), which keeps f finite in
 //! `f32` at grazing angles; σ = ∞ is the mirror.
@@ -177,6 +182,19 @@ pub fn fresnel_ramp(cos_i: f32, eta: f32) -> f32 {
     ((fresnel_dielectric(cos_i, eta) - f0) / (1.0 - f0)).clamp(0.0, 1.0)
 }
 
+/// How much of the Fresnel ramp a lobe of Blinn–Phong exponent `exponent` keeps: `1 − r`,
+/// with `r = (2/(σ + 2))^¼` the glTF perceptual roughness of σ (`α² = 2/(σ + 2)`, `r = √α`;
+/// `scene/gltf_material.rs`). 1 for a mirror (σ = ∞), 0 at σ = 0. The Fresnel ramp is taken on
+/// the shading normal (module docs); on a rough surface the microfacets' half vectors see a
+/// much smaller Fresnel gain at grazing angles (glTF's `F(V·H)`), so the ramp is scaled as in
+/// Lagarde's roughness-aware Schlick, `F0 + (max(1 − r, F0) − F0)(1 − cos θ)⁵`.
+pub fn fresnel_ramp_share(exponent: f32) -> f32 {
+    if exponent.is_nan() || exponent <= 0.0 {
+        return 0.0;
+    }
+    1.0 - (2.0 / (exponent + 2.0)).powf(0.25)
+}
+
 /// The paper's ad hoc path-density factor of one bounce through `lobe` whose (Fresnel-weighted)
 /// reflectance is `reflectance`: mean(ρ)/1000 for Lambertian, mean(ρ)/10 for glossy, mean(ρ)
 /// for mirror and refraction (ρ: the mean of the RGB reflectance; for refraction ρt).
@@ -263,7 +281,7 @@ impl Bsdf {
         o: &Oriented,
     ) -> [Vec3; 4] {
         let s = if self.fresnel {
-            fresnel_ramp(o.cos_o, o.eta)
+            fresnel_ramp(o.cos_o, o.eta) * fresnel_ramp_share(self.exponent)
         } else {
             0.0
         };

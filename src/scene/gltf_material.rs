@@ -523,4 +523,16 @@ mod tests {
         assert!(sum.max_element() <= 1.0 + 1e-5, "{sum}");
         assert_eq!(m.glossy, Vec3::splat(0.5));
     }
+
+    #[test]
+    fn the_fresnel_ramp_share_is_one_minus_the_gltf_roughness_of_the_exponent() {
+        use crate::photon::bsdf::fresnel_ramp_share;
+        assert_eq!(fresnel_ramp_share(f32::INFINITY), 1.0);
+        assert_eq!(fresnel_ramp_share(0.0), 0.0);
+        assert_eq!(fresnel_ramp_share(f32::NAN), 0.0);
+        for r in [0.1f32, 0.25, 0.5, 0.75, 0.9] {
+            let share = fresnel_ramp_share(exponent_from_roughness(r));
+            assert!((share - (1.0 - r)).abs() < 1e-4, "r {r}: share {share}");
+        }
+    }
 }

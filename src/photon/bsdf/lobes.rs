@@ -6,7 +6,7 @@
 //! η ≠ 1, so a Fresnel material has a specular lobe even with `ρS = 0`: a glossy one for a finite
 //! exponent, a mirror for σ = ∞.
 
-use super::{fresnel_ramp, Bsdf};
+use super::{fresnel_ramp, fresnel_ramp_share, Bsdf};
 use crate::scene::Material;
 use crate::shared_constants::{SPEC_ID_DELTA_LOBES, SPEC_ID_GLOSSY_LOBE};
 use glam::Vec3;
@@ -73,7 +73,7 @@ pub fn bounce_albedo(material: &Material) -> f32 {
         let sum: Vec3 = (0..STEPS)
             .map(|i| {
                 let cos = ((i as f32 + 0.5) / STEPS as f32).sqrt();
-                total(fresnel_ramp(cos, eta))
+                total(fresnel_ramp(cos, eta) * fresnel_ramp_share(b.exponent))
             })
             .sum();
         (sum / STEPS as f32).max_element()
@@ -222,7 +222,11 @@ mod tests {
         assert!((bounce_albedo(&d) - 0.6).abs() < 1e-6);
         // Fresnel moves reflectance from the Lambertian lobe to the specular one: the sum grows
         // towards grazing, so the average lies between ρL and 1.
-        let f = material(|m| m.fresnel = true);
+        // (A smooth lobe, σ = 100: a rough one keeps little of the ramp, fresnel_ramp_share.)
+        let f = material(|m| {
+            m.fresnel = true;
+            m.exponent = 100.0;
+        });
         let a = bounce_albedo(&f);
         assert!(a > 0.5 && a < 0.6, "{a}");
         // Glass seen from inside: total internal reflection keeps everything beyond the
