@@ -20,9 +20,9 @@ use super::hash::{fnv1a, fnv1a_debug, hex};
 /// The revision of the CPU references' physics, part of every cache key: bump it whenever a
 /// change makes `path-trace` or `progressive` render a scene differently (2: emissive surfaces
 /// sampled as lights, emission counted once; 3: Russian-roulette path depth, energy-compensated
-/// glossy lobe, glTF dielectric base weighted by 1 − F0), so that no cached reference of the old physics is
-/// compared with the new renderer.
-pub const REFERENCE_REVISION: u32 = 3;
+/// glossy lobe, glTF dielectric base weighted by 1 − F0; 4: the Fresnel ramp scaled by 1 −
+/// roughness), so that no cached reference of the old physics is compared with the new renderer.
+pub const REFERENCE_REVISION: u32 = 4;
 use crate::metrics::rgba;
 use crate::reference::{self, Method, RefSettings};
 use crate::scene::Scene;
