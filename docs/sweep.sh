@@ -4,9 +4,11 @@
 # missing), then copies the plots to docs/images/sweep-SCENE-*.svg. References are cached under
 # $XDG_CACHE_HOME/ispm/references (or ~/.cache/ispm/references).
 #
-# The grid: photons × kernel radius scale × subsample (the main cloud), plain bilinear upsampling
-# against it, then one knob at a time around 40k photons (bounces, caustic share) and the CPU
-# photon-gather baseline.
+# The grid: photons × kernel radius scale × subsample (the main cloud), accumulated frames
+# (progressive accumulation, the wall time to the mean) at the cheaper points, plain bilinear
+# upsampling against joint, then one knob at a time around 40k photons (bounces, caustic share)
+# and the CPU photon-gather baseline. docs/tools/presets.py derives the --quality presets from
+# the CSVs (docs/accuracy.md §5.3).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
@@ -14,12 +16,14 @@ ispm=target/release/ispm
 for scene in cornell-box caustic-ring glass-sphere diffuse-box; do
   out=target/sweep/$scene
   common=(--out "$out" --size 160x120 --frames 5)
-  "$ispm" sweep "$scene" "${common[@]}" --grid 'photons=10k,40k,160k;radius=0.5,1,2;subsample=1,2,4'
+  "$ispm" sweep "$scene" "${common[@]}" --grid 'photons=10k,40k,160k;radius=1,2;subsample=1,2,4'
   "$ispm" sweep "$scene" "${common[@]}" \
-    --grid 'photons=10k,40k,160k;radius=1;subsample=2,4;upsample=bilinear'
-  "$ispm" sweep "$scene" "${common[@]}" --grid 'photons=40k;radius=1;subsample=1;bounces=1,2,4'
+    --grid 'photons=10k,40k;radius=1;subsample=1,2;accumulate=4,16'
   "$ispm" sweep "$scene" "${common[@]}" \
-    --grid 'photons=40k;radius=1;subsample=1;caustic-share=0,0.25,0.75'
+    --grid 'photons=40k;radius=1;subsample=2,4;upsample=bilinear'
+  "$ispm" sweep "$scene" "${common[@]}" --grid 'photons=40k;radius=1;subsample=1;bounces=1,4'
+  "$ispm" sweep "$scene" "${common[@]}" \
+    --grid 'photons=40k;radius=1;subsample=1;caustic-share=0,0.75'
   "$ispm" sweep "$scene" "${common[@]}" \
     --grid 'method=photon-gather;photons=10k,40k,160k;radius=1;subsample=1'
   for plot in pareto stages knobs; do
@@ -27,3 +31,4 @@ for scene in cornell-box caustic-ring glass-sphere diffuse-box; do
   done
   cp "$out/results.csv" "docs/images/sweep-$scene.csv"
 done
+python3 docs/tools/presets.py docs/images/sweep-*.csv
