@@ -185,7 +185,7 @@ fn spot_with_zero_and_near_180_degree_cones() {
     ] {
         let mut scene = grey_box(1.0, 1.0);
         scene.lights = vec![spot(Vec3::new(0.0, 0.3, 0.0), down, 3.0, cone)];
-        let f = render_hard(case, &scene, hard::settings_for(20_000));
+        let f = render_hard(case, &scene, hard::first_bounce_for(20_000));
         let flux = total_flux(&scene);
         eprintln!(
             "{case}: {name} cone {cone:?}: flux {flux:.4e}, bounce map {:.4e}, peak {:.3e}",
@@ -233,7 +233,7 @@ fn one_light_a_million_times_brighter_than_another() {
     scene
         .lights
         .push(spot(Vec3::new(0.3, 0.5, 0.2), Vec3::NEG_Y, 1.0, (0.2, 0.4)));
-    let f = render_hard(case, &scene, hard::settings_for(20_000));
+    let f = render_hard(case, &scene, hard::first_bounce_for(20_000));
     let error = flux_error(&f, &scene);
     eprintln!(
         "{case}: bounce map against flux {error:.2e}, peak {:.3e}",
@@ -281,7 +281,7 @@ fn hundreds_of_lights() {
     );
     let settings = ispm::frame::RenderSettings {
         shadow_resolution: 64,
-        ..hard::settings_for(photons)
+        ..hard::first_bounce_for(photons)
     };
     // Each light emits its budget: 78 photons each, to within the binomial spread of the
     // texels' keep test (src/ispm.rs, "Budget"), so all of them to within 1 %.

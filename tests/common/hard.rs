@@ -327,6 +327,16 @@ pub fn settings_for(photons: usize) -> RenderSettings {
     }
 }
 
+/// [`settings_for`] with one bounce, for the cases that check the bounce map and direct light in
+/// boxes of albedo 1: there Russian roulette never ends a path, so the default cap (256 bounces)
+/// would trace 256 times the photons for nothing the case reads.
+pub fn first_bounce_for(photons: usize) -> RenderSettings {
+    RenderSettings {
+        bounces: 1,
+        ..settings_for(photons)
+    }
+}
+
 /// A scene written by `ispm::scene::authoring` (a `.glb` in memory), through the loader.
 pub fn load_glb(name: &str, glb: &[u8]) -> Scene {
     ispm::scene::load::load_from_slice(glb, name, None).expect("the authored scene loads")
