@@ -15,10 +15,10 @@ cargo build --release --quiet
 ispm=target/release/ispm
 for scene in cornell-box caustic-ring glass-sphere diffuse-box; do
   out=target/sweep/$scene
-  common=(--out "$out" --size 160x120 --frames 5)
+  common=(--out "$out" --size 160x120 --frames 3)
   "$ispm" sweep "$scene" "${common[@]}" --grid 'photons=10k,40k,160k;radius=1,2;subsample=1,2,4'
-  "$ispm" sweep "$scene" "${common[@]}" \
-    --grid 'photons=10k,40k;radius=1;subsample=1,2;accumulate=4,16'
+  "$ispm" sweep "$scene" "${common[@]}" --grid 'photons=10k;radius=1;subsample=1;accumulate=4,16'
+  "$ispm" sweep "$scene" "${common[@]}" --grid 'photons=40k;radius=1;subsample=1;accumulate=4'
   "$ispm" sweep "$scene" "${common[@]}" \
     --grid 'photons=40k;radius=1;subsample=2,4;upsample=bilinear'
   "$ispm" sweep "$scene" "${common[@]}" --grid 'photons=40k;radius=1;subsample=1;bounces=1,4'

@@ -19,6 +19,17 @@ layout(set = 0, binding = 4) uniform sampler2D g_normal;
 layout(set = 0, binding = 5) uniform sampler2D g_albedo;
 layout(set = 0, binding = 6) uniform usampler2D g_material;
 
+layout(push_constant) uniform Push {
+    float r_min;
+    float r_max;
+    uint count;
+    uint subsample;
+    float footprint;
+    float footprint_max;
+    float scale;
+    float gather_exponent_max;  // the glossy lobes' regularisation (photon/kernel.rs)
+} push;
+
 layout(location = 0) flat in uint v_photon;
 layout(location = 1) flat in vec2 v_radius;
 layout(location = 2) flat in vec3 v_center;  // the photon's eye-relative position
@@ -54,7 +65,9 @@ void main() {
     }
     vec3 wo = normalize(-pos.xyz);
     GpuMaterial m = materials[texelFetch(g_material, px, 0).x];
-    Bsdf bsdf = material_bsdf(m, texelFetch(g_albedo, px, 0).rgb);
+    // The glossy lobe regularised to the kernel's angular resolution (photon/kernel.rs).
+    Bsdf bsdf = bsdf_regularized(material_bsdf(m, texelFetch(g_albedo, px, 0).rgb),
+                                 push.gather_exponent_max);
     vec3 f = bsdf_eval(bsdf, wo, wi, n, n);
     vec3 c = f * photon.power * kappa;
     out_indirect = vec4(c, 1.0);

@@ -21,6 +21,7 @@ layout(push_constant) uniform Push {
     float footprint;
     float footprint_max;
     float scale;  // the kNN radii's factor (KernelSettings::scale)
+    float gather_exponent_max;  // the fragment stages' glossy regularisation
     vec4 offset;  // xyz: photon map origin − eye (the stored positions are origin-relative)
 } push;
 

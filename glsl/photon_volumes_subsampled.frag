@@ -30,6 +30,9 @@ layout(push_constant) uniform Push {
     uint count;
     uint subsample;
     float footprint;
+    float footprint_max;
+    float scale;
+    float gather_exponent_max;  // the glossy lobes' regularisation (photon/kernel.rs)
 } push;
 
 layout(location = 0) flat in uint v_photon;
@@ -64,7 +67,9 @@ void main() {
         discard;
     }
     GpuMaterial m = materials[texelFetch(g_material, px, 0).x];
-    Bsdf bsdf = material_bsdf(m, texelFetch(g_albedo, px, 0).rgb);
+    // The glossy lobe regularised to the kernel's angular resolution (photon/kernel.rs).
+    Bsdf bsdf = bsdf_regularized(material_bsdf(m, texelFetch(g_albedo, px, 0).rgb),
+                                 push.gather_exponent_max);
     BsdfOriented o;
     if (!bsdf_orient(bsdf, normalize(-pos.xyz), n_s, n_s, o)) {
         discard;

@@ -261,6 +261,9 @@ pub struct FrameStats {
     pub accumulated_frames: u32,
     /// The photon sample the frame's photon map was traced with (0: the frame-coherent one).
     pub photon_sample: u32,
+    /// The photon kernels' clamp, scale and footprint floor the frame's estimate used (`None`
+    /// without photons).
+    pub kernel: Option<crate::photon::kernel::KernelSettings>,
 }
 
 /// A light whose photons a frame kept, and why.
@@ -988,6 +991,7 @@ impl Renderer {
         let _ = b_done;
         stats.accumulated_frames = accumulated + 1;
         stats.photon_sample = self.photons.as_ref().map_or(0, PhotonFrame::sample);
+        stats.kernel = self.photons.as_ref().map(PhotonFrame::kernel);
 
         self.last_frame_done = Some(d_done);
         self.slots[slot].pending = Some(PendingFrame {

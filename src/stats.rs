@@ -61,6 +61,8 @@ pub fn frame_json(
         "stored_photons": s.stored_photons,
         "accumulated_frames": s.accumulated_frames,
         "photon_sample": s.photon_sample,
+        // The kernel radius clamp (metres), the progressive scale and the footprint floor.
+        "kernel": s.kernel,
         "bounces": bounces,
         "attrition": s.attrition,
         "width": frame.width,

@@ -115,7 +115,8 @@ fn cpu_gather(
             let s = Vec3::new(pos[0], pos[1], pos[2]);
             let n = normal[i].normalize();
             let wo = (-s).normalize();
-            let bsdf = Bsdf::new(&scene.materials[material[i] as usize], Some(albedo[i]));
+            let bsdf = Bsdf::new(&scene.materials[material[i] as usize], Some(albedo[i]))
+                .regularized(kernel.gather_exponent_max());
             let (mut caustic, mut global) = (Vec3::ZERO, Vec3::ZERO);
             for &(x, np, wi, r_xy, r_z, power, is_global) in &unpacked {
                 if is_global && np.dot(n).abs() < SUPPORT_NORMAL_COS {

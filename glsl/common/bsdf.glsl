@@ -153,6 +153,16 @@ Bsdf bsdf_make(vec3 lambertian, vec3 glossy, float exponent, vec3 transmission, 
     return Bsdf(l * scale, g * scale, e, t * scale, eta, fresnel);
 }
 
+// The BSDF with its glossy exponent lowered to at most max_exponent (+inf, mirrors and glass,
+// stays a delta lobe): the lobe the photon volumes evaluate (src/photon/kernel.rs, "Glossy
+// lobes in the estimate"; Rust twin Bsdf::regularized).
+Bsdf bsdf_regularized(Bsdf bsdf, float max_exponent) {
+    if (!isinf(bsdf.exponent) && bsdf.exponent > max_exponent) {
+        bsdf.exponent = max(max_exponent, 0.0);
+    }
+    return bsdf;
+}
+
 float fresnel_dielectric(float cos_i, float eta) {
     if (abs(eta - 1.0) < 1e-6) {
         return 0.0;

@@ -48,7 +48,7 @@ pub fn icosahedron() -> (Vec<[f32; 3]>, Vec<u32>) {
 }
 
 /// The push constants (`Push` in `photon_volumes.vert`; the fragment shaders declare the
-/// first five members only).
+/// scalars, not the offset).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct Push {
@@ -60,7 +60,9 @@ struct Push {
     footprint_max: f32,
     /// The kNN radii's factor ([`KernelSettings::scale`]).
     scale: f32,
-    _pad: f32,
+    /// The largest glossy exponent the fragment stages evaluate
+    /// ([`KernelSettings::gather_exponent_max`]).
+    gather_exponent_max: f32,
     /// Added to every stored photon position to make it eye-relative (xyz; w unused): the
     /// photon map's origin minus the eye (`photon_frame.rs`).
     offset: [f32; 4],
@@ -355,7 +357,7 @@ impl PhotonVolumesPass {
                     footprint: kernel.footprint,
                     footprint_max: kernel.footprint_max,
                     scale: kernel.scale,
-                    _pad: 0.0,
+                    gather_exponent_max: kernel.gather_exponent_max(),
                     offset: offset.extend(0.0).to_array(),
                 },
             );

@@ -354,6 +354,20 @@ impl Bsdf {
         (f, pdf / total)
     }
 
+    /// The BSDF with its glossy exponent lowered to at most `max_exponent` (mirrors and glass,
+    /// `+∞`, stay delta lobes): the lobe a photon density estimate evaluates
+    /// (`photon::kernel`, "Glossy lobes in the estimate"; GLSL twin `bsdf_regularized`).
+    pub fn regularized(self, max_exponent: f32) -> Self {
+        if self.exponent.is_finite() && self.exponent > max_exponent {
+            Self {
+                exponent: max_exponent.max(0.0),
+                ..self
+            }
+        } else {
+            self
+        }
+    }
+
     /// f(wo, wi) of the non-delta lobes (Lambertian + glossy), without the cosine.
     pub fn eval(&self, wo: Vec3, wi: Vec3, n_s: Vec3, n_g: Vec3) -> Vec3 {
         let f = (|| {

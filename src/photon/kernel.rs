@@ -66,8 +66,26 @@
 //! 100k photons, so `r_i ∝ N^(−1/4)` like `r_max`); at or below it k is fixed, the
 //! constant-count regime, which measured better there than a k shrinking with N.
 
+//! # Glossy lobes in the estimate: regularised
+//! A photon's contribution is `f(ωi, ωo)·Φ·κ`: the BSDF evaluated in the one direction the photon
+//! came from. A kernel holds some tens of photons, so the incident light is known in some tens
+//! of directions; a glossy lobe narrower than their spacing turns the one photon that falls in it
+//! into a sparkle and leaves its neighbours dark (`cornell-box`, exponent 100: one photon gave
+//! 2.42 of a pixel's 2.56, where the converged answer is 0.18). The estimate therefore evaluates
+//! every finite lobe at an exponent of at most [`KernelSettings::gather_exponent_max`],
+//! [`GATHER_EXPONENT`]`/s²`: the angular counterpart of the kernel radius (Kaplanyan &
+//! Dachsbacher's path-space regularisation, 2013). It shrinks with the radius as accumulation
+//! shrinks `s` (a lobe's angular width goes as `1/√σ`, so `σ_max ∝ 1/s²` narrows its angle as
+//! `s`), so the bias vanishes as the frames converge. It is an estimator's choice, like the
+//! kernel: direct light, mirrors and glass keep their exact lobes, and the CPU references none
+//! of it. Measured in docs/accuracy.md, "Glossy regularisation".
+
 use crate::scene::Aabb;
 use glam::Vec3;
+
+/// The largest glossy exponent the density estimate evaluates a lobe at in a frame that stands
+/// alone (module docs, "Glossy lobes in the estimate").
+pub const GATHER_EXPONENT: f32 = 16.0;
 
 /// `r_z / r_xy`: how much the ellipsoid is compressed along the photon's normal. Stronger
 /// compression leaks less between parallel surfaces but loses kernel mass on curved or faceted
@@ -85,7 +103,7 @@ pub const RADIUS_SCALE: f32 = 0.42;
 pub const FOOTPRINT_PIXELS: f32 = 1.0;
 
 /// The radius clamp, in metres, the scale of the kNN radii and the view's footprint floor.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct KernelSettings {
     pub r_min: f32,
     pub r_max: f32,
@@ -118,6 +136,12 @@ impl KernelSettings {
             footprint: 0.0,
             footprint_max: 0.1 * diag,
         }
+    }
+
+    /// The largest glossy exponent the estimate evaluates lobes at, `GATHER_EXPONENT/s²` (module
+    /// docs, "Glossy lobes in the estimate"); `+∞` at `s = 0`.
+    pub fn gather_exponent_max(&self) -> f32 {
+        GATHER_EXPONENT / (self.scale * self.scale)
     }
 
     /// The same clamp with the footprint floor of an estimate made by a perspective camera of
@@ -230,6 +254,57 @@ mod tests {
         assert!(kernel_weight(x, n, r_xy, r_z, x + Vec3::Y * (r_z * 1.01)) == 0.0);
         assert!(kernel_weight(x, n, r_xy, r_z, x + Vec3::Y * (r_z * 0.99)) > 0.0);
         assert!(kernel_weight(x, n, r_xy, r_z, x + Vec3::X * (r_xy * 1.01)) == 0.0);
+    }
+
+    #[test]
+    fn the_estimate_regularises_glossy_lobes_above_the_cap_and_keeps_their_energy() {
+        use crate::photon::bsdf::Bsdf;
+        use crate::photon::sampling::cosine_hemisphere;
+        let k = KernelSettings::scene_relative(&Aabb::EMPTY, 100, None);
+        assert_eq!(k.gather_exponent_max(), GATHER_EXPONENT);
+        // Accumulation shrinks the radius by s and the lobe's angle with it: σ_max = σ₀/s².
+        let half = KernelSettings { scale: 0.5, ..k };
+        assert_eq!(half.gather_exponent_max(), 4.0 * GATHER_EXPONENT);
+        let material = |exponent: f32, fresnel: bool| crate::scene::Material {
+            lambertian: Vec3::splat(0.2),
+            glossy: Vec3::splat(0.6),
+            exponent,
+            fresnel,
+            ..Default::default()
+        };
+        let sharp = Bsdf::new(&material(100.0, false), None);
+        let cap = k.gather_exponent_max();
+        assert_eq!(sharp.regularized(cap).exponent, cap);
+        // Lobes at or below the cap, mirrors and glass (delta lobes) are left alone.
+        let soft = Bsdf::new(&material(8.0, false), None);
+        assert_eq!(soft.regularized(cap), soft);
+        let mirror = Bsdf::new(&material(f32::INFINITY, false), None);
+        assert_eq!(mirror.regularized(cap), mirror);
+        // The regularised lobe reflects what the sharp one does (both energy-compensated):
+        // ∫ f cos dωi by a 256² stratified cosine-weighted grid, at three angles of view.
+        let albedo = |b: &Bsdf, wo: Vec3| {
+            let n = 256;
+            let mut sum = Vec3::ZERO;
+            for i in 0..n {
+                for j in 0..n {
+                    let u = [(i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32];
+                    let wi = cosine_hemisphere(u);
+                    sum += b.eval(wo, wi, Vec3::Z, Vec3::Z) * std::f32::consts::PI;
+                }
+            }
+            sum.x / (n * n) as f32
+        };
+        for fresnel in [false, true] {
+            let sharp = Bsdf::new(&material(100.0, fresnel), None);
+            for cos_o in [1.0f32, 0.5, 0.2] {
+                let wo = Vec3::new((1.0 - cos_o * cos_o).sqrt(), 0.0, cos_o);
+                let (a, b) = (albedo(&sharp, wo), albedo(&sharp.regularized(cap), wo));
+                assert!(
+                    (b / a - 1.0).abs() < 0.05,
+                    "Fresnel {fresnel}, cos θo {cos_o}: albedo {a} sharp, {b} regularised"
+                );
+            }
+        }
     }
 
     #[test]
