@@ -18,11 +18,12 @@ use crate::scene::Aabb;
 pub enum Quality {
     /// The fastest point of the front: 10k photons, 4× subsampled.
     Draft,
-    /// 40k photons, twice the default kernel, 4× subsampled.
+    /// 10k photons, twice the default kernel, 4× subsampled.
     Interactive,
-    /// 160k photons, twice the default kernel, 2× subsampled.
+    /// 10k photons, twice the default kernel, 2× subsampled.
     High,
-    /// The most accurate point the sweep measured: 160k photons, full resolution.
+    /// The most accurate single frame the sweep measured: 160k photons, twice the default
+    /// kernel, full resolution.
     Reference,
 }
 
@@ -38,19 +39,22 @@ pub struct Preset {
 }
 
 impl Quality {
-    /// The preset's knobs: points of the front of the four bundled scenes' sweeps taken
-    /// together (docs/accuracy.md §5.3: geometric means over the scenes of the frame time and
-    /// of the relMSE over each scene's best, 160×120, lavapipe). Bounces are not a knob: Russian
-    /// roulette ends the paths ([`DEFAULT_BOUNCES`] is only the safety cap).
+    /// The preset's knobs: points of the single-frame front of the four bundled scenes' sweeps
+    /// taken together, picked by `docs/tools/presets.py` (docs/accuracy.md §5.3: geometric
+    /// means over the scenes of the frame time and of the relMSE over each scene's best,
+    /// 160×120, lavapipe, idle). Bounces are not a knob: Russian roulette ends the paths
+    /// ([`DEFAULT_BOUNCES`] is only the safety cap). Accumulated frames are not either: `render`
+    /// accumulates any preset for its `--seconds` or `--frames`, and the sweep measured four
+    /// frames of `draft`'s photons beating every single frame (978.6 ms, 1.28×).
     pub fn preset(self) -> Preset {
         let (photons, radius_scale, subsample) = match self {
-            // The fastest point of the front (61.9 ms, 1.97× the best error).
+            // The fastest point of the front (164.7 ms, 1.85× the best error).
             Quality::Draft => (10_000, 1.0, 4),
-            // 276.7 ms, 1.43×.
-            Quality::Interactive => (40_000, 2.0, 4),
-            // 966.2 ms, 1.21×.
-            Quality::High => (160_000, 2.0, 2),
-            // The most accurate point measured: 1319.4 ms, 1.16×.
+            // 193.2 ms, 1.61×.
+            Quality::Interactive => (10_000, 2.0, 4),
+            // 258.4 ms, 1.43×.
+            Quality::High => (10_000, 2.0, 2),
+            // The most accurate single frame measured: 1493.1 ms, 1.29×.
             Quality::Reference => (160_000, 2.0, 1),
         };
         Preset {

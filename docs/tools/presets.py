@@ -5,9 +5,12 @@ For every ISPM configuration of the main grid measured on every scene (joint ups
 default bounces and caustic share), it takes the geometric mean over the scenes of the frame
 time (for `accumulate` N > 1: the wall time to the mean of N frames) and of the relMSE divided
 by that scene's best ISPM relMSE, keeps the configurations no other beats in both (the
-aggregate Pareto front), and picks four points of it: `draft` the fastest, `reference` the most
+aggregate Pareto front; printed with the accumulated configurations, then of single frames
+alone), and picks four points of the single frames' front (a preset sets per-frame knobs;
+`render` accumulates for its --seconds or --frames whatever the preset): `draft` the fastest, `reference` the most
 accurate, `interactive` and `high` the front points nearest to one third and two thirds of the
-way from draft to reference in log time. Prints the front and the presets as Markdown.
+way from draft to reference in log error (evenly spaced in quality: the front is nearly flat in
+error past its middle, where points spaced in time would cost more for nothing). Prints the front and the presets as Markdown.
 
     python3 docs/tools/presets.py docs/images/sweep-*.csv
 """
@@ -47,19 +50,37 @@ def main(paths):
         t = math.exp(sum(math.log(float(per[s]["frame_ms"])) for s in scenes) / len(scenes))
         e = math.exp(sum(math.log(float(per[s]["rel_mse"]) / best[s]) for s in scenes) / len(scenes))
         points.append((t, e, key, per))
-    front = sorted(p for p in points
-                   if not any(q[0] <= p[0] and q[1] <= p[1] and (q[0], q[1]) != (p[0], p[1])
-                              for q in points))
+    dominated = lambda p, pool: any(q[0] <= p[0] and q[1] <= p[1] and (q[0], q[1]) != (p[0], p[1])
+                                    for q in pool)
     label = lambda k: f"{int(k[0]) // 1000}k, r×{float(k[1]):g}, N {k[2]}, {k[3]} frame(s)"
+    # The aggregate front of every configuration, accumulated ones included (they show what
+    # the frames buy); the presets are points of the front of single frames, since a preset
+    # sets per-frame knobs and `render` accumulates them for its own --seconds/--frames.
+    everything = sorted(p for p in points if not dominated(p, points))
     print(f"{len(points)} configurations on all of {', '.join(scenes)}; aggregate front:\n")
+    print("| configuration | time (geo. mean) | relMSE / best (geo. mean) |")
+    print("|---|---|---|")
+    for t, e, k, _ in everything:
+        print(f"| {label(k)} | {t:.1f} ms | {e:.2f}× |")
+    single = [p for p in points if p[2][3] == "1"]
+    front = sorted(p for p in single if not dominated(p, single))
+    print("\nFront of single frames:\n")
     print("| configuration | time (geo. mean) | relMSE / best (geo. mean) |")
     print("|---|---|---|")
     for t, e, k, _ in front:
         print(f"| {label(k)} | {t:.1f} ms | {e:.2f}× |")
     draft, reference = front[0], front[-1]
-    lo, hi = math.log(draft[0]), math.log(reference[0])
-    pick = lambda f: min(front, key=lambda p: abs(math.log(p[0]) - (lo + f * (hi - lo))))
-    presets = [("draft", draft), ("interactive", pick(1 / 3)), ("high", pick(2 / 3)),
+    # Evenly spaced in error, not in time: past ~350 ms the single-frame front is nearly flat in
+    # error (more photons buy little), so points spaced in time would cost more for nothing.
+    lo, hi = math.log(draft[1]), math.log(reference[1])
+    # Four distinct points where the front has them: the middle two from the points between.
+    inner = front[1:-1]
+    pick = lambda f, pool: min(pool, key=lambda p: abs(math.log(p[1]) - (lo + f * (hi - lo))))
+    interactive = pick(1 / 3, inner) if inner else draft
+    rest = [p for p in inner if p is not interactive]
+    high = pick(2 / 3, rest) if rest else interactive
+    interactive, high = sorted([interactive, high], key=lambda p: p[0])
+    presets = [("draft", draft), ("interactive", interactive), ("high", high),
                ("reference", reference)]
     print("\n| preset | aggregate | " + " | ".join(scenes) + " |")
     print("|---|---|" + "---|" * len(scenes))
