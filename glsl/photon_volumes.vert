@@ -1,8 +1,11 @@
 #version 460
-// Photon volumes, vertex stage: one instance per photon; the icosahedron (inscribed sphere of
-// radius 1, from the vertex buffer) is scaled to bound the photon's ellipsoidal kernel:
-// r_xy in the tangent plane of the surface the photon hit, r_z along its normal. The photon's
-// kNN radius is the length of its stored normal (pack_normal).
+// Photon volumes, vertex stage: one instance per photon, a billboard (corners (±1, ±1) from the
+// vertex buffer) that covers the projection of the sphere of radius r_xy bounding the photon's
+// ellipsoidal kernel (r_xy in the tangent plane of the surface the photon hit, r_z ≤ r_xy along
+// its normal), perpendicular to the eye ray through the photon at the sphere's far side; the
+// whole screen at infinite depth when the eye is inside the sphere (src/passes/photon_volumes.rs
+// has the picture and the Rust twin, billboard_half_size). The photon's kNN radius is the length
+// of its stored normal (pack_normal).
 #include "shared.glsl"
 #include "packing.glsl"
 #include "kernel.glsl"
@@ -37,16 +40,26 @@ void main() {
     vec3 center = photon.position + push.offset.xyz;
     vec2 r = kernel_radius(r_knn, push.r_min, push.r_max, push.scale, push.footprint,
                            push.footprint_max, length(center));
-    vec3 t;
-    vec3 b;
-    frame_from_normal(n, t, b);
-    vec3 world = center + (t * in_position.x + b * in_position.y) * r.x
-                 + n * (in_position.z * r.y);
-    if (!any(greaterThan(photon.power, vec3(0.0)))) {
-        // No power: collapse the volume to a point, which rasterises nothing.
-        world = center;
+    // The Rust twin's constants (BILLBOARD_INSIDE, BILLBOARD_MARGIN).
+    float bound = r.x;
+    float d = length(center);
+    if (!any(greaterThan(photon.power, vec3(0.0))) || isnan(d)) {
+        // No power, or a broken position: collapse the billboard to a point, which rasterises
+        // nothing.
+        gl_Position = frame.view_proj * vec4(center, 1.0);
+    } else if (!(d > bound * 1.001)) {
+        // The eye inside the bounding sphere: the whole screen at infinite depth (reversed-Z).
+        gl_Position = vec4(in_position.xy, 0.0, 1.0);
+    } else {
+        vec3 dir = center / d;
+        vec3 t;
+        vec3 b;
+        frame_from_normal(dir, t, b);
+        float far_side = d + bound;
+        float half_size = far_side * bound / sqrt(d * d - bound * bound) * 1.001;
+        vec3 world = dir * far_side + (t * in_position.x + b * in_position.y) * half_size;
+        gl_Position = frame.view_proj * vec4(world, 1.0);
     }
-    gl_Position = frame.view_proj * vec4(world, 1.0);
     v_photon = uint(gl_InstanceIndex);
     v_radius = r;
     v_center = center;

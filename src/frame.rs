@@ -262,7 +262,8 @@ pub struct FrameStats {
     /// The photon sample the frame's photon map was traced with (0: the frame-coherent one).
     pub photon_sample: u32,
     /// The photon kernels' clamp, scale and footprint floor the frame's estimate used (`None`
-    /// without photons).
+    /// without photons). Written by `stats::frame_json` with its glossy cap.
+    #[serde(skip)]
     pub kernel: Option<crate::photon::kernel::KernelSettings>,
 }
 

@@ -61,8 +61,16 @@ pub fn frame_json(
         "stored_photons": s.stored_photons,
         "accumulated_frames": s.accumulated_frames,
         "photon_sample": s.photon_sample,
-        // The kernel radius clamp (metres), the progressive scale and the footprint floor.
-        "kernel": s.kernel,
+        // The kernel radius clamp (metres), the progressive scale, the footprint floor and the
+        // glossy regularisation's cap (`photon::kernel`).
+        "kernel": s.kernel.map(|k| json!({
+            "r_min": k.r_min,
+            "r_max": k.r_max,
+            "scale": k.scale,
+            "footprint": k.footprint,
+            "footprint_max": k.footprint_max,
+            "gather_exponent_max": k.gather_exponent_max(),
+        })),
         "bounces": bounces,
         "attrition": s.attrition,
         "width": frame.width,

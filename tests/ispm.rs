@@ -591,4 +591,14 @@ fn stats_describe_the_photon_buffers_drawn() {
     for stage in ispm::stats::STAGES {
         assert!(json["ms"][stage].is_number(), "no time for {stage}");
     }
+    // The kernel the estimate used, with the glossy regularisation's cap.
+    let kernel = renderer.photons().expect("ispm").kernel();
+    assert_eq!(
+        json["kernel"]["r_max"].as_f64(),
+        Some(f64::from(kernel.r_max))
+    );
+    assert_eq!(
+        json["kernel"]["gather_exponent_max"].as_f64(),
+        Some(f64::from(kernel.gather_exponent_max()))
+    );
 }

@@ -173,7 +173,7 @@ const SHARP_CAUSTIC: &str = "caustic-ring";
 /// cornell-box measured 0.0576, 0.0341, 0.0283 (FLIP 0.176, 0.137, 0.112). Before the glossy
 /// lobes were regularised in the estimate (`photon::kernel`, "Glossy lobes in the estimate")
 /// its 64k estimate rose to 0.0405: one photon in the exponent-100 lobe of the purple sphere
-/// made a sparkle of 1.02 where the reference has 0.17.
+/// made a sparkle of 1.02 in red where the reference has 0.17.
 #[test]
 fn more_photons_at_a_fixed_kernel_never_worsen_the_indirect_error() {
     let gpu = common::gpu();

@@ -32,6 +32,7 @@ struct Bsdf {
     vec3 lambertian;
     vec3 glossy;
     float exponent; // +inf: perfect mirror
+    float fresnel_exponent; // the material's own exponent: the Fresnel share (bsdf_regularized)
     vec3 transmission;
     float ior;
     bool fresnel;
@@ -150,11 +151,12 @@ Bsdf bsdf_make(vec3 lambertian, vec3 glossy, float exponent, vec3 transmission, 
             : ((isinf(exponent) && exponent > 0.0) ? exponent
                                                    : clamp(exponent, 0.0, GLOSSY_EXPONENT_MAX));
     float eta = (!isinf(ior) && ior > 0.0) ? ior : 1.0;
-    return Bsdf(l * scale, g * scale, e, t * scale, eta, fresnel);
+    return Bsdf(l * scale, g * scale, e, e, t * scale, eta, fresnel);
 }
 
-// The BSDF with its glossy exponent lowered to at most max_exponent (+inf, mirrors and glass,
-// stays a delta lobe): the lobe the photon volumes evaluate (src/photon/kernel.rs, "Glossy
+// The BSDF with its glossy lobe's shape widened to an exponent of at most max_exponent (+inf,
+// mirrors and glass, stays a delta lobe), its split between the lobes (the Fresnel share, from
+// fresnel_exponent) kept: the lobe the photon volumes evaluate (src/photon/kernel.rs, "Glossy
 // lobes in the estimate"; Rust twin Bsdf::regularized).
 Bsdf bsdf_regularized(Bsdf bsdf, float max_exponent) {
     if (!isinf(bsdf.exponent) && bsdf.exponent > max_exponent) {
@@ -243,7 +245,7 @@ bool bsdf_orient(Bsdf bsdf, vec3 wo, vec3 n_s, vec3 n_g, out BsdfOriented o) {
 }
 
 void bsdf_lobe_reflectances(Bsdf bsdf, BsdfOriented o, out vec3 c[4]) {
-    float s = bsdf.fresnel ? fresnel_ramp(o.cos_o, o.eta) * fresnel_ramp_share(bsdf.exponent) : 0.0;
+    float s = bsdf.fresnel ? fresnel_ramp(o.cos_o, o.eta) * fresnel_ramp_share(bsdf.fresnel_exponent) : 0.0;
     vec3 specular = bsdf.glossy + (vec3(1.0) - bsdf.glossy) * s;
     bool mirror = bsdf_is_mirror(bsdf);
     c[LOBE_LAMBERTIAN] = bsdf.lambertian * (1.0 - s);

@@ -1,14 +1,27 @@
 //! Photon volumes: the radiance estimate by scattering (paper §4). Every photon is drawn as an
-//! instanced icosahedron that bounds its ellipsoidal kernel; the fragment shader reads the eye
-//! G-buffer at its pixel and adds f · Φ · κ into the HDR indirect buffer.
+//! instanced **billboard**, a quad that covers its kernel's projection; the fragment shader reads
+//! the eye G-buffer at its pixel and adds f · Φ · κ into the HDR indirect buffer.
 //!
-//! Only **back faces** are drawn, with a reversed depth test (a back face passes where it lies
-//! *behind* the visible surface). A convex volume has exactly one back face over every pixel
-//! it covers, so each photon reaches each pixel once; surfaces behind the whole volume are
-//! culled by the test; and when the camera is inside a volume, or the volume crosses the near
-//! plane, its back faces are still there, so no dark blotch appears as the viewer approaches a
-//! surface. The cost: no early rejection of volumes in front of the surface (the kernel test
-//! discards them in the fragment shader).
+//! ```text
+//!            quad (⊥ to the eye ray through the centre, at distance d + R)
+//!              |
+//!   eye ·------+----- ← the kernel's bounding sphere (centre at d, radius R = r_xy)
+//!        \  ( ● )|      half-size h = (d + R)·R / √(d² − R²): the tangent cone's
+//!         \      |      cross-section there, so every pixel the sphere covers is covered
+//! ```
+//!
+//! **Depth.** The quad lies at the sphere's far side: along any eye ray through the sphere it is
+//! behind every point of the sphere (`dir·x` grows along the ray and the quad's plane is
+//! `dir·x = d + R`). It is drawn with a reversed depth test (it passes where it lies *behind*
+//! the visible surface), so each photon reaches each pixel it covers once, and surfaces behind
+//! the whole plane are culled. When the eye is inside the bounding sphere the quad is the whole
+//! screen at infinite depth (reversed-Z 0), so no dark blotch appears as the viewer approaches a
+//! surface. As with the icosahedra it replaced, volumes in front of the surface are discarded by
+//! the kernel test in the fragment shader.
+//!
+//! *Why a quad.* The icosahedron before it drew 20 triangles per photon: on lavapipe the pass was
+//! then bound by per-triangle work, not by pixels (`--subsample 4`, 16× fewer pixels, made it
+//! only 1.1–1.6× cheaper, docs/performance.md); the quad draws 2.
 //!
 //! The photon map may span several photon buffers (hard case "more photons than fit in one
 //! buffer": one storage-buffer descriptor reaches `maxStorageBufferRange` bytes at most, 128 MiB
@@ -33,19 +46,32 @@ use std::sync::Arc;
 
 pub const FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 
-/// Radius of the sphere inscribed in an icosahedron whose vertices lie on the unit sphere.
-const ICOSAHEDRON_INRADIUS: f32 = 0.794_654_5;
-
-/// The icosahedron's vertices (scaled so that its inscribed sphere has radius 1) and its 20
-/// faces, counter-clockwise seen from outside.
-pub fn icosahedron() -> (Vec<[f32; 3]>, Vec<u32>) {
-    let (vertices, faces) = crate::scene::authoring::unit_icosphere(0);
-    let vertices = vertices
-        .iter()
-        .map(|v| (*v / ICOSAHEDRON_INRADIUS).to_array())
-        .collect();
-    (vertices, faces.into_iter().flatten().collect())
+/// The billboard's corners (`photon_volumes.vert` places them) and its two triangles.
+pub fn billboard() -> (Vec<[f32; 3]>, Vec<u32>) {
+    (
+        vec![
+            [-1.0, -1.0, 0.0],
+            [1.0, -1.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [-1.0, 1.0, 0.0],
+        ],
+        vec![0, 1, 2, 0, 2, 3],
+    )
 }
+
+/// Half the side of the billboard of a bounding sphere of radius `r` whose centre lies `d` from
+/// the eye, placed at distance `d + r` perpendicular to the ray through the centre: the tangent
+/// cone's radius there (module docs). `None` when the eye is inside the sphere (the whole
+/// screen). The GLSL twin is in `photon_volumes.vert`.
+pub fn billboard_half_size(d: f32, r: f32) -> Option<f32> {
+    (d > r * BILLBOARD_INSIDE).then(|| (d + r) * r / (d * d - r * r).sqrt() * BILLBOARD_MARGIN)
+}
+
+/// The eye counts as inside a bounding sphere up to this multiple of its radius (the half size
+/// grows without bound as `d → r`).
+pub const BILLBOARD_INSIDE: f32 = 1.001;
+/// The billboard is this much wider than the cone's section, against rounding.
+pub const BILLBOARD_MARGIN: f32 = 1.001;
 
 /// The push constants (`Push` in `photon_volumes.vert`; the fragment shaders declare the
 /// scalars, not the offset).
@@ -67,7 +93,7 @@ struct Push {
     /// photon map's origin minus the eye (`photon_frame.rs`).
     offset: [f32; 4],
 }
-// std430 push-constant layout: the vec4 after seven scalars starts at byte 32.
+// std430 push-constant layout: the vec4 after eight scalars starts at byte 32.
 const _: () = assert!(std::mem::offset_of!(Push, offset) == 32);
 const _: () = assert!(size_of::<Push>() == 48);
 
@@ -198,15 +224,15 @@ impl PhotonVolumesPass {
             .iter()
             .map(|photons| layout.allocate(&Self::writes(inputs, photons, &sampler)))
             .collect::<Result<Vec<_>, _>>()?;
-        let (vertices, indices) = icosahedron();
+        let (vertices, indices) = billboard();
         let vertices = gpu.upload_buffer(
-            "photon_volumes.icosahedron.vertices",
+            "photon_volumes.billboard.vertices",
             vk::BufferUsageFlags::VERTEX_BUFFER,
             bytemuck::cast_slice(&vertices),
             Access::VertexInput,
         )?;
         let indices = gpu.upload_buffer(
-            "photon_volumes.icosahedron.indices",
+            "photon_volumes.billboard.indices",
             vk::BufferUsageFlags::INDEX_BUFFER,
             bytemuck::cast_slice(&indices),
             Access::IndexInput,
@@ -247,7 +273,7 @@ impl PhotonVolumesPass {
                 color_formats,
                 blend: Blend::Additive,
                 depth,
-                cull: vk::CullModeFlags::FRONT,
+                cull: vk::CullModeFlags::NONE,
                 set_layouts: &[&layout],
                 push_constant_size: size_of::<Push>() as u32,
                 specialization: &super::bsdf_constants(variant),
@@ -361,7 +387,7 @@ impl PhotonVolumesPass {
                     offset: offset.extend(0.0).to_array(),
                 },
             );
-            cmd.draw_indexed_instanced(60, count);
+            cmd.draw_indexed_instanced(6, count);
         }
         cmd.end_rendering();
     }
@@ -373,22 +399,46 @@ mod tests {
     use glam::Vec3;
 
     #[test]
-    fn icosahedron_faces_wind_outwards_and_bound_the_unit_sphere() {
-        let (v, f) = icosahedron();
-        for tri in f.chunks_exact(3) {
-            let [a, b, c] = [0, 1, 2].map(|i| Vec3::from(v[tri[i] as usize]));
-            let normal = (b - a).cross(c - a).normalize();
-            assert!(normal.dot(a) > 0.0, "face {tri:?} winds inwards");
-            // The face's plane lies at distance ≥ 1 from the centre: the unit sphere is inside.
-            assert!(
-                normal.dot(a) >= 1.0 - 1e-5,
-                "face {tri:?} cuts the unit sphere"
-            );
+    fn the_billboard_covers_the_projection_of_its_bounding_sphere() {
+        // Rays from the eye (the origin) through points of the sphere meet the billboard's plane
+        // within its half size, for spheres near and far, small and large, in any direction.
+        let mut checked = 0;
+        for (k, &(d, r)) in [
+            (10.0f32, 0.1f32),
+            (2.0, 1.0),
+            (1.01, 1.0),
+            (1.5, 1.4),
+            (100.0, 3.0),
+        ]
+        .iter()
+        .enumerate()
+        {
+            let dir = Vec3::new(0.3, -0.2 + 0.1 * k as f32, -1.0).normalize();
+            let h = billboard_half_size(d, r).expect("the eye is outside");
+            let (t, b) = dir.any_orthonormal_pair();
+            for i in 0..64 {
+                for j in 0..32 {
+                    let phi = i as f32 / 64.0 * std::f32::consts::TAU;
+                    let z = -1.0 + (j as f32 + 0.5) / 16.0;
+                    let s = (1.0 - z * z).max(0.0).sqrt();
+                    let p = dir * d + (t * (s * phi.cos()) + b * (s * phi.sin()) + dir * z) * r;
+                    // The eye ray through p meets the plane dir·x = d + r at p·(d + r)/(dir·p).
+                    let along = dir.dot(p);
+                    assert!(along > 0.0, "a sphere point behind the eye");
+                    let q = p * ((d + r) / along);
+                    let offset = q - dir * (d + r);
+                    assert!(
+                        offset.dot(t).abs() <= h && offset.dot(b).abs() <= h,
+                        "d {d}, r {r}: {p} meets the plane outside the billboard"
+                    );
+                    // And the billboard is behind the point along the ray.
+                    assert!(q.length() >= p.length() - 1e-4 * d);
+                    checked += 1;
+                }
+            }
         }
-        let mut uses = [0; 12];
-        for &i in &f {
-            uses[i as usize] += 1;
-        }
-        assert!(uses.iter().all(|&u| u == 5), "{uses:?}");
+        assert_eq!(checked, 5 * 64 * 32);
+        assert_eq!(billboard_half_size(1.0, 1.0), None, "the eye on the sphere");
+        assert_eq!(billboard_half_size(0.5, 1.0), None, "the eye inside");
     }
 }

@@ -124,6 +124,10 @@ pub struct Bsdf {
     pub glossy: Vec3,
     /// σ in [0, `GLOSSY_EXPONENT_MAX`] (10⁶), or `f32::INFINITY` for a perfect mirror.
     pub exponent: f32,
+    /// The material's own σ, which sets the share of the Fresnel ramp
+    /// ([`fresnel_ramp_share`]): `exponent` but in a [`Bsdf::regularized`] lobe, whose shape is
+    /// blurred while its split between the lobes stays the material's.
+    pub fresnel_exponent: f32,
     /// ρt.
     pub transmission: Vec3,
     /// η of the interior, finite and > 0.
@@ -238,6 +242,7 @@ impl Bsdf {
             lambertian,
             glossy,
             exponent,
+            fresnel_exponent: exponent,
             transmission,
             ior,
             fresnel: material.fresnel,
@@ -281,7 +286,7 @@ impl Bsdf {
         o: &Oriented,
     ) -> [Vec3; 4] {
         let s = if self.fresnel {
-            fresnel_ramp(o.cos_o, o.eta) * fresnel_ramp_share(self.exponent)
+            fresnel_ramp(o.cos_o, o.eta) * fresnel_ramp_share(self.fresnel_exponent)
         } else {
             0.0
         };
@@ -354,8 +359,9 @@ impl Bsdf {
         (f, pdf / total)
     }
 
-    /// The BSDF with its glossy exponent lowered to at most `max_exponent` (mirrors and glass,
-    /// `+∞`, stay delta lobes): the lobe a photon density estimate evaluates
+    /// The BSDF with its glossy lobe's shape widened to an exponent of at most `max_exponent`
+    /// (mirrors and glass, `+∞`, stay delta lobes), its split between the lobes (the Fresnel
+    /// share, [`Bsdf::fresnel_exponent`]) kept: the lobe a photon density estimate evaluates
     /// (`photon::kernel`, "Glossy lobes in the estimate"; GLSL twin `bsdf_regularized`).
     pub fn regularized(self, max_exponent: f32) -> Self {
         if self.exponent.is_finite() && self.exponent > max_exponent {

@@ -73,7 +73,7 @@ pub fn bounce_albedo(material: &Material) -> f32 {
         let sum: Vec3 = (0..STEPS)
             .map(|i| {
                 let cos = ((i as f32 + 0.5) / STEPS as f32).sqrt();
-                total(fresnel_ramp(cos, eta) * fresnel_ramp_share(b.exponent))
+                total(fresnel_ramp(cos, eta) * fresnel_ramp_share(b.fresnel_exponent))
             })
             .sum();
         (sum / STEPS as f32).max_element()

@@ -559,6 +559,7 @@ fn glsl_twin_defines_every_function_and_uses_the_shared_constants() {
         "float fresnel_dielectric(",
         "float fresnel_ramp(",
         "float fresnel_ramp_share(",
+        "Bsdf bsdf_regularized(",
         "float path_density_factor(",
         "vec4 bsdf_albedo_weights(",
         "vec3 bsdf_eval(",
