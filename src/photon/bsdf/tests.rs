@@ -594,3 +594,84 @@ fn glsl_twin_defines_every_function_and_uses_the_shared_constants() {
     let packing = include_str!("../../../glsl/common/packing.glsl");
     assert!(packing.contains("PATH_DENSITY_MAX") && packing.contains("vec3 unpack_direction("));
 }
+
+#[test]
+fn roulette_by_the_photons_colour_keeps_its_power_and_the_mean_in_expectation() {
+    // A red Lambertian wall and a photon already reddened by it. Weighted by the photon's own
+    // colour, a survivor keeps the sum of its channels exactly, bounce after bounce (the
+    // Lambertian sample's f·cos/pdf is 1; a glossy lobe's is 1 only in expectation); by the mean
+    // albedo its red channel grows.
+    let lambertian = Bsdf::new(
+        &Material {
+            lambertian: Vec3::new(0.63, 0.065, 0.05),
+            glossy: Vec3::ZERO,
+            ..Material::default()
+        },
+        None,
+    );
+    // And the same wall with a glTF-like white glossy coat, for the expectation.
+    let red = Bsdf::new(
+        &Material {
+            lambertian: Vec3::new(0.63, 0.065, 0.05),
+            glossy: Vec3::splat(0.04),
+            exponent: 30.0,
+            fresnel: true,
+            ..Material::default()
+        },
+        None,
+    );
+    let wo = wo_at(0.7);
+    let mut rng = Rng::new(7);
+    let (mut by_colour, mut by_mean) = (Vec3::new(1.0, 0.05, 0.05), Vec3::new(1.0, 0.05, 0.05));
+    let start = by_colour.element_sum();
+    for _ in 0..20 {
+        // Bounce until survival, as a path that is still alive would.
+        let s = loop {
+            if let Some(s) = lambertian.sample_russian_roulette_for::<true, true>(
+                by_colour,
+                wo,
+                Vec3::Z,
+                Vec3::Z,
+                rng.next_3(),
+            ) {
+                break s;
+            }
+        };
+        by_colour *= s.weight;
+        assert!(
+            (by_colour.element_sum() / start - 1.0).abs() < 1e-4,
+            "{by_colour}"
+        );
+        let s = loop {
+            if let Some(s) = lambertian.sample_russian_roulette(wo, Vec3::Z, Vec3::Z, rng.next_3())
+            {
+                break s;
+            }
+        };
+        by_mean *= s.weight;
+    }
+    assert!(
+        by_mean.x > 100.0,
+        "the mean's red grew only to {}",
+        by_mean.x
+    );
+    // Both are unbiased: the expected power after one bounce is P ⊙ albedo either way.
+    let p = Vec3::new(1.0, 0.05, 0.05);
+    let n = 400_000;
+    let (mut a, mut b) = (Vec3::ZERO, Vec3::ZERO);
+    for _ in 0..n {
+        if let Some(s) =
+            red.sample_russian_roulette_for::<true, true>(p, wo, Vec3::Z, Vec3::Z, rng.next_3())
+        {
+            a += p * s.weight;
+        }
+        if let Some(s) = red.sample_russian_roulette(wo, Vec3::Z, Vec3::Z, rng.next_3()) {
+            b += p * s.weight;
+        }
+    }
+    let (a, b) = (a / n as f32, b / n as f32);
+    assert!(
+        ((a - b).abs() / b.max(Vec3::splat(1e-3))).max_element() < 0.03,
+        "by colour {a}, by mean {b}"
+    );
+}
