@@ -573,7 +573,9 @@ impl Bsdf {
     /// [`Self::sample_russian_roulette_in`] for a photon of power `power`: lobe j is taken with
     /// probability `w_j = P·c_j / ΣP` (the lobe's reflectance weighted by the photon's own
     /// colour) instead of the mean of `c_j`, so a surviving photon keeps the sum of its channels
-    /// exactly (`Σ_k P_k c_jk / w_j = ΣP`) and no channel grows bounce after bounce. With the
+    /// (`Σ_k P_k c_jk / w_j = ΣP`: exactly after a Lambertian or delta lobe, in expectation after
+    /// the glossy one, whose `f·cos/pdf` varies about 1) and no channel grows bounce after
+    /// bounce. With the
     /// mean, a photon reddened by a red wall gained `c_r / mean(c)` ≈ 2.5× in red at every red
     /// bounce: a few were ~100× brighter than the rest after some bounces, each a blotch the size
     /// of its kernel (`photon::trace`, "Bounces"). Both are unbiased; a zero or non-finite

@@ -28,11 +28,12 @@
 //! no power is lost to a bounce count. The first bounce (the GPU's bounce map) takes the albedo
 //! as the mean of the channels, as the paper does; every later one weights the channels by the
 //! photon's own power (`Bsdf::sample_russian_roulette_for`), so a surviving photon keeps the
-//! sum of its channels: with the mean, a photon bouncing between red walls gained ~2.5× in red
-//! per bounce, and on `cornell-box` (40k photons) one carried 130 times a typical photon's power
-//! into a 2-pixel red blotch on the white back wall. `max_bounces` (default [`MAX_BOUNCES`], a safety net
-//! for rooms of albedo 1) caps the number of scattering events: stored photons have
-//! 1…`max_bounces` bounces; `--bounces N` lowers it when asked. `attrition[k]` counts the photons alive after bounce k
+//! sum of its channels (in expectation after a glossy lobe). With the mean, a photon bouncing
+//! between red walls gained ~2.5× in red per bounce, and on `cornell-box` (40k photons) one
+//! carried 130 times a typical photon's power into a 2-pixel red blotch on the white back wall.
+//! `max_bounces` (default [`MAX_BOUNCES`], a safety net for rooms of albedo 1) caps the number
+//! of scattering events: stored photons have 1…`max_bounces` bounces; `--bounces N` lowers it
+//! when asked. `attrition[k]` counts the photons alive after bounce k
 //! (`attrition[0]`: photons emitted with non-zero power; paper Fig. 10).
 //! η is tracked as the product of the relative indices crossed by refraction.
 //!
