@@ -35,19 +35,18 @@ layout(location = 2) flat out vec3 v_center;  // the photon's eye-relative posit
 void main() {
     Photon photon = photon_load(photons[gl_InstanceIndex]);
     float r_knn;
-    vec3 n = unpack_normal(photon.normal, r_knn);
+    unpack_normal(photon.normal, r_knn);
     // Eye-relative position: the eye is at the origin of the frame's space.
     vec3 center = photon.position + push.offset.xyz;
     vec2 r = kernel_radius(r_knn, push.r_min, push.r_max, push.scale, push.footprint,
                            push.footprint_max, length(center));
-    // The Rust twin's constants (BILLBOARD_INSIDE, BILLBOARD_MARGIN).
     float bound = r.x;
     float d = length(center);
     if (!any(greaterThan(photon.power, vec3(0.0))) || isnan(d)) {
         // No power, or a broken position: collapse the billboard to a point, which rasterises
         // nothing.
         gl_Position = frame.view_proj * vec4(center, 1.0);
-    } else if (!(d > bound * 1.001)) {
+    } else if (!(d > bound * BILLBOARD_INSIDE)) {
         // The eye inside the bounding sphere: the whole screen at infinite depth (reversed-Z).
         gl_Position = vec4(in_position.xy, 0.0, 1.0);
     } else {
@@ -56,7 +55,7 @@ void main() {
         vec3 b;
         frame_from_normal(dir, t, b);
         float far_side = d + bound;
-        float half_size = far_side * bound / sqrt(d * d - bound * bound) * 1.001;
+        float half_size = far_side * bound / sqrt(d * d - bound * bound) * BILLBOARD_MARGIN;
         vec3 world = dir * far_side + (t * in_position.x + b * in_position.y) * half_size;
         gl_Position = frame.view_proj * vec4(world, 1.0);
     }

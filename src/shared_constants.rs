@@ -96,3 +96,10 @@ pub const CAUSTIC_PATH_DENSITY: f32 = 1.0e-2;
 // not reach the surface (a photon on the other wall of a crease).
 pub const SUPPORT_FRACTION_MIN: f32 = 0.5;
 pub const SUPPORT_NORMAL_COS: f32 = 0.9;
+
+// Photon-volume billboards (`passes/photon_volumes.rs`, `photon_volumes.vert`): the eye counts
+// as inside a kernel's bounding sphere up to this multiple of its radius (the billboard's half
+// size grows without bound as the distance nears the radius), and the billboard is this much
+// wider than the tangent cone's section, against rounding.
+pub const BILLBOARD_INSIDE: f32 = 1.001;
+pub const BILLBOARD_MARGIN: f32 = 1.001;

@@ -42,6 +42,7 @@ use crate::gpu::{
 };
 use crate::photon::bsdf::BsdfVariant;
 use crate::photon::kernel::KernelSettings;
+use crate::shared_constants::{BILLBOARD_INSIDE, BILLBOARD_MARGIN};
 use std::sync::Arc;
 
 pub const FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
@@ -66,12 +67,6 @@ pub fn billboard() -> (Vec<[f32; 3]>, Vec<u32>) {
 pub fn billboard_half_size(d: f32, r: f32) -> Option<f32> {
     (d > r * BILLBOARD_INSIDE).then(|| (d + r) * r / (d * d - r * r).sqrt() * BILLBOARD_MARGIN)
 }
-
-/// The eye counts as inside a bounding sphere up to this multiple of its radius (the half size
-/// grows without bound as `d → r`).
-pub const BILLBOARD_INSIDE: f32 = 1.001;
-/// The billboard is this much wider than the cone's section, against rounding.
-pub const BILLBOARD_MARGIN: f32 = 1.001;
 
 /// The push constants (`Push` in `photon_volumes.vert`; the fragment shaders declare the
 /// scalars, not the offset).
