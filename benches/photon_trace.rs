@@ -19,7 +19,7 @@ use ispm::photon::bvh::SceneBvh;
 use ispm::photon::emit::{emit_photons, EmittedPhoton};
 use ispm::photon::ray::Ray;
 use ispm::photon::rng::Rng;
-use ispm::photon::trace::{trace_from_lights, TraceSettings};
+use ispm::photon::trace::{trace_from_lights, StoreOn, TraceSettings};
 use ispm::reference::scenes::cornell;
 use ispm::scene::Scene;
 use obvhs::cwbvh::{builder::build_cwbvh_from_tris, CwBvh};
@@ -43,6 +43,7 @@ const SETTINGS: TraceSettings = TraceSettings {
     max_bounces: 16,
     seed: 3,
     variant: BsdfVariant::ALL,
+    store_on: StoreOn::FiniteLobes,
 };
 
 /// Rays the tracer casts per iteration: one per photon alive after each bounce count

@@ -39,7 +39,7 @@ use crate::passes::upsample::{self, UpsampleInputs, UpsamplePass};
 use crate::photon::bvh::SceneBvh;
 use crate::photon::density::{knn_radii, Neighbours};
 use crate::photon::kernel::KernelSettings;
-use crate::photon::trace::TraceSettings;
+use crate::photon::trace::{StoreOn, TraceSettings};
 use crate::photon::types::{pack_normal, BounceMapPhoton, Photon};
 use crate::plan::{Effects, EffectsPlan};
 use crate::scene::Scene;
@@ -356,6 +356,8 @@ impl PhotonFrame {
                 seed: settings.seed,
                 // The plan's lobes (`Renderer::new` narrowed the settings' variant to them).
                 variant: settings.bsdf_variant,
+                // Only what the photon volumes can read (`StoreOn::EyeGBuffer`).
+                store_on: StoreOn::EyeGBuffer,
             },
             base_seed: settings.seed,
             sample: 0,

@@ -5,7 +5,8 @@ use ispm::photon::bvh::SceneBvh;
 use ispm::photon::emit::{emit_from_light, emit_photons, light_flux};
 use ispm::photon::shapes::icosphere;
 use ispm::photon::trace::{
-    first_bounce, trace_from_lights, trace_photons, PhotonState, TraceSettings,
+    first_bounce, trace_from_lights, trace_photons, PhotonState, StoreOn, TraceSettings,
+    MAX_DELTA_CHAIN,
 };
 use ispm::photon::types::unpack_direction;
 use ispm::reference::scenes::{furnace_sphere, grey_box};
@@ -255,5 +256,99 @@ fn zero_power_lights_and_degenerate_triangles_give_finite_photons() {
         trace_from_lights(&scene, &bvh, &emitted, &TraceSettings::default())
             .photons
             .is_empty()
+    );
+}
+
+/// `cornell-box`'s glass sphere is tessellated, and its interpolated shading normals let some
+/// photons in at angles that total internal reflection (albedo 1, so roulette never ends
+/// them) keeps: before `MAX_DELTA_CHAIN` they circled inside to the 256-bounce cap, 0.7 % of
+/// the photons and 38 % of the rays traced. Now nothing is alive long after the chain's limit.
+#[test]
+fn total_internal_reflection_does_not_keep_photons_to_the_bounce_cap() {
+    let scene = ispm::scene::bundled::resolve(Some("cornell-box")).expect("cornell-box");
+    let bvh = SceneBvh::new(&scene);
+    let emitted = emit_photons(&scene, 20_000, 4);
+    let map = trace_from_lights(&scene, &bvh, &emitted, &TraceSettings::default());
+    let cap = MAX_DELTA_CHAIN as usize;
+    // Caught photons exist (the case is real), and the chain's limit ends them: past four times
+    // the limit, only a photon that met a diffuse surface in between every 32 bounces could
+    // be alive, and the room's albedo (≤ 0.8) makes that vanishingly rare.
+    assert!(
+        map.attrition[cap] > 0,
+        "no photon reached {cap} bounces: the case is not exercised ({:?})",
+        &map.attrition[..cap + 1]
+    );
+    assert_eq!(
+        map.attrition[4 * cap],
+        0,
+        "photons alive after {} bounces: {:?}",
+        4 * cap,
+        &map.attrition[..4 * cap + 1]
+    );
+}
+
+/// ISPM's photon map (`StoreOn::EyeGBuffer`) is the references' (`StoreOn::FiniteLobes`)
+/// less the photons on surfaces the eye G-buffer does not hold (materials with a delta lobe):
+/// the same paths, in the same order, so the same photons everywhere else.
+#[test]
+fn the_eye_gbuffer_photon_map_drops_exactly_the_photons_on_glass_and_mirrors() {
+    let scene = ispm::scene::bundled::resolve(Some("cornell-box")).expect("cornell-box");
+    let bvh = SceneBvh::new(&scene);
+    let emitted = emit_photons(&scene, 10_000, 6);
+    let trace = |store_on| {
+        let settings = TraceSettings {
+            store_on,
+            ..Default::default()
+        };
+        trace_from_lights(&scene, &bvh, &emitted, &settings)
+    };
+    let all = trace(StoreOn::FiniteLobes);
+    let eye = trace(StoreOn::EyeGBuffer);
+    assert_eq!(all.attrition, eye.attrition, "the same paths");
+    // The bounds of every delta-lobed instance (cornell-box: the glass sphere).
+    let mut delta_bounds = Vec::new();
+    for inst in &scene.instances {
+        let mesh = &scene.meshes[inst.mesh];
+        if scene.materials[mesh.material].has_delta_lobe() {
+            let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+            for &p in &mesh.positions {
+                let w = inst.transform.transform_point3(p);
+                lo = lo.min(w);
+                hi = hi.max(w);
+            }
+            delta_bounds.push((lo - 1e-3, hi + 1e-3));
+        }
+    }
+    assert!(!delta_bounds.is_empty(), "cornell-box has glass");
+    let on_delta = |p: Vec3| {
+        delta_bounds
+            .iter()
+            .any(|&(lo, hi)| p.cmpge(lo).all() && p.cmple(hi).all())
+    };
+    // `eye` is `all` with the photons on delta surfaces taken out, order kept.
+    let mut kept = eye.photons.iter().peekable();
+    let mut dropped = 0;
+    for p in &all.photons {
+        if kept
+            .peek()
+            .is_some_and(|&&k| bytemuck::bytes_of(&k) == bytemuck::bytes_of(p))
+        {
+            kept.next();
+        } else {
+            assert!(
+                on_delta(p.position),
+                "a photon at {:?}, off the glass, was dropped",
+                p.position
+            );
+            dropped += 1;
+        }
+    }
+    assert!(
+        kept.next().is_none(),
+        "the eye map holds a photon the full map does not"
+    );
+    assert!(
+        dropped > 0,
+        "no photon was stored on the glass: the case is not exercised"
     );
 }

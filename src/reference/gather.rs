@@ -88,6 +88,7 @@ pub(super) fn photon_map(ctx: &Ctx, photons: usize, seed: u32) -> PhotonMap {
         max_bounces: ctx.settings.bounces.max(1),
         seed,
         variant: crate::photon::bsdf::BsdfVariant::ALL,
+        store_on: crate::photon::trace::StoreOn::FiniteLobes,
     };
     trace_from_lights(ctx.scene, ctx.bvh, &emitted, &settings)
 }
