@@ -26,8 +26,8 @@
 //! are the one place the two consumers differ ([`StoreOn`]): the CPU references' eye paths
 //! gather there, but ISPM draws such surfaces in the forward translucent pass, never in the eye
 //! G-buffer, so its photon map ([`StoreOn::EyeGBuffer`]) leaves them out. On `cornell-box` at
-//! 100k photons they were 44 % of the stored photons (see "Trapped paths"), each drawn as a
-//! photon volume that could light no pixel.
+//! 100k photons they were 67 % of the stored photons (262k of 392k, most of them from the
+//! caught paths of "Trapped paths"), each drawn as a photon volume that could light no pixel.
 //!
 //! # Bounces
 //! Russian roulette ends a photon's path: at every bounce it survives with the probability of
@@ -51,13 +51,17 @@
 //! `cornell-box` (100k photons) 670 photons circled inside the glass sphere to the 256-bounce
 //! cap, 38 % of the rays traced and, each storing a photon on the glass's Lambertian layer at
 //! every hit, 44 % of the photons stored. A path is therefore ended after [`MAX_DELTA_CHAIN`]
-//! delta scatterings (mirror, refraction, total internal reflection) in a row. What that drops
-//! is the light of paths that would have left such a chain after more than 32 steps: of the
-//! photons alive after 45 bounces on `cornell-box`, 1 in 671 left before the cap. A chain
-//! between two facing mirrors of albedo a keeps a³² of its power (0.9³² = 3 %) and ends by
-//! roulette long before. The image is unchanged (`cornell-box`, 640×480, 3 frames: relMSE
-//! 0.0000 against the uncapped trace; `tests/physics_photons.rs` checks that nothing is
-//! alive at 4 × the limit).
+//! delta scatterings in a row *inside a dielectric* (η ≠ 1 after the scattering): there a
+//! chain is the photon bouncing inside glass, which an exact object lets go within a few
+//! bounces. What that drops is the light of paths that would have left such a chain after more
+//! than 32 steps: of the photons alive after 45 bounces on `cornell-box`, 1 in 671 left before
+//! the 256 cap. Chains in air are not counted: between facing mirrors (`facing-mirrors`,
+//! albedo 0.95) roulette ends them, and 0.95³² = 19 % of such a chain's photons are still going
+//! after 32 reflections, light a cap would have dropped. The image is unchanged (`cornell-box`,
+//! 640×480, 3 frames: relMSE 0.0000 against the uncapped trace; `tests/physics_photons.rs`
+//! checks that nothing is alive at 4 × the limit). The cap applies to the CPU references too:
+//! their caught photons stored on the glass's inside, which their eye paths, arriving from
+//! outside, cannot gather either.
 //!
 //! # Variants
 //! [`TraceSettings::variant`] compiles optional lobes out of the trace as the shaders'
@@ -94,8 +98,8 @@ const CHUNK: usize = 256;
 /// the paths long before it (a room of albedo 0.95 keeps 0.95²⁵⁷ ≈ 2·10⁻⁶ of the light after
 /// it). `--bounces N` sets a lower cap.
 pub const MAX_BOUNCES: u32 = 256;
-/// The most delta scatterings (mirror reflections and refractions, total internal reflection
-/// included) a photon takes in a row: a path past it is ended ("Trapped paths").
+/// The most delta scatterings (mirror reflections, refractions, total internal reflection) a
+/// photon takes in a row inside a dielectric: a path past it is ended ("Trapped paths").
 pub const MAX_DELTA_CHAIN: u32 = 32;
 /// Stream of the first bounce in a photon's RNG seed (emission uses the seed itself).
 const FIRST_BOUNCE_STREAM: u32 = 0x6f1b_0b01;
@@ -109,8 +113,8 @@ pub struct TraceSettings {
     /// The über-BSDF lobes compiled into the trace (module docs, "Variants"): the effects
     /// plan's, as for the shaders.
     pub variant: BsdfVariant,
-    /// The surfaces that keep the photons reaching them (module docs, "Where photons are
-    /// stored").
+    /// The surfaces that keep the photons reaching them (module docs, "What is stored, and
+    /// where").
     pub store_on: StoreOn,
 }
 
@@ -133,7 +137,9 @@ pub enum StoreOn {
     FiniteLobes,
     /// Only the surfaces the eye G-buffer holds, those with a finite lobe and no delta lobe
     /// ([`Material::has_delta_lobe`]): ISPM's photon map. The forward translucent pass draws
-    /// the others and reads no photons, so a photon stored there is drawn for nothing.
+    /// the others from cube maps (the photons' light reaches them gathered at the opaque
+    /// surfaces they reflect, `photon_frame/environment.rs`), so a photon stored on them would
+    /// be drawn for nothing.
     EyeGBuffer,
 }
 
@@ -404,7 +410,14 @@ fn trace_path<const GLOSSY: bool, const DELTA: bool>(
         }
         match scatter::<GLOSSY, DELTA>(&bsdf, &hit, state.direction, &state, &mut rng) {
             Some((next, lobe)) => {
-                delta_chain = if lobe.is_delta() { delta_chain + 1 } else { 0 };
+                // Inside a dielectric (η ≠ 1 after the scattering): only there can a chain be
+                // lossless (total internal reflection).
+                let inside = (next.eta - 1.0).abs() > 1e-3;
+                delta_chain = if lobe.is_delta() && inside {
+                    delta_chain + 1
+                } else {
+                    0
+                };
                 if delta_chain > MAX_DELTA_CHAIN {
                     return;
                 }
