@@ -1,8 +1,9 @@
 #version 460
 // Translucent and mirror surfaces, fragment stage: forward shading over the opaque result.
 //   non-delta lobes: shadowed direct light, as the direct pass would give them
-//   mirror lobe:     the environment cube map in the reflected direction
-//   refraction lobe: the environment cube map in the refracted direction (Snell, eta of the
+//   mirror lobe:     the environment cube maps (direct + the photons' indirect light) in the
+//                    reflected direction
+//   refraction lobe: the environment cube maps in the refracted direction (Snell, eta of the
 //                    side the viewer is on; total internal reflection reflects); a ray that
 //                    enters an object leaves it again through its bounding sphere
 // The lobe weights are the über-BSDF's own (bsdf_lobe_reflectances: Fresnel-weighted when the
@@ -20,6 +21,8 @@ layout(std430, set = 0, binding = 3) readonly buffer Views { ShadowView shadow_v
 layout(set = 0, binding = 4) uniform sampler2DArrayShadow shadow_atlas;
 layout(set = 0, binding = 5) uniform Environment { EnvironmentUniforms env; };
 layout(set = 0, binding = 6) uniform samplerCube environment_map;
+// The photons' indirect light from the same centre (src/photon_frame/environment.rs).
+layout(set = 0, binding = 7) uniform samplerCube environment_indirect;
 layout(set = 1, binding = 0) uniform sampler2D base_color;
 layout(push_constant) uniform Push { DrawPush draw; };
 
@@ -43,7 +46,8 @@ vec3 environment(vec3 p, vec3 dir) {
     // Scale case: "at the centre" is relative to the scene's size, not 10^-4 m.
     float at_centre = 1e-4 * length(env.bounds_max.xyz - env.bounds_min.xyz);
     vec3 lookup = dot(from_centre, from_centre) > at_centre * at_centre ? from_centre : dir;
-    return texture(environment_map, lookup).rgb;
+    return texture(environment_map, lookup).rgb
+        + env.centre.w * texture(environment_indirect, lookup).rgb;
 }
 
 // Radiance arriving at `p` along `t`, a direction refracted into a closed object: the ray

@@ -13,7 +13,10 @@
 //!
 //! [`Renderer::submit_frame`] issues box A, the bounce map's copy to the host, and box B; then
 //! the host waits for the copy only and traces the photons on every core (box C) while the GPU
-//! draws box B; then it issues the photon map's upload and box D, which waits for it. Every
+//! draws box B (in scenes with glass or mirrors it then gathers the photons' light seen from
+//! the environment cube's centre, `photon_frame/environment.rs`, and waits for the previous
+//! frame's box D before it writes that cube's staging buffer); then it issues the photon map's
+//! upload and box D, which waits for it. Every
 //! cross-queue dependency is a wait on a queue's timeline; the bounce map and the photon buffer
 //! change queue-family ownership with release/acquire barriers where the transfer queue is a
 //! family of its own (`Cmd::release_buffer`). Per-frame constants go through the command stream
@@ -957,6 +960,19 @@ impl Renderer {
             }
             // Without photons to emit (every light's mask off) the map is emptied.
             stats = photons.trace()?;
+            // What glass and mirrors see of this map's indirect light
+            // (`photon_frame/environment.rs`), gathered while the GPU still runs; the staging
+            // buffer it goes to was read at most by the previous frame's box D.
+            if let Some(translucent) = &mut self.translucent {
+                let centre = translucent.centre();
+                let texels = timing::timed("environment indirect", || {
+                    photons.environment_indirect(centre)
+                });
+                if let Some(previous) = self.last_frame_done {
+                    timing::timed("environment wait", || gpu.wait(previous))?;
+                }
+                translucent.set_indirect(&texels)?;
+            }
             // The photon map's CPU→GPU copy (transfer queue), after the previous frame's
             // photon volumes stopped reading the photon buffer and box A handed it over.
             if photons.has_photons() {
@@ -1200,7 +1216,8 @@ impl Renderer {
             bytemuck::cast_slice(&frame.setup.views),
         );
         if let Some(translucent) = &self.translucent {
-            translucent.update(cmd, &frame.uniforms, frame.camera_pos);
+            let indirect = !matches!(self.debug_view, Some((DebugView::DirectOnly, _)));
+            translucent.update(cmd, &frame.uniforms, frame.camera_pos, indirect);
         }
     }
 

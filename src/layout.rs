@@ -88,6 +88,8 @@ const _: () = assert!(offset_of!(ShadowView, params) == 64);
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct EnvironmentUniforms {
+    /// xyz: camera-relative centre of the cube maps; w: the indirect cube's weight (1, or 0 in
+    /// the direct-only debug view).
     pub centre: Vec4,
     pub bounds_min: Vec4,
     pub bounds_max: Vec4,

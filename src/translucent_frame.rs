@@ -1,14 +1,17 @@
-//! The translucent part of a frame: the environment cube map (cached) and the forward pass
+//! The translucent part of a frame: the environment cube map (cached), the photons' indirect
+//! light seen from its centre (a small cube, new with every photon map), and the forward pass
 //! that draws glass and mirrors over the opaque radiance. Exists only for scenes with at least
 //! one delta-material instance; `frame.rs` calls [`TranslucentFrame::update`] with the frame's
-//! uniforms and [`TranslucentFrame::record`] after the composite.
+//! uniforms, [`TranslucentFrame::set_indirect`] after a photon trace and
+//! [`TranslucentFrame::record`] after the composite.
 
-use crate::gpu::{vk, Buffer, Gpu, Image};
+use crate::gpu::{vk, Buffer, Gpu, Image, ImageDesc, MemoryLocation, ViewKind};
 use crate::gpu_scene::{Draw, GpuScene};
 use crate::layout::{EnvironmentUniforms, FrameUniforms};
 use crate::passes::environment::{EnvironmentInputs, EnvironmentPass};
 use crate::passes::translucent::{TranslucentInputs, TranslucentPass};
 use crate::photon::bsdf::BsdfVariant;
+use crate::photon_frame::environment::FACE_SIZE as INDIRECT_FACE_SIZE;
 use crate::scene::{Aabb, Scene};
 use glam::DVec3;
 use std::sync::Arc;
@@ -26,6 +29,13 @@ pub struct TranslucentFrame {
     pass: TranslucentPass,
     /// `EnvironmentUniforms`, camera-relative, rewritten every frame.
     uniforms: Buffer,
+    /// The photons' indirect light seen from the centre (an RGBA16F cube like the direct one:
+    /// linear filtering of 16-bit floats is required by Vulkan, of 32-bit ones not;
+    /// `photon_frame/environment.rs`), its host-visible staging copy, and whether the staging
+    /// copy holds texels the cube does not have yet.
+    indirect: Image,
+    indirect_staging: Buffer,
+    indirect_pending: bool,
     /// World-space centre of the cube map: the centre of the delta instances' bounds.
     centre: DVec3,
     /// World-space scene bounds, the box environment lookups are projected onto.
@@ -67,6 +77,28 @@ impl TranslucentFrame {
             },
             variant,
         )?;
+        let texels = 6 * INDIRECT_FACE_SIZE * INDIRECT_FACE_SIZE;
+        let indirect = Image::new(
+            gpu,
+            &ImageDesc {
+                name: "environment.indirect",
+                format: crate::passes::environment::FORMAT,
+                width: INDIRECT_FACE_SIZE,
+                height: INDIRECT_FACE_SIZE,
+                layers: 6,
+                usage: vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
+                view: ViewKind::Cube,
+            },
+        )?;
+        let indirect_staging = Buffer::new(
+            gpu,
+            "environment.indirect.staging",
+            u64::from(texels) * 8,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::CpuToGpu,
+        )?;
+        // Black until a photon map says otherwise (`--method direct`, or no photons).
+        indirect_staging.write(0, &vec![0u8; texels as usize * 8])?;
         let pass = TranslucentPass::new(
             gpu,
             gpu_scene,
@@ -78,6 +110,7 @@ impl TranslucentFrame {
                 shadow_atlas: resources.shadow_atlas,
                 environment: &uniforms,
                 environment_map: &environment.cube,
+                environment_indirect: &indirect,
             },
             radiance_format,
             depth_format,
@@ -88,6 +121,9 @@ impl TranslucentFrame {
             environment,
             pass,
             uniforms,
+            indirect,
+            indirect_staging,
+            indirect_pending: true,
             centre: delta.center().as_dvec3(),
             bounds,
             // Scale case: relative only (a 10⁻⁴ m floor clipped the middle of a 2 mm scene).
@@ -95,12 +131,19 @@ impl TranslucentFrame {
         }))
     }
 
-    /// Records this frame's camera-relative uniforms (and the cube faces' while it is dirty).
-    pub fn update(&self, cmd: &crate::gpu::Cmd, frame: &FrameUniforms, camera: DVec3) {
+    /// Records this frame's camera-relative uniforms (and the cube faces' while it is dirty);
+    /// without `indirect` (the direct-only debug view) lookups leave the indirect cube out.
+    pub fn update(
+        &self,
+        cmd: &crate::gpu::Cmd,
+        frame: &FrameUniforms,
+        camera: DVec3,
+        indirect: bool,
+    ) {
         let relative = |p: glam::Vec3| (p.as_dvec3() - camera).as_vec3().extend(1.0);
         let centre = (self.centre - camera).as_vec3();
         let uniforms = EnvironmentUniforms {
-            centre: centre.extend(1.0),
+            centre: centre.extend(if indirect { 1.0 } else { 0.0 }),
             bounds_min: relative(self.bounds.min),
             bounds_max: relative(self.bounds.max),
         };
@@ -120,14 +163,42 @@ impl TranslucentFrame {
         radiance: &mut Image,
     ) {
         self.environment.record(cmd, scene, opaque, shadow_atlas);
+        if std::mem::take(&mut self.indirect_pending) {
+            cmd.copy_buffer_to_image(&self.indirect_staging, &self.indirect);
+        }
         self.pass.record(
             cmd,
             scene,
             delta,
-            (shadow_atlas, &self.environment.cube),
+            (shadow_atlas, &self.environment.cube, &self.indirect),
             depth,
             radiance,
         );
+    }
+
+    /// World-space centre of the cube maps.
+    pub fn centre(&self) -> DVec3 {
+        self.centre
+    }
+
+    /// Gives the next [`Self::record`] new indirect texels (`PhotonFrame::environment_indirect`).
+    /// The GPU must be done with the previous frame (whose record may have copied the staging
+    /// buffer this writes).
+    pub fn set_indirect(&mut self, texels: &[[f32; 4]]) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            texels.len() == (6 * INDIRECT_FACE_SIZE * INDIRECT_FACE_SIZE) as usize,
+            "{} indirect environment texels for a cube of {INDIRECT_FACE_SIZE}² a face",
+            texels.len()
+        );
+        let halves: Vec<u16> = texels
+            .iter()
+            .flatten()
+            .map(|&v| half::f16::from_f32(v).to_bits())
+            .collect();
+        self.indirect_staging
+            .write(0, bytemuck::cast_slice(&halves))?;
+        self.indirect_pending = true;
+        Ok(())
     }
 
     /// Makes the next frame render the environment cube map again.

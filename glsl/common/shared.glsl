@@ -21,7 +21,8 @@ struct FrameUniforms {
 
 // Where the environment cube map was rendered from, for its lookups (uniform buffer, std140).
 struct EnvironmentUniforms {
-    vec4 centre;      // xyz: camera-relative centre of the cube map; w: unused
+    vec4 centre;      // xyz: camera-relative centre of the cube map; w: weight of the indirect
+                      // cube (1, or 0 in the direct-only debug view)
     vec4 bounds_min;  // xyz: camera-relative scene bounds, the box lookups are projected onto
     vec4 bounds_max;
 };

@@ -6,9 +6,11 @@
 //!   or glass object sees itself from its own centre; several share one viewpoint). Delta
 //!   instances are not drawn into it.
 //! * Cached: rendered on the first frame and again only after [`EnvironmentPass::invalidate`]
-//!   (nothing moves in a `Renderer` today, and the cube holds radiance by world direction, so
-//!   camera motion does not invalidate it).
-//! * Direct light only: the cube misses indirect light and caustics.
+//!   (lights or instances moved; the cube holds radiance by world direction, so camera motion
+//!   does not invalidate it).
+//! * Direct light and emission only; the photons' indirect light (and caustics) seen from the
+//!   same centre is a second, smaller cube that the CPU gathers from each frame's photon map
+//!   (`photon_frame/environment.rs`) and the translucent pass adds to this one.
 //!
 //! ```text
 //!   cube   RGBA16F, 6 layers (+X, −X, +Y, −Y, +Z, −Z), sampled as a cube
@@ -59,16 +61,30 @@ pub struct EnvironmentPass {
 /// the cube-map face selection table of the Vulkan spec (major axis, s_c, t_c), so that the
 /// texel a direction lands in when rendered is the texel a `samplerCube` lookup reads.
 pub fn face_view_proj(face: usize, centre: Vec3, near: f32) -> Mat4 {
-    let (major, s, t) = match face {
+    let (major, s, t) = face_axes(face);
+    let row = |a: Vec3| a.extend(-a.dot(centre));
+    Mat4::from_cols(row(s), row(t), Vec4::new(0.0, 0.0, 0.0, near), row(major)).transpose()
+}
+
+/// Cube face `face`'s major axis and the directions its texel columns (s) and rows (t) grow
+/// in: the Vulkan spec's face selection table.
+fn face_axes(face: usize) -> (Vec3, Vec3, Vec3) {
+    match face {
         0 => (Vec3::X, Vec3::NEG_Z, Vec3::NEG_Y),
         1 => (Vec3::NEG_X, Vec3::Z, Vec3::NEG_Y),
         2 => (Vec3::Y, Vec3::X, Vec3::Z),
         3 => (Vec3::NEG_Y, Vec3::X, Vec3::NEG_Z),
         4 => (Vec3::Z, Vec3::X, Vec3::NEG_Y),
         _ => (Vec3::NEG_Z, Vec3::NEG_X, Vec3::NEG_Y),
-    };
-    let row = |a: Vec3| a.extend(-a.dot(centre));
-    Mat4::from_cols(row(s), row(t), Vec4::new(0.0, 0.0, 0.0, near), row(major)).transpose()
+    }
+}
+
+/// The unit direction through the centre of texel (`x`, `y`) (column, row from the top) of
+/// cube face `face`, `size` texels a side: where a `samplerCube` lookup reads that texel.
+pub fn texel_direction(face: usize, x: u32, y: u32, size: u32) -> Vec3 {
+    let (major, s, t) = face_axes(face);
+    let at = |i: u32| 2.0 * (i as f32 + 0.5) / size as f32 - 1.0;
+    (major + s * at(x) + t * at(y)).normalize()
 }
 
 impl EnvironmentPass {
@@ -266,6 +282,18 @@ mod tests {
             (5, -d.x, -d.y, a.z)
         };
         (face, 0.5 * (sc / ma + 1.0), 0.5 * (tc / ma + 1.0))
+    }
+
+    #[test]
+    fn a_texel_direction_looks_up_its_own_texel() {
+        let size = 32;
+        for face in 0..6 {
+            for (x, y) in [(0, 0), (31, 0), (0, 31), (31, 31), (5, 17), (16, 16)] {
+                let (f, s, t) = spec_lookup(texel_direction(face, x, y, size));
+                let texel = ((s * size as f32) as u32, (t * size as f32) as u32);
+                assert_eq!((f, texel), (face, (x, y)), "face {face} texel ({x}, {y})");
+            }
+        }
     }
 
     #[test]

@@ -5,7 +5,7 @@
 //! über-BSDF's own (Fresnel) lobe reflectances (`translucent.frag`). The nearest delta surface
 //! wins (depth writes), and it replaces what is behind it: refraction reads the cube map, not
 //! the screen, so opaque surfaces seen through glass appear as the cube map saw them (direct
-//! light only, one refraction, from the cube's centre).
+//! light and the photons' indirect light, one refraction, from the cube's centre).
 
 use super::eye_gbuffer::{draw_instances, material_texture_sets};
 use crate::gpu::{
@@ -27,6 +27,8 @@ pub struct TranslucentInputs<'a> {
     /// `EnvironmentUniforms`.
     pub environment: &'a Buffer,
     pub environment_map: &'a Image,
+    /// The photons' indirect light seen from the same centre (`photon_frame/environment.rs`).
+    pub environment_indirect: &'a Image,
 }
 
 pub struct TranslucentPass {
@@ -59,6 +61,7 @@ impl TranslucentPass {
             BindingKind::SampledImage,
             BindingKind::UniformBuffer,
             BindingKind::SampledImage,
+            BindingKind::SampledImage,
         ];
         let bindings = Binding::sequence(&kinds, graphics);
         let layout = DescriptorLayout::new(gpu, "translucent", &bindings, 1)?;
@@ -82,6 +85,10 @@ impl TranslucentPass {
             Write::Buffer(inputs.environment),
             Write::Image {
                 image: inputs.environment_map,
+                sampler: &linear,
+            },
+            Write::Image {
+                image: inputs.environment_indirect,
                 sampler: &linear,
             },
         ])?;
@@ -121,20 +128,21 @@ impl TranslucentPass {
     }
 
     /// Draws `draws` (camera-relative, delta instances only) over `radiance`, depth-tested
-    /// against (and writing) the eye G-buffer's `depth`. `shadow_atlas` and `environment_map`
-    /// are the images the pass was created with.
+    /// against (and writing) the eye G-buffer's `depth`. `shadow_atlas` and the environment's
+    /// two cubes (direct, indirect) are the images the pass was created with.
     pub fn record(
         &self,
         cmd: &Cmd,
         scene: &GpuScene,
         draws: &[Draw],
-        (shadow_atlas, environment_map): (&Image, &Image),
+        (shadow_atlas, environment_map, environment_indirect): (&Image, &Image, &Image),
         depth: &mut Image,
         radiance: &mut Image,
     ) {
         let _scope = cmd.scope("translucent");
         cmd.transition(shadow_atlas, Access::FragmentSampledRead);
         cmd.transition(environment_map, Access::FragmentSampledRead);
+        cmd.transition(environment_indirect, Access::FragmentSampledRead);
         cmd.begin_rendering(
             &[Attachment {
                 image: radiance,

@@ -43,11 +43,18 @@ impl GatherMap {
         eye: Vec3,
     ) -> Self {
         let knn = knn_radii(&map.photons, neighbours);
+        Self::with_knn_radii(map, &knn, kernel, eye)
+    }
+
+    /// Radii from kNN radii `knn` already measured (photon-map order) and each photon's
+    /// distance from `eye` ([`kernel_radius`]).
+    pub fn with_knn_radii(map: PhotonMap, knn: &[f32], kernel: &KernelSettings, eye: Vec3) -> Self {
+        debug_assert_eq!(map.photons.len(), knn.len());
         let radii: Vec<(f32, f32)> = map
             .photons
             .iter()
             .zip(knn)
-            .map(|(p, r)| kernel_radius(r, kernel, p.position.distance(eye)))
+            .map(|(p, &r)| kernel_radius(r, kernel, p.position.distance(eye)))
             .collect();
         Self::with_radii(map, radii)
     }

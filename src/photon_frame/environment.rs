@@ -1,0 +1,123 @@
+//! The photons' indirect light as glass and mirrors see it: a small cube map of the radiance
+//! that the photon map reflects towards the environment cube's centre, gathered on the CPU from
+//! each traced photon map and added by the translucent pass to the cached cube of direct light
+//! (`passes/environment.rs`, `translucent.frag`).
+//!
+//! ```text
+//!   centre ──ray through texel (face, x, y)──► glass? pass through ──► first opaque hit s
+//!                                                                      L = Σ f(s, ωi, ωo)·Φ·κ
+//! ```
+//!
+//! Each texel's ray leaves from the cube's centre, passes through delta-material surfaces (the
+//! environment pass does not draw them either) and gathers at the first opaque surface with the
+//! photon volumes' estimate, seen from the centre instead of the eye: the same photons, kNN
+//! radii, kernel and regularised BSDF (`reference::gather::GatherMap`). Not carried over: the
+//! pixel-footprint floor (it belongs to the eye's pixels; without it the cube does not depend
+//! on the camera), the support normalisation at creases and the same-surface rule for global
+//! photons (`passes/support.rs`), so the cube is somewhat dark in corners. Without the cube the
+//! glass and mirrors reflected direct light only: inside `cornell-box`'s glass ball ISPM gave
+//! 0.46 of the CPU photon gather's radiance, 1.08 with it (docs/accuracy.md §7). The cube is
+//! small ([`FACE_SIZE`]² texels a face, sampled bilinearly): indirect light is smooth, and
+//! each frame's cube is a new estimate, so its noise averages out with the frames like the rest
+//! of the picture.
+
+use super::PhotonFrame;
+use crate::passes::environment::texel_direction;
+use crate::photon::bvh::SceneBvh;
+use crate::photon::kernel::KernelSettings;
+use crate::photon::ray::Ray;
+use crate::photon::trace::{bsdf_at, PhotonMap};
+use crate::reference::gather::GatherMap;
+use crate::scene::Scene;
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+
+/// Texels per side of a face of the indirect cube.
+pub const FACE_SIZE: u32 = 32;
+/// Most delta surfaces a texel's ray passes through before it gives up (black).
+const MAX_PASS_THROUGH: u32 = 8;
+
+impl PhotonFrame {
+    /// The indirect cube for an environment cube centred at `centre` (world space): RGBA
+    /// (alpha 1) per texel, face after face (+X, −X, +Y, −Y, +Z, −Z), rows from the top.
+    /// Zeros when the photon map is empty.
+    pub fn environment_indirect(&self, centre: DVec3) -> Vec<[f32; 4]> {
+        let texels = (6 * FACE_SIZE * FACE_SIZE) as usize;
+        if self.radii.is_empty() {
+            return vec![[0.0, 0.0, 0.0, 1.0]; texels];
+        }
+        let map = PhotonMap {
+            photons: self.traced.photons().copied().collect(),
+            ..Default::default()
+        };
+        // Photons, BVH and the centre relative to the plan's origin (module docs of
+        // `photon_frame`); no footprint floor (module docs).
+        let centre = (centre - self.plan.origin).as_vec3();
+        let kernel = KernelSettings {
+            footprint: 0.0,
+            ..self.kernel
+        };
+        let gather = GatherMap::with_knn_radii(map, &self.radii, &kernel, centre);
+        indirect_cube(
+            &self.scene,
+            &self.bvh,
+            &gather,
+            centre,
+            self.kernel.gather_exponent_max(),
+        )
+    }
+}
+
+/// [`PhotonFrame::environment_indirect`] from `gather` (positions in `bvh`'s space, as
+/// `centre`), glossy lobes evaluated at exponents of at most `gather_exponent_max`.
+pub fn indirect_cube(
+    scene: &Scene,
+    bvh: &SceneBvh,
+    gather: &GatherMap,
+    centre: Vec3,
+    gather_exponent_max: f32,
+) -> Vec<[f32; 4]> {
+    let n = FACE_SIZE;
+    (0..6 * n * n)
+        .into_par_iter()
+        .map(|i| {
+            let (face, y, x) = ((i / (n * n)) as usize, (i / n) % n, i % n);
+            let dir = texel_direction(face, x, y, n);
+            let l = radiance_from(
+                scene,
+                bvh,
+                gather,
+                Ray::new(centre, dir),
+                gather_exponent_max,
+            );
+            [l.x, l.y, l.z, 1.0]
+        })
+        .collect()
+}
+
+/// The photons' radiance along `ray`, reversed, from its first opaque surface.
+fn radiance_from(
+    scene: &Scene,
+    bvh: &SceneBvh,
+    gather: &GatherMap,
+    mut ray: Ray,
+    gather_exponent_max: f32,
+) -> Vec3 {
+    for _ in 0..MAX_PASS_THROUGH {
+        let Some(hit) = bvh.intersect(&ray) else {
+            return Vec3::ZERO;
+        };
+        if scene.materials[hit.material].has_delta_lobe() {
+            ray = hit.spawn_ray(ray.dir);
+            continue;
+        }
+        let bsdf = bsdf_at(scene, &hit).regularized(gather_exponent_max);
+        let l = gather.radiance(&hit, &bsdf, -ray.dir);
+        return if l.is_finite() {
+            l.max(Vec3::ZERO)
+        } else {
+            Vec3::ZERO
+        };
+    }
+    Vec3::ZERO
+}
