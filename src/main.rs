@@ -225,16 +225,17 @@ struct BenchArgs {
 struct QualityArgs {
     /// Set photons, bounces, kernel radius and subsampling to a point measured on the
     /// error–time Pareto fronts of the bundled scenes (docs/accuracy.md §5); explicit flags
-    /// override its values.
+    /// override its values. `none`: no preset, the flags' own defaults. Default: `high` for
+    /// `render` (GPU methods), `interactive` for `view`, `none` for `bench`.
     #[arg(long, value_enum)]
-    quality: Option<ispm::quality::Quality>,
-    /// Photons emitted per frame, split over the lights by power (default 100000, or the
-    /// --quality preset's). A light view holds at most 2048x2048 texels: a light whose share
+    quality: Option<ispm::quality::QualityFlag>,
+    /// Photons emitted per frame, split over the lights by power (default: the --quality
+    /// preset's; 100000 without one). A light view holds at most 2048x2048 texels: a light whose share
     /// asks for more emits fewer photons, and `render` says so.
     #[arg(long)]
     photons: Option<usize>,
     /// Estimate indirect light at 1/N resolution and upsample it (--upsample; N is clamped to
-    /// the image size; 1: full resolution). Default 1, or the --quality preset's.
+    /// the image size; 1: full resolution). Default: the --quality preset's; 1 without one.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     subsample: Option<u32>,
     /// Most scattering events per photon, and per path for the references (default: until
@@ -252,8 +253,13 @@ struct QualityArgs {
 }
 
 impl QualityArgs {
-    /// The knobs for `scene`: explicit flags, else the preset, else the defaults.
-    fn resolve(&self, scene: &ispm::scene::Scene) -> anyhow::Result<ispm::quality::Knobs> {
+    /// The knobs for `scene`: explicit flags, else the preset (`--quality`, else the command's
+    /// `default` preset), else the flags' own defaults.
+    fn resolve(
+        &self,
+        scene: &ispm::scene::Scene,
+        default: Option<ispm::quality::Quality>,
+    ) -> anyhow::Result<ispm::quality::Knobs> {
         if let Some(r) = self.radius {
             anyhow::ensure!(
                 r.is_finite() && r > 0.0,
@@ -261,7 +267,8 @@ impl QualityArgs {
             );
         }
         Ok(ispm::quality::resolve(
-            self.quality,
+            self.quality
+                .map_or(default, ispm::quality::QualityFlag::preset),
             ispm::quality::Explicit {
                 photons: self.photons,
                 bounces: self.bounces,
@@ -306,16 +313,18 @@ struct PlanArgs {
     size: (u32, u32),
     #[arg(long, value_enum, default_value = "ispm")]
     method: ispm::frame::Method,
-    /// Photons emitted per frame, split over the active lights by power.
-    #[arg(long, default_value_t = 100_000)]
-    photons: usize,
+    /// Photons emitted per frame, split over the active lights by power (default: what
+    /// `render` uses, the `high` preset's for ISPM, else 100000).
+    #[arg(long)]
+    photons: Option<usize>,
     /// Most scattering events per photon (default: until Russian roulette ends the path, at
     /// most 256).
     #[arg(long, default_value_t = ispm::photon::trace::MAX_BOUNCES)]
     bounces: u32,
-    /// Photon volumes at 1/N resolution.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
-    subsample: u32,
+    /// Photon volumes at 1/N resolution (default: what `render` uses, the `high` preset's for
+    /// ISPM, else 1).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    subsample: Option<u32>,
     /// `auto`: plan; `all`: every pass, variant, light and bounce (the unplanned frame).
     #[arg(long, value_enum, default_value = "auto")]
     effects: ispm::plan::Effects,
@@ -573,7 +582,9 @@ fn view(args: ViewArgs, device: Option<usize>) -> anyhow::Result<()> {
         args.camera,
         args.orbit_lights,
     )?;
-    let knobs = args.quality.resolve(&scene)?;
+    let knobs = args
+        .quality
+        .resolve(&scene, Some(ispm::quality::VIEW_DEFAULT))?;
     let (width, height) = args.size;
     let settings = ispm::viewer::ViewSettings {
         render: RenderSettings {
@@ -627,7 +638,7 @@ fn bench(args: BenchArgs, device: Option<usize>) -> anyhow::Result<()> {
         args.orbit_lights,
     )?;
     let scene_name = args.scene.as_deref().unwrap_or("cornell-box");
-    let knobs = args.quality.resolve(&scene)?;
+    let knobs = args.quality.resolve(&scene, None)?;
     let gpu = gpu(device)?;
     let (width, height) = args.size;
     let settings = ispm::bench::BenchSettings {
@@ -732,7 +743,10 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
         args.camera,
         args.orbit_lights,
     )?;
-    let knobs = args.quality.resolve(&scene)?;
+    // ISPM starts from a preset; direct light and the CPU references from the flags' own
+    // defaults.
+    let default = (args.method == Method::Ispm).then_some(ispm::quality::RENDER_DEFAULT);
+    let knobs = args.quality.resolve(&scene, default)?;
     // The viewer's scripted path starts from the scene as loaded.
     let path_pose = args
         .camera_path_frame
@@ -967,13 +981,19 @@ fn plan(args: PlanArgs) -> anyhow::Result<()> {
         args.camera,
         args.orbit_lights,
     )?;
+    // The knobs `render` would use (its default preset for ISPM).
+    let preset =
+        (args.method == ispm::frame::Method::Ispm).then(|| ispm::quality::RENDER_DEFAULT.preset());
     let settings = RenderSettings {
         method: args.method,
-        photons: args.photons,
+        photons: args
+            .photons
+            .or(preset.map(|p| p.photons))
+            .unwrap_or(ispm::quality::DEFAULT_PHOTONS),
         bounces: args.bounces,
         width: args.size.0,
         height: args.size.1,
-        subsample: args.subsample,
+        subsample: args.subsample.or(preset.map(|p| p.subsample)).unwrap_or(1),
         effects: args.effects,
         ..Default::default()
     };

@@ -2,8 +2,10 @@
 //! `bench`): each sets the knobs `ispm sweep` varies to one point of the measured error–time
 //! Pareto fronts of the bundled scenes (docs/accuracy.md §5, which records the fronts and the
 //! points chosen). A flag given explicitly (`--photons`, `--bounces`, `--radius`,
-//! `--subsample`, `--upsample`) overrides the preset's value for that knob; without
-//! `--quality` the defaults are the flags' own.
+//! `--subsample`, `--upsample`) overrides the preset's value for that knob. Without
+//! `--quality`, `render` (GPU methods) starts from [`RENDER_DEFAULT`] and `view` from
+//! [`VIEW_DEFAULT`]; `bench`, the CPU references and `--quality none` use the flags' own
+//! defaults.
 //!
 //! The radius is a scale of the scene-relative kernel (`KernelSettings::scene_relative`), as
 //! the sweep's `radius` knob, so a preset means the same on a scene of any size.
@@ -25,6 +27,31 @@ pub enum Quality {
     /// The most accurate single frame the sweep measured: 160k photons, twice the default
     /// kernel, full resolution.
     Reference,
+}
+
+/// What `--quality` names: a preset, or `none`, the flags' own defaults (100k photons, the
+/// scene-relative radius, full resolution) whatever the command's default preset.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum QualityFlag {
+    /// No preset: the flags' own defaults.
+    None,
+    Draft,
+    Interactive,
+    High,
+    Reference,
+}
+
+impl QualityFlag {
+    /// The preset named, if any.
+    pub fn preset(self) -> Option<Quality> {
+        match self {
+            QualityFlag::None => None,
+            QualityFlag::Draft => Some(Quality::Draft),
+            QualityFlag::Interactive => Some(Quality::Interactive),
+            QualityFlag::High => Some(Quality::High),
+            QualityFlag::Reference => Some(Quality::Reference),
+        }
+    }
 }
 
 /// The knobs a preset sets.
@@ -88,7 +115,22 @@ pub struct Explicit {
     pub upsample: Option<Upsample>,
 }
 
-/// The flags' own defaults (no `--quality`).
+/// The preset `ispm render` (GPU methods) uses when `--quality` is not given: its other flags
+/// override this preset's values as they would a named one's. On the default scene at the
+/// default size (cornell-box, 640×480, lavapipe, 2 cores, `--seconds 4`) it accumulated 4
+/// frames in 8.0 s of wall time, where the flags' own defaults (100k photons, radius ×1, no
+/// subsampling) took 18.1 s for 3 frames with a visibly grainier ceiling and back wall, for about
+/// the same error after a 4×4 box filter (relMSE 0.0098 against 0.0089; docs/accuracy.md §7,
+/// "The defaults").
+pub const RENDER_DEFAULT: Quality = Quality::High;
+
+/// The preset `ispm view` starts with when `--quality` is not given: the cheapest frame that
+/// stays clean in motion (7 frames in a 4 s budget at 640×480, where the flags' own defaults
+/// drew one frame in 5 s).
+pub const VIEW_DEFAULT: Quality = Quality::Interactive;
+
+/// The flags' own defaults (no `--quality` and no default preset: `bench`, and the CPU
+/// references of `render`).
 pub const DEFAULT_PHOTONS: usize = 100_000;
 /// No bounce count: Russian roulette ends the paths, this is only the safety cap (issue #19: the
 /// old fixed 8 bounces cost an albedo-0.8 room 13 % of its light, `tests/physics_energy.rs`).

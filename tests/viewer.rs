@@ -60,7 +60,15 @@ fn headless(args: &[&str], out: &std::path::Path) -> image::RgbaImage {
 fn view_renders_sixty_frames_along_its_path_through_a_resize_and_ends_at_the_headless_frame() {
     let dir = tempfile::tempdir().expect("tempdir");
     let shot = dir.path().join("view.png");
-    let common = ["--size", "96x64", "--photons", "4000"];
+    // The same preset for both (`view` and `render` default to different ones).
+    let common = [
+        "--size",
+        "96x64",
+        "--photons",
+        "4000",
+        "--quality",
+        "interactive",
+    ];
     let mut args = vec!["view", "cornell-box"];
     args.extend(common);
     args.extend([
@@ -140,6 +148,8 @@ fn view_with_orbiting_lights_runs_120_clean_frames_and_ends_on_the_headless_rend
         "64x64",
         "--photons",
         "4000",
+        "--quality",
+        "interactive",
         "--orbit-lights",
         "4",
     ];
@@ -199,6 +209,8 @@ fn view_with_overlay_and_debug_view_writes_screenshot_stats_and_a_30_frame_trace
         "96x64",
         "--photons",
         "4000",
+        "--quality",
+        "interactive",
         "--debug-view",
         "bounce-map",
     ];
