@@ -226,7 +226,7 @@ struct QualityArgs {
     /// Set photons, bounces, kernel radius and subsampling to a point measured on the
     /// error–time Pareto fronts of the bundled scenes (docs/accuracy.md §5); explicit flags
     /// override its values. `none`: no preset, the flags' own defaults. Default: `high` for
-    /// `render` (GPU methods), `interactive` for `view`, `none` for `bench`.
+    /// `render --method ispm`, `interactive` for `view`, `none` otherwise.
     #[arg(long, value_enum)]
     quality: Option<ispm::quality::QualityFlag>,
     /// Photons emitted per frame, split over the lights by power (default: the --quality

@@ -3,9 +3,9 @@
 //! Pareto fronts of the bundled scenes (docs/accuracy.md §5, which records the fronts and the
 //! points chosen). A flag given explicitly (`--photons`, `--bounces`, `--radius`,
 //! `--subsample`, `--upsample`) overrides the preset's value for that knob. Without
-//! `--quality`, `render` (GPU methods) starts from [`RENDER_DEFAULT`] and `view` from
-//! [`VIEW_DEFAULT`]; `bench`, the CPU references and `--quality none` use the flags' own
-//! defaults.
+//! `--quality`, `render --method ispm` starts from [`RENDER_DEFAULT`] and `view` from
+//! [`VIEW_DEFAULT`]; `bench`, `--method direct`, the CPU references and `--quality none` use
+//! the flags' own defaults.
 //!
 //! The radius is a scale of the scene-relative kernel (`KernelSettings::scene_relative`), as
 //! the sweep's `radius` knob, so a preset means the same on a scene of any size.
@@ -115,7 +115,7 @@ pub struct Explicit {
     pub upsample: Option<Upsample>,
 }
 
-/// The preset `ispm render` (GPU methods) uses when `--quality` is not given: its other flags
+/// The preset `ispm render --method ispm` uses when `--quality` is not given: its other flags
 /// override this preset's values as they would a named one's. On the default scene at the
 /// default size (cornell-box, 640×480, lavapipe, 2 cores, `--seconds 4`) it accumulated 4
 /// frames in 8.0 s of wall time, where the flags' own defaults (100k photons, radius ×1, no
@@ -129,8 +129,8 @@ pub const RENDER_DEFAULT: Quality = Quality::High;
 /// drew one frame in 5 s).
 pub const VIEW_DEFAULT: Quality = Quality::Interactive;
 
-/// The flags' own defaults (no `--quality` and no default preset: `bench`, and the CPU
-/// references of `render`).
+/// The flags' own defaults (no `--quality` and no default preset: `bench`, and `render`'s
+/// other methods).
 pub const DEFAULT_PHOTONS: usize = 100_000;
 /// No bounce count: Russian roulette ends the paths, this is only the safety cap (issue #19: the
 /// old fixed 8 bounces cost an albedo-0.8 room 13 % of its light, `tests/physics_energy.rs`).
