@@ -25,7 +25,7 @@
 //! period. Every configuration's last frame reports the passes it ran and skipped and the lobes
 //! compiled out, with the plan's reasons (`FrameStats`).
 
-use crate::frame::{Method, RenderSettings, Renderer, ReusedLight, Schedule, SkippedPass};
+use crate::frame::{Density, Method, RenderSettings, Renderer, ReusedLight, Schedule, SkippedPass};
 use crate::gpu::Gpu;
 use crate::plan::Effects;
 use crate::scene::{Scene, FRAME_STEP_SECONDS};
@@ -47,6 +47,8 @@ pub struct BenchSettings {
     /// Also measure the planned frame (`Effects::Auto`) against the overlapped one, which
     /// runs everything (`Effects::All`).
     pub compare_effects: bool,
+    /// Also measure the overlapped frame with the other density estimator (`--density`).
+    pub compare_density: bool,
 }
 
 /// Median and spread of one stage, in milliseconds.
@@ -102,6 +104,14 @@ pub struct BenchReport {
     pub planned: Option<ConfigResult>,
     /// Overlapped (`Effects::All`) frame period ÷ planned frame period (`--compare-effects`).
     pub effects_speedup: Option<f64>,
+    /// The density estimator of the overlapped, serial and planned frames (`--density`,
+    /// resolved for the device).
+    pub density: Density,
+    /// The overlapped frame with the other estimator (`--compare-density` only).
+    pub other_density: Option<ConfigResult>,
+    /// Its frame period ÷ the overlapped frame's (`--compare-density`): how much slower the
+    /// other estimator's frame is.
+    pub density_speedup: Option<f64>,
     /// Overlapped frame period ÷ max(CPU stage, GPU stage).
     pub overlap: f64,
     /// Serial frame period ÷ overlapped frame period.
@@ -254,10 +264,14 @@ pub fn run(
     settings: &BenchSettings,
     mut progress: impl FnMut(&str),
 ) -> anyhow::Result<BenchReport> {
-    let make = |name: &'static str, method: Method, schedule: Schedule, effects: Effects| {
+    let density = settings.render.density.resolve(gpu.properties.device_type);
+    let make_with = |name: &'static str,
+                     (method, schedule, effects): (Method, Schedule, Effects),
+                     density: Density| {
         let render = RenderSettings {
             method,
             schedule,
+            density,
             // `All`: every frame traces (a planned frame of a static scene reuses its photon
             // map) and runs every pass and variant.
             effects,
@@ -272,6 +286,9 @@ pub fn run(
             last_chunk: Vec::new(),
             last_stats: Default::default(),
         })
+    };
+    let make = |name: &'static str, method: Method, schedule: Schedule, effects: Effects| {
+        make_with(name, (method, schedule, effects), density)
     };
     let mut configs = vec![
         make(
@@ -297,6 +314,14 @@ pub fn run(
             Effects::Auto,
         )?);
     }
+    if settings.compare_density {
+        let (name, other) = match density {
+            Density::Tiled => ("volumes", Density::Volumes),
+            _ => ("tiled", Density::Tiled),
+        };
+        let frame = (Method::Ispm, Schedule::Overlapped, Effects::All);
+        configs.push(make_with(name, frame, other)?);
+    }
     for c in &mut configs {
         progress(&format!("warm-up: {}", c.name));
         chunk(c, scene, settings.warmup.max(1))?;
@@ -315,7 +340,10 @@ pub fn run(
             c.spans.extend(spans);
         }
     }
-    let planned = (configs.len() > 3).then(|| result(&configs[3]));
+    let planned = settings.compare_effects.then(|| result(&configs[3]));
+    let other_density = settings
+        .compare_density
+        .then(|| result(configs.last().expect("the other density's configuration")));
     let (o, s, d) = (
         result(&configs[0]),
         result(&configs[1]),
@@ -334,6 +362,11 @@ pub fn run(
         speedup: ratio(s.frame_ms, o.frame_ms),
         effects_speedup: planned.as_ref().map(|p| ratio(o.frame_ms, p.frame_ms)),
         planned,
+        density,
+        density_speedup: other_density
+            .as_ref()
+            .map(|c| ratio(c.frame_ms, o.frame_ms)),
+        other_density,
         overlapped: o,
         serial: s,
         direct_only: d,
@@ -372,7 +405,8 @@ impl BenchReport {
         );
         let configs = [&self.overlapped, &self.serial, &self.direct_only]
             .into_iter()
-            .chain(&self.planned);
+            .chain(&self.planned)
+            .chain(&self.other_density);
         for c in configs {
             if let Some(check) = &c.value_check {
                 let values: u64 = check.per_buffer.iter().map(|b| b.values).sum();
@@ -395,6 +429,30 @@ impl BenchReport {
             for v in &planned.variants_skipped {
                 out += &format!("  compiled out {}: {}\n", v.name, v.reason);
             }
+        }
+        if let (Some(other), Some(speedup)) = (&self.other_density, self.density_speedup) {
+            let pass = |c: &ConfigResult| {
+                ["gpu.photon_tiles", "gpu.photon_volumes"]
+                    .iter()
+                    .find_map(|k| c.stages.get(*k).map(|t| (*k, t.median)))
+                    .unwrap_or(("gpu.photon_volumes", 0.0))
+            };
+            let (a, b) = (pass(&self.overlapped), pass(other));
+            out += &format!(
+                "\ndensity: {:?} frame {:.2} ms ({} {:.2} ms), {} frame {:.2} ms ({} {:.2} ms); \
+                 {} ÷ {:?} frame = {speedup:.3}, estimate {:.3}\n",
+                self.density,
+                self.overlapped.frame_ms,
+                a.0,
+                a.1,
+                other.name,
+                other.frame_ms,
+                b.0,
+                b.1,
+                other.name,
+                self.density,
+                if a.1 > 0.0 { b.1 / a.1 } else { 0.0 },
+            );
         }
         out
     }

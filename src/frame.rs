@@ -80,6 +80,62 @@ pub enum Schedule {
     Serial,
 }
 
+/// How the radiance estimate is made from the photon map (`--density`). Both give the same
+/// sums (tests/tiled_density.rs); they differ in speed, by device.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Density {
+    /// Photon volumes: each photon's kernel rasterised as a billboard and shaded per fragment
+    /// (the paper's §4, `passes/photon_volumes.rs`).
+    Volumes,
+    /// A tiled gather in compute: per screen tile, the photons that may reach it, tested by
+    /// each pixel (`passes/photon_tiles.rs`).
+    Tiled,
+    /// The faster on this device, as measured (docs/performance.md, "Density estimators"):
+    /// `tiled` on a CPU implementation (lavapipe), `volumes` on a GPU's hardware rasteriser.
+    #[default]
+    Auto,
+}
+
+impl Density {
+    /// `Auto` made concrete for a device of type `device_type`.
+    pub fn resolve(self, device_type: crate::gpu::vk::PhysicalDeviceType) -> Density {
+        match self {
+            Density::Auto if device_type == crate::gpu::vk::PhysicalDeviceType::CPU => {
+                Density::Tiled
+            }
+            Density::Auto => Density::Volumes,
+            other => other,
+        }
+    }
+
+    /// `Auto` made concrete for Vulkan device `device` (`--device`), or for the device the
+    /// renderer picks when none is named, without creating it; `Auto` when Vulkan lists no
+    /// such usable device.
+    pub fn resolve_for(self, device: Option<usize>) -> Density {
+        if self != Density::Auto {
+            return self;
+        }
+        let Ok(devices) = crate::gpu::list_devices() else {
+            return self;
+        };
+        let usable = devices.iter().filter(|(_, ok)| ok.is_ok());
+        let chosen = match device {
+            Some(i) => devices.get(i).filter(|(_, ok)| ok.is_ok()),
+            None => usable.min_by_key(|(p, _)| crate::gpu::device_type_rank(p.device_type)),
+        };
+        chosen.map_or(self, |(p, _)| self.resolve(p.device_type))
+    }
+
+    /// The GPU timing scope, stats stage and plan entry of the estimator.
+    pub fn pass_name(self) -> &'static str {
+        match self {
+            Density::Tiled => "photon_tiles",
+            Density::Volumes | Density::Auto => "photon_volumes",
+        }
+    }
+}
+
 /// How the frame computes light.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
@@ -152,6 +208,9 @@ pub struct RenderSettings {
     /// new points every frame of an accumulation, the same ones in a frame that stands alone.
     /// 0: emissive surfaces are seen but light nothing.
     pub emitter_lights: u32,
+    /// The density estimator (`--density`; `Auto` is resolved for the device when the
+    /// renderer is made).
+    pub density: Density,
 }
 
 impl Default for RenderSettings {
@@ -178,6 +237,7 @@ impl Default for RenderSettings {
             check_values: false,
             accumulate: false,
             emitter_lights: crate::scene::emitters::DEFAULT_EMITTER_LIGHTS,
+            density: Density::Auto,
         }
     }
 }
@@ -268,6 +328,22 @@ pub struct FrameStats {
     /// without photons). Written by `stats::frame_json` with its glossy cap.
     #[serde(skip)]
     pub kernel: Option<crate::photon::kernel::KernelSettings>,
+    /// The tiled estimator's lists of the frame (`--density tiled`; `None` with the photon
+    /// volumes or without photons).
+    pub tiles: Option<TileStats>,
+}
+
+/// What the tiled estimator gathered (`passes/photon_tiles.rs`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct TileStats {
+    /// Screen tiles (PHOTON_TILE² target pixels each).
+    pub tiles: usize,
+    /// List entries over all tiles: photons listed, each once per tile it may reach.
+    pub entries: usize,
+    /// The longest tile list.
+    pub longest: usize,
+    /// Dispatches of the gather (one per TILE_JOB entries of the longest list, per buffer).
+    pub dispatches: usize,
 }
 
 /// A light whose photons a frame kept, and why.
@@ -474,6 +550,11 @@ fn constants(
 
 impl Renderer {
     pub fn new(gpu: &Arc<Gpu>, scene: &Scene, settings: RenderSettings) -> anyhow::Result<Self> {
+        // The density estimator for this device, before the plan lists it.
+        let settings = RenderSettings {
+            density: settings.density.resolve(gpu.properties.device_type),
+            ..settings
+        };
         anyhow::ensure!(
             settings.width > 0 && settings.height > 0,
             "image size {}x{} is empty",
@@ -1009,6 +1090,7 @@ impl Renderer {
         stats.accumulated_frames = accumulated + 1;
         stats.photon_sample = self.photons.as_ref().map_or(0, PhotonFrame::sample);
         stats.kernel = self.photons.as_ref().map(PhotonFrame::kernel);
+        stats.tiles = self.photons.as_ref().and_then(PhotonFrame::tile_stats);
 
         self.last_frame_done = Some(d_done);
         self.slots[slot].pending = Some(PendingFrame {
@@ -1269,7 +1351,7 @@ impl Renderer {
             photons.record_estimate(
                 cmd,
                 (&self.frame_uniforms, &self.scene.materials, &self.gbuffer),
-                &mut self.radiance,
+                (&mut self.radiance, slot, frame.uniforms.view_proj),
                 (composite, self.value_check.as_mut()),
             )?;
         }

@@ -116,6 +116,12 @@ struct ViewArgs {
     /// exit (the viewer's smoke test).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     frames: Option<u32>,
+    /// The density estimator: `volumes` (each photon's kernel rasterised as a
+    /// billboard, the paper's), `tiled` (a per-tile gather in compute; the same sums) or `auto`
+    /// (the faster on this device: tiled on a CPU implementation such as lavapipe, volumes on
+    /// a GPU; `ispm info` says which).
+    #[arg(long, value_enum, default_value = "auto")]
+    density: ispm::frame::Density,
     /// Every frame stands alone: no progressive accumulation while the view stands still.
     #[arg(long)]
     no_accumulate: bool,
@@ -201,6 +207,16 @@ struct BenchArgs {
     /// Write an SVG of the last overlapped chunk's schedule (the paper's Figure 3).
     #[arg(long)]
     figure: Option<PathBuf>,
+    /// The density estimator: `volumes` (each photon's kernel rasterised as a
+    /// billboard, the paper's), `tiled` (a per-tile gather in compute; the same sums) or `auto`
+    /// (the faster on this device: tiled on a CPU implementation such as lavapipe, volumes on
+    /// a GPU; `ispm info` says which).
+    #[arg(long, value_enum, default_value = "auto")]
+    density: ispm::frame::Density,
+    /// Also measure the other density estimator (overlapped, `--effects all`) in the same
+    /// alternating chunks: `density_speedup` = its frame period ÷ the overlapped one's.
+    #[arg(long)]
+    compare_density: bool,
     /// Also measure the frame as the effects plan makes it (`--effects auto`) against the
     /// overlapped frame, which runs every pass and variant (`--effects all`), in the same
     /// alternating chunks.
@@ -328,6 +344,10 @@ struct PlanArgs {
     /// `auto`: plan; `all`: every pass, variant, light and bounce (the unplanned frame).
     #[arg(long, value_enum, default_value = "auto")]
     effects: ispm::plan::Effects,
+    /// The density estimator the plan lists (`auto`: what `render` picks on the device
+    /// `--device` chooses, or on the first usable one).
+    #[arg(long, value_enum, default_value = "auto")]
+    density: ispm::frame::Density,
     /// Plan the view of the file's camera N (0-based, in node order; default: the first).
     #[arg(long, value_name = "N")]
     camera: Option<usize>,
@@ -382,6 +402,12 @@ struct RenderArgs {
     /// GPU methods: every frame stands alone (no accumulation); the image is the last frame.
     #[arg(long)]
     no_accumulate: bool,
+    /// GPU methods: the density estimator: `volumes` (each photon's kernel rasterised as a
+    /// billboard, the paper's), `tiled` (a per-tile gather in compute; the same sums) or `auto`
+    /// (the faster on this device: tiled on a CPU implementation such as lavapipe, volumes on
+    /// a GPU; `ispm info` says which).
+    #[arg(long, value_enum, default_value = "auto")]
+    density: ispm::frame::Density,
     /// GPU methods: overlap the CPU photon trace with GPU work and keep frames in flight, or
     /// run every step strictly after the one before.
     #[arg(long, value_enum, default_value = "overlapped")]
@@ -596,6 +622,7 @@ fn view(args: ViewArgs, device: Option<usize>) -> anyhow::Result<()> {
             subsample: knobs.subsample,
             upsample: knobs.upsample,
             accumulate: !args.no_accumulate,
+            density: args.density,
             ..Default::default()
         },
         device_index: device,
@@ -652,12 +679,14 @@ fn bench(args: BenchArgs, device: Option<usize>) -> anyhow::Result<()> {
             upsample: knobs.upsample,
             shadow_resolution: args.shadow_resolution.clamp(16, 8192),
             check_values: args.check_values,
+            density: args.density,
             ..Default::default()
         },
         frames: args.frames,
         warmup: args.warmup,
         chunks: args.chunks,
         compare_effects: args.compare_effects,
+        compare_density: args.compare_density,
     };
     let report = ispm::bench::run(&gpu, &scene, scene_name, &settings, |step| {
         log::info!("bench: {step}")
@@ -801,6 +830,7 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
         subsample: knobs.subsample,
         upsample: knobs.upsample,
         schedule: args.schedule,
+        density: args.density,
         effects: args.effects,
         caustic_share: args.caustic_share,
         emitter_lights: args.emitter_lights.min(64),
@@ -974,7 +1004,7 @@ fn render_reference(
     Ok(())
 }
 
-fn plan(args: PlanArgs) -> anyhow::Result<()> {
+fn plan(args: PlanArgs, device: Option<usize>) -> anyhow::Result<()> {
     let scene = load_scene_from(
         args.scene.as_deref(),
         &args.scene_args,
@@ -995,6 +1025,7 @@ fn plan(args: PlanArgs) -> anyhow::Result<()> {
         height: args.size.1,
         subsample: args.subsample.or(preset.map(|p| p.subsample)).unwrap_or(1),
         effects: args.effects,
+        density: args.density.resolve_for(device),
         ..Default::default()
     };
     let plan = ispm::plan::EffectsPlan::analyse(&scene, &settings, &scene.camera);
@@ -1064,6 +1095,12 @@ fn info(device: Option<usize>) -> anyhow::Result<()> {
         p.timestamp_period,
         gpu.clock_source()
     );
+    let density = ispm::frame::Density::Auto.resolve(p.device_type);
+    println!(
+        "  --density auto: {density:?} on a {:?} device (measured on lavapipe, \
+         docs/performance.md \"Density estimators\")",
+        p.device_type
+    );
     println!(
         "  validation: {}",
         if gpu.validation {
@@ -1085,7 +1122,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(args) => render(args, cli.device),
         Command::Info => info(cli.device),
-        Command::Plan(args) => plan(args),
+        Command::Plan(args) => plan(args, cli.device),
         Command::Bench(args) => bench(args, cli.device),
         Command::View(args) => view(args, cli.device),
         Command::Sweep(args) => sweep(args, cli.device),

@@ -26,6 +26,7 @@
 //! So the kept photons stay exactly what a trace makes (the reuse's bit-for-bit invariant is
 //! about them), and the radii cannot go stale inside them.
 
+use crate::frame::Density;
 use crate::frame::{FrameStats, RenderSettings};
 use crate::gpu::{vk, Access, Buffer, Cmd, Gpu, Image, MemoryLocation, QueueRole, ViewKind};
 use crate::gpu_scene::GpuScene;
@@ -34,6 +35,7 @@ use crate::passes::bounce_map::{BounceMapIo, BounceMapPass, ViewBatch};
 use crate::passes::composite::CompositePass;
 use crate::passes::eye_gbuffer::GBuffer;
 use crate::passes::light_gbuffer::LightGBufferPass;
+use crate::passes::photon_tiles::PhotonTilesPass;
 use crate::passes::photon_volumes::{self, PhotonVolumeInputs, PhotonVolumesPass};
 use crate::passes::support::SupportPass;
 use crate::passes::upsample::{self, UpsampleInputs, UpsamplePass};
@@ -54,6 +56,7 @@ mod buffers;
 pub mod environment;
 mod estimate;
 mod retrace;
+pub mod tiles;
 
 use buffers::{photons_per_buffer, storage_buffer_range, BounceBuffers, PhotonBuffers};
 
@@ -115,7 +118,8 @@ pub struct PhotonFrame {
     /// The photon buffer was last used by the graphics queue (the photon volumes), which must
     /// hand it to the transfer queue before the next upload.
     photons_on_graphics: bool,
-    photon_pass: PhotonVolumesPass,
+    /// The density estimator: photon volumes or the tiled gather (`--density`).
+    estimator: Estimator,
     /// `--subsample N > 1`: the low-resolution targets and the pass that upsamples them.
     subsampled: Option<Subsampled>,
     indirect: Image,
@@ -144,6 +148,36 @@ pub struct PhotonFrame {
     kernel_clamp: KernelSettings,
     /// Height of the image the estimate is made at (the low one when subsampling).
     estimate_height: u32,
+    /// The screen the tiled estimator bins for: the full image size and the subsample factor
+    /// (the frame gives the `view_proj` of each estimate).
+    screen: tiles::Screen,
+    /// The tiled estimator's lists of the last recorded estimate.
+    tile_stats: Option<crate::frame::TileStats>,
+}
+
+/// The density estimator of the frame (`--density`, resolved for the device).
+enum Estimator {
+    Volumes(Box<PhotonVolumesPass>),
+    Tiled(PhotonTilesPass),
+}
+
+/// The targets the estimate is made into: `[indirect, global, weight]` at full resolution,
+/// `[irradiance, glossy, global, weight]` at `--subsample N > 1`.
+fn estimate_targets<'a>(
+    indirect: &'a Image,
+    support: Option<&'a ([Image; 2], SupportPass)>,
+    subsampled: Option<&'a Subsampled>,
+) -> Vec<&'a Image> {
+    match (subsampled, support) {
+        (Some(sub), _) => vec![
+            &sub.low[0],
+            &sub.low[1],
+            &sub.support.0[0],
+            &sub.support.0[1],
+        ],
+        (None, Some((images, _))) => vec![indirect, &images[0], &images[1]],
+        (None, None) => unreachable!("the support targets exist at subsample 1"),
+    }
 }
 
 struct Subsampled {
@@ -287,17 +321,6 @@ impl PhotonFrame {
         )?;
         let buffers = PhotonBuffers::new(gpu, 1, 1, photons_per_buffer(gpu, settings))?;
         let subsample = subsample_factor(settings);
-        let photon_pass = PhotonVolumesPass::new(
-            gpu,
-            &PhotonVolumeInputs {
-                frame,
-                photons: &buffers.device,
-                materials: &gpu_scene.materials,
-                gbuffer,
-            },
-            subsample,
-            settings.bsdf_variant,
-        )?;
         let (indirect, subsampled) = if subsample == 1 {
             let indirect = photon_volumes::target(gpu, radiance.width, radiance.height)?;
             (indirect, None)
@@ -337,6 +360,27 @@ impl PhotonFrame {
             Some((images, pass))
         } else {
             None
+        };
+        let inputs = PhotonVolumeInputs {
+            frame,
+            photons: &buffers.device,
+            materials: &gpu_scene.materials,
+            gbuffer,
+        };
+        let estimator = match settings.density.resolve(gpu.properties.device_type) {
+            Density::Tiled => {
+                let targets = estimate_targets(&indirect, support.as_ref(), subsampled.as_ref());
+                Estimator::Tiled(PhotonTilesPass::new(
+                    gpu,
+                    &inputs,
+                    subsample,
+                    settings.bsdf_variant,
+                    (crate::frame::FRAMES_IN_FLIGHT, &targets),
+                )?)
+            }
+            Density::Volumes | Density::Auto => Estimator::Volumes(Box::new(
+                PhotonVolumesPass::new(gpu, &inputs, subsample, settings.bsdf_variant)?,
+            )),
         };
         let composite = CompositePass::new(gpu, &indirect, radiance)?;
         let kernel_clamp =
@@ -380,7 +424,7 @@ impl PhotonFrame {
             buffers,
             rebind: false,
             photons_on_graphics: false,
-            photon_pass,
+            estimator,
             subsampled,
             indirect,
             support,
@@ -394,6 +438,12 @@ impl PhotonFrame {
             eye: scene.camera.position().as_dvec3(),
             kernel_clamp,
             estimate_height,
+            screen: tiles::Screen {
+                view_proj: glam::Mat4::IDENTITY,
+                size: (radiance.width, radiance.height),
+                subsample,
+            },
+            tile_stats: None,
         })
     }
 

@@ -210,6 +210,9 @@ pub struct EffectsPlan {
     pub max_bounces_reason: String,
     /// The subsample factor the frame uses (upsample runs above 1).
     pub subsample: u32,
+    /// The density estimator (`--density`; the renderer resolves `Auto` for its device before
+    /// it plans).
+    pub density: crate::frame::Density,
     /// Whether still frames are averaged (`RenderSettings::accumulate`, and only where the
     /// frames differ: a frame with photon-mapped indirect light, or lit by emitters' area
     /// samples).
@@ -553,6 +556,7 @@ impl SceneAnalysis {
             max_bounces,
             max_bounces_reason,
             subsample: self.subsample,
+            density: settings.density,
             accumulate,
             emitters: self.emitters.clone(),
             motion: MotionPlan::of(scene),
@@ -611,6 +615,7 @@ impl EffectsPlan {
             max_bounces: if ispm { settings.bounces.max(1) } else { 0 },
             max_bounces_reason: "--effects all: --bounces (at least 1)".to_string(),
             subsample,
+            density: settings.density,
             accumulate: settings.accumulate && (ispm || has_area_samples(scene)),
             emitters: emitters_decision(scene, settings),
             motion: MotionPlan::of(scene),
@@ -730,7 +735,7 @@ impl EffectsPlan {
             pass(
                 "upsample",
                 false,
-                "--subsample 1: full-resolution photon volumes",
+                "--subsample 1: a full-resolution estimate",
             )
         };
         // The boundary normalisation of the global photons (`passes/support.rs`).
@@ -753,6 +758,34 @@ impl EffectsPlan {
             )
         };
         let translucent = |name| pass(name, self.translucent.needed, &self.translucent.reason);
+        // The density estimator that runs, and the one that does not (`--density`).
+        use crate::frame::Density;
+        let (tiles, volumes) = match self.density {
+            Density::Tiled => (
+                photon("photon_tiles"),
+                pass(
+                    "photon_volumes",
+                    false,
+                    "--density tiled: the tiled gather makes the estimate",
+                ),
+            ),
+            Density::Volumes => (
+                pass(
+                    "photon_tiles",
+                    false,
+                    "--density volumes: the photon volumes make the estimate",
+                ),
+                photon("photon_volumes"),
+            ),
+            Density::Auto => (
+                pass(
+                    "photon_tiles",
+                    false,
+                    "--density auto: the device decides (tiled on a CPU implementation)",
+                ),
+                photon("photon_volumes"),
+            ),
+        };
         vec![
             photon("light_gbuffers"),
             photon("bounce_map"),
@@ -762,7 +795,8 @@ impl EffectsPlan {
             shadows,
             pass("eye_gbuffer", true, "every frame: the camera's view"),
             pass("direct", true, "every frame: direct light and emission"),
-            photon("photon_volumes"),
+            volumes,
+            tiles,
             support,
             upsample,
             photon("composite"),

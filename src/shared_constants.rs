@@ -103,3 +103,12 @@ pub const SUPPORT_NORMAL_COS: f32 = 0.9;
 // wider than the tangent cone's section, against rounding.
 pub const BILLBOARD_INSIDE: f32 = 1.001;
 pub const BILLBOARD_MARGIN: f32 = 1.001;
+
+// Tiled density estimation (`passes/photon_tiles.rs`, `photon_tiles.comp`): pixels per side of
+// a screen tile, one workgroup's; the photons of a tile's list are read into shared memory
+// PHOTON_TILE² at a time.
+pub const PHOTON_TILE: u32 = 8;
+// The most entries of one tile's list one dispatch of `photon_tiles.comp` gathers: lavapipe
+// ends an invocation's loops after 65535 iterations in all (the tile loop takes about
+// 1 + 1/subgroup size of them per entry), so longer lists take several dispatches.
+pub const TILE_JOB: u32 = 16384;

@@ -20,6 +20,7 @@ pub const STAGES: &[&str] = &[
     "eye_gbuffer",
     "direct",
     "photon_volumes",
+    "photon_tiles",
     "support",
     "upsample",
     "composite",
@@ -71,6 +72,9 @@ pub fn frame_json(
             "footprint_max": k.footprint_max,
             "gather_exponent_max": k.gather_exponent_max(),
         })),
+        // The density estimator's pass, and the tiled one's lists (`passes/photon_tiles.rs`).
+        "density": if s.tiles.is_some() { "tiled" } else { "volumes" },
+        "tiles": s.tiles,
         "bounces": bounces,
         "attrition": s.attrition,
         "width": frame.width,

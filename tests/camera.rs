@@ -72,7 +72,7 @@ fn assert_reused(frame: &FrameImage, from: u64) {
         assert!(!ran(frame, pass), "{pass} ran");
     }
     assert_eq!(frame.stats.cpu_trace_ms, 0.0);
-    assert!(ran(frame, "photon_volumes") && ran(frame, "composite"));
+    assert!(ran(frame, common::estimator_pass()) && ran(frame, "composite"));
 }
 
 fn assert_traced(frame: &FrameImage) {

@@ -278,7 +278,7 @@ fn bench_measures_overlapped_serial_and_direct_frames_and_writes_json_and_figure
         "gpu.bounce_map",
         "gpu.readback",
         "gpu.upload",
-        "gpu.photon_volumes",
+        &format!("gpu.{}", common::estimator_pass()),
         "cpu.cpu_trace",
     ] {
         let t = &stages[pass];
@@ -292,6 +292,7 @@ fn bench_measures_overlapped_serial_and_direct_frames_and_writes_json_and_figure
     }
     // The direct-only frame runs no photon pass.
     assert!(report["direct_only"]["stages"]["gpu.photon_volumes"].is_null());
+    assert!(report["direct_only"]["stages"]["gpu.photon_tiles"].is_null());
     // Each configuration's last frame records its passes, run and skipped with reasons.
     let names = |config: &str, list: &str| -> Vec<String> {
         report[config][list]
@@ -311,7 +312,7 @@ fn bench_measures_overlapped_serial_and_direct_frames_and_writes_json_and_figure
     assert!(report["overlap"].as_f64().is_some_and(|v| v > 0.0));
     assert!(report["speedup"].as_f64().is_some_and(|v| v > 0.0));
     let figure = std::fs::read_to_string(&svg).expect("figure written");
-    assert!(figure.starts_with("<svg") && figure.contains("photon_volumes"));
+    assert!(figure.starts_with("<svg") && figure.contains(common::estimator_pass()));
 }
 
 /// `ispm bench --compare-effects`: the planned frame beside the unplanned (overlapped) one,

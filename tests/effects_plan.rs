@@ -14,16 +14,19 @@ use ispm::plan::{Effects, EffectsPlan};
 use ispm::reference::scenes::{cornell, grey_box, point_light};
 use ispm::scene::{Camera, Light, Scene};
 
-/// The photon passes (GPU scopes, and the host trace).
-const PHOTON_PASSES: &[&str] = &[
-    "light_gbuffers",
-    "bounce_map",
-    "readback",
-    "cpu_trace",
-    "upload",
-    "photon_volumes",
-    "composite",
-];
+/// The photon passes (GPU scopes, and the host trace), with the density estimator the device
+/// runs.
+fn photon_passes() -> [&'static str; 7] {
+    [
+        "light_gbuffers",
+        "bounce_map",
+        "readback",
+        "cpu_trace",
+        "upload",
+        common::estimator_pass(),
+        "composite",
+    ]
+}
 
 fn settings(effects: Effects) -> RenderSettings {
     common::small_ispm_settings(effects)
@@ -202,7 +205,7 @@ fn zero_bounces_means_no_photon_passes_and_the_direct_image() {
         },
     );
     assert!(!planned.photons, "a photon part with --bounces 0");
-    for pass in PHOTON_PASSES {
+    for pass in photon_passes() {
         assert_skipped(&planned.frame, pass, "--bounces 0");
     }
     assert_eq!(planned.frame.stats.emitted_photons, 0);
@@ -355,7 +358,7 @@ fn a_static_scene_reuses_its_photon_map_until_a_light_moves() {
         assert_skipped(&second, pass, "photon map of frame 0 reused");
     }
     assert_eq!(second.stats.cpu_trace_ms, 0.0);
-    assert!(ran(&second, "photon_volumes") && ran(&second, "composite"));
+    assert!(ran(&second, common::estimator_pass()) && ran(&second, "composite"));
     assert_eq!(second.stats.stored_photons, first.stats.stored_photons);
     assert!(
         bits(&first) == bits(&second),
@@ -625,11 +628,21 @@ fn drain_reports_the_passes_and_variants_skipped_as_finish_does() {
             .map(|s| s.name.clone())
             .collect()
     };
-    // The first frame traces: the plan's skips only (full resolution, no glass, frames that
-    // stand alone).
+    // The first frame traces: the plan's skips only (the other density estimator, full
+    // resolution, no glass, frames that stand alone).
+    let other = match common::estimator_pass() {
+        "photon_tiles" => "photon_volumes",
+        _ => "photon_tiles",
+    };
     assert_eq!(
         names(&drained),
-        ["upsample", "environment", "translucent", "accumulate"]
+        [
+            other,
+            "upsample",
+            "environment",
+            "translucent",
+            "accumulate"
+        ]
     );
     assert_eq!(drained.variants_skipped.len(), 2);
     assert!(drained.passes_run.iter().any(|p| p == "bounce_map"));
@@ -642,7 +655,7 @@ fn drain_reports_the_passes_and_variants_skipped_as_finish_does() {
     common::assert_validation_clean(&gpu);
     assert_eq!(
         drained.passes_skipped.len(),
-        9,
+        10,
         "{:?}",
         drained.passes_skipped
     );
@@ -660,12 +673,12 @@ fn a_scene_with_nothing_to_receive_indirect_light_runs_no_photon_passes_and_rend
     assert_eq!(scene.instances.len(), 1);
     let planned = render(&scene, settings(Effects::Auto));
     assert!(!planned.photons, "a photon part without a receiver");
-    for pass in PHOTON_PASSES {
+    for pass in photon_passes() {
         assert_skipped(&planned.frame, pass, "all geometry lies in one plane");
     }
     // The unplanned frame runs them all and stores nothing.
     let all = render(&scene, settings(Effects::All));
-    assert!(ran(&all.frame, "bounce_map") && ran(&all.frame, "photon_volumes"));
+    assert!(ran(&all.frame, "bounce_map") && ran(&all.frame, common::estimator_pass()));
     assert_eq!(all.frame.stats.stored_photons, 0);
     assert_close("plan_no_receiver", &planned.frame, &all.frame, 1e-5, 1e-9);
 }

@@ -1,11 +1,11 @@
 //! Image Space Photon Mapping on the GPU, end to end on lavapipe with validation on: the
-//! bounce map carries exactly the lights' power, the photon volumes compute exactly what a CPU
+//! bounce map carries exactly the lights' power, both density estimators compute exactly what a CPU
 //! gather computes from the same photons, and the statistics describe the buffers drawn.
 
 mod common;
 
 use glam::Vec3;
-use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
+use ispm::frame::{Density, FrameImage, Method, RenderSettings, Renderer};
 use ispm::photon::bsdf::Bsdf;
 use ispm::photon::density::PhotonClass;
 use ispm::photon::kernel::{kernel_radius, kernel_t, kernel_weight, KernelSettings};
@@ -183,18 +183,28 @@ fn compare_with_cpu_gather(scene: &Scene, renderer: &Renderer, test: &str) -> (f
 }
 
 #[test]
-fn gpu_photon_volumes_equal_the_cpu_gather_of_the_same_photons() {
+fn gpu_density_estimates_equal_the_cpu_gather_of_the_same_photons() {
+    // Both estimators: the photon volumes (splatted by the rasteriser) and the tiled gather.
     let scene = ispm::scene::bundled::resolve(Some("cornell-box")).expect("scene");
-    let (renderer, frame) = render(&scene, settings(64, 20_000));
-    assert!(frame.stats.stored_photons > 5_000, "{:?}", frame.stats);
-    let (worst, peak) = compare_with_cpu_gather(&scene, &renderer, "estimator_equivalence");
-    assert!(peak > 0.0, "no indirect light at all");
-    // Bound: 1e-3 of the brightest indirect pixel (f32 summation order and the GPU's pow/exp
-    // differ from the CPU's; diffuse, glossy and Fresnel terms all take part).
-    assert!(
-        worst < 1e-3,
-        "GPU vs CPU gather: worst error {worst} of peak {peak}"
-    );
+    for density in [Density::Volumes, Density::Tiled] {
+        let (renderer, frame) = render(
+            &scene,
+            RenderSettings {
+                density,
+                ..settings(64, 20_000)
+            },
+        );
+        assert!(frame.stats.stored_photons > 5_000, "{:?}", frame.stats);
+        let test = format!("estimator_equivalence_{density:?}");
+        let (worst, peak) = compare_with_cpu_gather(&scene, &renderer, &test);
+        assert!(peak > 0.0, "{density:?}: no indirect light at all");
+        // Bound: 1e-3 of the brightest indirect pixel (f32 summation order and the GPU's
+        // pow/exp differ from the CPU's; diffuse, glossy and Fresnel terms all take part).
+        assert!(
+            worst < 1e-3,
+            "{density:?} vs CPU gather: worst error {worst} of peak {peak}"
+        );
+    }
 }
 
 #[test]
@@ -209,10 +219,17 @@ fn camera_inside_a_photon_volume_keeps_indirect_light() {
         znear: 1e-3,
         zfar: None,
     };
+    for density in [Density::Volumes, Density::Tiled] {
+        camera_inside_kernels(&scene, density);
+    }
+}
+
+fn camera_inside_kernels(scene: &Scene, density: Density) {
     let (renderer, frame) = render(
-        &scene,
+        scene,
         RenderSettings {
             radius: Some(0.3),
+            density,
             ..settings(32, 20_000)
         },
     );
@@ -229,15 +246,19 @@ fn camera_inside_a_photon_volume_keeps_indirect_light() {
         around_eye >= 10,
         "the camera must sit inside the volumes: {around_eye} contain it ({kernel:?})"
     );
-    let (worst, peak) = compare_with_cpu_gather(&scene, &renderer, "camera_inside_volume");
-    assert!(peak > 0.0, "no indirect light reached the floor");
+    let test = format!("camera_inside_volume_{density:?}");
+    let (worst, peak) = compare_with_cpu_gather(scene, &renderer, &test);
+    assert!(
+        peak > 0.0,
+        "{density:?}: no indirect light reached the floor"
+    );
     assert!(
         worst < 1e-3,
-        "inside the volumes: worst error {worst} of peak {peak}"
+        "{density:?}, inside the volumes: worst error {worst} of peak {peak}"
     );
     // Every pixel sees the floor and gets indirect light: no dark blotch.
     let dark = frame.hdr.chunks_exact(4).filter(|p| p[0] <= 0.0).count();
-    assert_eq!(dark, 0, "{dark} black pixels");
+    assert_eq!(dark, 0, "{density:?}: {dark} black pixels");
 }
 
 #[test]
@@ -563,7 +584,7 @@ fn stats_describe_the_photon_buffers_drawn() {
         "bounce_map",
         "readback",
         "upload",
-        "photon_volumes",
+        common::estimator_pass(),
     ] {
         assert!(
             s.passes_run.iter().any(|p| p == pass),

@@ -117,7 +117,7 @@ fn logical_transfer_queue_renders_what_the_single_queue_renders() {
         common::assert_validation_clean(&gpu);
         assert!(frame.stats.stored_photons > 0, "{mode:?}: no photons");
         let names: Vec<&str> = frame.gpu_spans.iter().map(|s| s.name.as_str()).collect();
-        for pass in ["readback", "upload", "photon_volumes"] {
+        for pass in ["readback", "upload", common::estimator_pass()] {
             assert!(names.contains(&pass), "{mode:?}: no {pass} in {names:?}");
         }
         images.push(bits(&frame));

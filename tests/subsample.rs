@@ -127,7 +127,7 @@ fn subsample_1_is_the_full_resolution_path_bit_for_bit() {
             .stats
             .passes_run
             .iter()
-            .any(|p| p == "photon_volumes"));
+            .any(|p| p == common::estimator_pass()));
         assert_eq!(r.frame.stats.subsample, 1);
     }
     let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();

@@ -13,19 +13,22 @@ use std::sync::OnceLock;
 
 const FRAMES: u64 = 3;
 
-/// The passes every ISPM frame of the Cornell box runs (GPU scopes), and the CPU trace.
-const GPU_PASSES: &[&str] = &[
-    "shadow_maps",
-    "light_gbuffers",
-    "bounce_map",
-    "readback",
-    "upload",
-    "eye_gbuffer",
-    "direct",
-    "photon_volumes",
-    "composite",
-    "tonemap",
-];
+/// The passes every ISPM frame of the Cornell box runs (GPU scopes), with the density
+/// estimator the device runs.
+fn gpu_passes() -> [&'static str; 10] {
+    [
+        "shadow_maps",
+        "light_gbuffers",
+        "bounce_map",
+        "readback",
+        "upload",
+        "eye_gbuffer",
+        "direct",
+        common::estimator_pass(),
+        "composite",
+        "tonemap",
+    ]
+}
 
 /// One `X` event.
 #[derive(Clone, Debug)]
@@ -260,7 +263,7 @@ fn timestamps_run_forward_on_every_track_frame_after_frame() {
 fn every_pass_of_every_frame_appears_with_a_positive_duration() {
     let (trace, _) = cli_run();
     for frame in 0..FRAMES {
-        for pass in GPU_PASSES {
+        for pass in gpu_passes() {
             let e = trace.one(frame, pass, true);
             assert!(e.end > e.ts, "{e:?}");
         }
@@ -344,8 +347,8 @@ fn assert_one_time_base(trace: &Trace, tolerance_us: f64) {
         before(submits[3].ts, upload.ts, "submit → upload start");
         before(
             submits[4].ts,
-            gpu("photon_volumes").ts,
-            "submit D → photon volumes start",
+            gpu(common::estimator_pass()).ts,
+            "submit D → density estimate start",
         );
         before(
             readback.end,
@@ -410,7 +413,7 @@ fn stats_carry_the_last_frames_stage_times_from_the_same_spans() {
             "{stage}: stats {v} ms, trace {e:?}"
         );
     };
-    for pass in GPU_PASSES.iter().filter(|p| **p != "light_gbuffers") {
+    for pass in gpu_passes().iter().filter(|p| **p != "light_gbuffers") {
         same(pass, true);
     }
     same("cpu_trace", false);

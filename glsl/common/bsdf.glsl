@@ -276,8 +276,10 @@ float bsdf_reflected_cos(BsdfOriented o, vec3 wi) {
     return (cos_i >= BSDF_MIN_COS && dot(wi, o.ng) > 0.0) ? min(cos_i, 1.0) : 0.0;
 }
 
-// x: glossy shape g without c; y: pdf of wi from the glossy lobe alone.
-vec2 bsdf_glossy_shape_and_pdf(Bsdf bsdf, BsdfOriented o, vec3 wi, float cos_i) {
+// x: glossy shape g without c; y: pdf of wi from the glossy lobe alone. e: the lobe's
+// directional albedo bsdf_glossy_albedo(bsdf.exponent, o.cos_o), which depends on the view alone.
+vec2 bsdf_glossy_shape_and_pdf_with_albedo(Bsdf bsdf, BsdfOriented o, vec3 wi, float cos_i,
+                                           float e) {
     vec3 h;
     if (!bsdf_unit(o.wo + wi, h)) {
         return vec2(0.0);
@@ -287,8 +289,27 @@ vec2 bsdf_glossy_shape_and_pdf(Bsdf bsdf, BsdfOriented o, vec3 wi, float cos_i) 
         return vec2(0.0);
     }
     float d = blinn_phong_half_vector_pdf(dot(h, o.n), bsdf.exponent);
-    float e = bsdf_glossy_albedo(bsdf.exponent, o.cos_o);
     return vec2(d / (4.0 * wo_h * max(o.cos_o, cos_i) * e), d / (4.0 * wo_h));
+}
+
+vec2 bsdf_glossy_shape_and_pdf(Bsdf bsdf, BsdfOriented o, vec3 wi, float cos_i) {
+    return bsdf_glossy_shape_and_pdf_with_albedo(bsdf, o, wi, cos_i,
+                                                 bsdf_glossy_albedo(bsdf.exponent, o.cos_o));
+}
+
+// f of the non-delta lobes, as bsdf_eval_and_pdf_oriented gives it, with the glossy lobe's
+// directional albedo e given: a gather that evaluates one view against many photons computes
+// e once (photon_tiles.comp).
+vec3 bsdf_eval_oriented_with_albedo(Bsdf bsdf, BsdfOriented o, vec3 c[4], vec4 w, float e,
+                                    vec3 wi, float cos_i) {
+    if (w.x + w.y + w.z + w.w <= 0.0) {
+        return vec3(0.0);
+    }
+    vec3 f = c[LOBE_LAMBERTIAN] * (1.0 / PI);
+    if (BSDF_GLOSSY_LOBE && w[LOBE_GLOSSY] > 0.0) {
+        f += c[LOBE_GLOSSY] * bsdf_glossy_shape_and_pdf_with_albedo(bsdf, o, wi, cos_i, e).x;
+    }
+    return f;
 }
 
 // f (non-delta lobes) and the mixture pdf of wi, sharing the glossy lobe's evaluation.

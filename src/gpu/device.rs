@@ -559,7 +559,8 @@ impl Drop for Gpu {
     }
 }
 
-fn device_type_rank(t: vk::PhysicalDeviceType) -> u32 {
+/// The order devices are preferred in (lower first) when none is named.
+pub fn device_type_rank(t: vk::PhysicalDeviceType) -> u32 {
     match t {
         vk::PhysicalDeviceType::DISCRETE_GPU => 0,
         vk::PhysicalDeviceType::INTEGRATED_GPU => 1,

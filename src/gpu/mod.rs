@@ -38,7 +38,8 @@ pub use ash::vk;
 pub use clock::{tick_delta, Calibration, ClockSource};
 pub use cmd::{Attachment, Cmd, Load, Recording, Scope, Wait};
 pub use device::{
-    list_devices, DeviceProperties, Gpu, GpuOptions, Queue, QueueMode, QueueRole, TimelinePoint,
+    device_type_rank, list_devices, DeviceProperties, Gpu, GpuOptions, Queue, QueueMode, QueueRole,
+    TimelinePoint,
 };
 pub use error::{GpuError, GpuResult};
 pub use instance::validation_requested;

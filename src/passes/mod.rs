@@ -28,6 +28,7 @@ pub mod direct;
 pub mod environment;
 pub mod eye_gbuffer;
 pub mod light_gbuffer;
+pub mod photon_tiles;
 pub mod photon_volumes;
 pub mod shadow_map;
 pub mod support;

@@ -2,7 +2,7 @@
 //! eye (`set_view`: the eye-relative offset and the kernel's footprint floor), upsampled at
 //! `--subsample N > 1`, composited, and what the debug views read of it.
 
-use super::PhotonFrame;
+use super::{drawn_photons, estimate_targets, tiles, Estimator, PhotonFrame};
 use crate::gpu::{Access, Buffer, Cmd, Image, QueueRole};
 use crate::passes::debug_view::PhotonSources;
 use crate::passes::eye_gbuffer::GBuffer;
@@ -12,6 +12,7 @@ use crate::passes::value_check::{Checked, Records, ValueCheckPass};
 use crate::photon::density::Neighbours;
 use crate::photon::kernel::KernelSettings;
 use crate::photon::types::{BounceMapPhoton, Photon};
+use crate::timing;
 
 impl PhotonFrame {
     /// Draws the photon volumes for `camera` from the next recorded estimate on: its position
@@ -37,12 +38,14 @@ impl PhotonFrame {
     /// view) the estimate is made but not added. With `check` (`--check-values`), the bounce
     /// map and photon map are checked before the photon volumes draw, the low-resolution
     /// targets before the upsample reads them, the indirect image before the composite
-    /// (`passes/value_check.rs`).
+    /// (`passes/value_check.rs`). `slot` is the frame slot (the tiled estimator's lists are
+    /// per slot) and `view_proj` the frame's camera-relative world → clip (what they are
+    /// binned for).
     pub fn record_estimate(
         &mut self,
         cmd: &Cmd,
         (frame, materials, gbuffer): (&Buffer, &Buffer, &GBuffer),
-        radiance: &mut Image,
+        (radiance, slot, view_proj): (&mut Image, usize, glam::Mat4),
         (composite, mut check): (bool, Option<&mut ValueCheckPass>),
     ) -> anyhow::Result<()> {
         if self.count() > 0 {
@@ -67,24 +70,49 @@ impl PhotonFrame {
             gbuffer,
         };
         if self.rebind {
-            self.photon_pass.rebind(&inputs)?;
+            match &mut self.estimator {
+                Estimator::Volumes(pass) => pass.rebind(&inputs)?,
+                Estimator::Tiled(pass) => pass.rebind(),
+            }
             self.rebind = false;
         }
         let volumes = (&self.buffers.counts[..], &self.kernel, self.eye_offset());
+        let targets = estimate_targets(
+            &self.indirect,
+            self.support.as_ref(),
+            self.subsampled.as_ref(),
+        );
+        match &mut self.estimator {
+            Estimator::Volumes(pass) => pass.record(cmd, &inputs, volumes, &targets),
+            Estimator::Tiled(pass) => {
+                let (traced, radii, offset) = (&self.traced, &self.radii, volumes.2);
+                let screen = tiles::Screen {
+                    view_proj,
+                    ..self.screen
+                };
+                let lists = timing::timed("photon tiles", || {
+                    tiles::bin(
+                        drawn_photons(traced, radii, glam::Vec3::ZERO),
+                        &self.buffers.counts,
+                        (&self.kernel, offset),
+                        &screen,
+                    )
+                });
+                let stats = pass.record(cmd, &inputs, volumes, (&lists, slot), &targets)?;
+                log::debug!("photon tiles: {stats:?}");
+                self.tile_stats = Some(stats);
+            }
+        }
         match &mut self.subsampled {
             None => {
                 let (images, support) = self
                     .support
                     .as_ref()
                     .expect("the support targets exist at subsample 1");
-                let targets = [&self.indirect, &images[0], &images[1]];
-                self.photon_pass.record(cmd, &inputs, volumes, &targets);
                 support.record(cmd, gbuffer, (&self.indirect, None), images, 1);
             }
             Some(sub) => {
                 let (images, support) = &sub.support;
-                let targets = [&sub.low[0], &sub.low[1], &images[0], &images[1]];
-                self.photon_pass.record(cmd, &inputs, volumes, &targets);
                 let low = (&sub.low[0], Some(&sub.low[1]));
                 support.record(cmd, gbuffer, low, images, sub.subsample);
                 if let Some(check) = check.as_deref_mut() {
@@ -181,6 +209,12 @@ impl PhotonFrame {
             offset: self.eye_offset(),
             indirect: &self.indirect,
         }
+    }
+
+    /// The tiled estimator's lists of the last recorded estimate (`None` with the photon
+    /// volumes).
+    pub fn tile_stats(&self) -> Option<crate::frame::TileStats> {
+        self.tile_stats
     }
 
     /// The kernel settings the photon volumes use: the kNN radii's scale, the clamp and the

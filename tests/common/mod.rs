@@ -24,6 +24,12 @@ pub const REUSED_PHOTON_MAP_SKIPS: &[&str] = &[
     "upload",
 ];
 
+/// The density estimator's pass (GPU scope, stats stage, plan entry) that the default
+/// `--density auto` runs on the test device: `photon_tiles` on lavapipe.
+pub fn estimator_pass() -> &'static str {
+    ispm::frame::Density::Auto.resolve_for(None).pass_name()
+}
+
 /// A device with the validation layer and synchronization validation on (always, in tests).
 pub fn gpu() -> Arc<Gpu> {
     Gpu::new(&GpuOptions {

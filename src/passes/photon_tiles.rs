@@ -1,0 +1,321 @@
+//! Tiled density estimation (`--density tiled`): the photon volumes' radiance estimate
+//! (`photon_volumes.rs`), gathered in compute instead of splatted by the rasteriser — the
+//! method that won in Mara, McGuire & Luebke (I3D 2013).
+//!
+//! ```text
+//!   CPU (photon_frame/tiles.rs)             GPU (photon_tiles.comp), one workgroup per tile
+//!   each photon's bounding sphere           ┌──────────────┐   PHOTON_TILE² photons of the
+//!   → the screen tiles it may cover         │ tile t       │   list at a time → shared memory;
+//!   → per tile, a list of photons  ───────► │ 16×16 pixels │   every pixel tests each against
+//!     (offsets + indices, per slot)         └──────────────┘   its G-buffer point and sums
+//! ```
+//!
+//! Each pixel sets up its surface and BSDF once, then pays a few multiplies for each listed
+//! photon that misses it, where a photon volume pays for rasterising and shading a fragment.
+//! On lavapipe the volumes' cost is fragment invocations, not arithmetic (docs/performance.md),
+//! so the gather is the faster estimator there; on a GPU with a hardware rasteriser that may
+//! reverse, which is why both stay and `--density auto` picks per device
+//! ([`crate::frame::Density`]). The sums, channel for channel, are the fragment shaders': the
+//! support normalisation and the upsampling read them unchanged. A photon map over several
+//! buffers is one dispatch per buffer, each after the first adding to the targets.
+//!
+//! The lists are written into host-visible buffers, one pair per frame slot, so a frame never
+//! writes lists that a frame still in flight reads; the slot's descriptor sets follow its
+//! buffers when they grow, and are rewritten for new photon buffers only when that slot comes
+//! round again (its last frame has finished by then).
+
+use super::eye_gbuffer::GBuffer;
+use super::photon_volumes::{PhotonVolumeInputs, MAX_PHOTON_BUFFERS};
+use crate::frame::TileStats;
+use crate::gpu::{
+    vk, Access, Binding, BindingKind, Buffer, Cmd, ComputeDesc, DescriptorLayout, DescriptorSet,
+    Filter, Gpu, Image, MemoryLocation, Pipeline, Sampler, SpecConstant, Write,
+};
+use crate::photon::bsdf::BsdfVariant;
+use crate::photon::kernel::KernelSettings;
+use crate::photon_frame::tiles::TileLists;
+use crate::shared_constants::TILE_JOB;
+use std::sync::Arc;
+
+/// The push constants (`Push` in `photon_tiles.comp`).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Push {
+    r_min: f32,
+    r_max: f32,
+    tile_columns: u32,
+    subsample: u32,
+    footprint: f32,
+    footprint_max: f32,
+    scale: f32,
+    gather_exponent_max: f32,
+    offset: [f32; 4],
+    width: u32,
+    height: u32,
+    first: u32,
+    accumulate: u32,
+    start: u32,
+    pad: [u32; 3],
+}
+const _: () = assert!(std::mem::offset_of!(Push, offset) == 32);
+const _: () = assert!(std::mem::offset_of!(Push, width) == 48);
+const _: () = assert!(std::mem::offset_of!(Push, start) == 64);
+const _: () = assert!(size_of::<Push>() == 80);
+
+/// One frame slot's lists and descriptor sets (one set per photon buffer).
+struct Slot {
+    offsets: Buffer,
+    indices: Buffer,
+    sets: Vec<DescriptorSet>,
+    /// The photon buffers changed since the sets were written.
+    stale: bool,
+}
+
+pub struct PhotonTilesPass {
+    gpu: Arc<Gpu>,
+    pipeline: Pipeline,
+    layout: DescriptorLayout,
+    slots: Vec<Slot>,
+    sampler: Sampler,
+    subsample: u32,
+}
+
+/// The lists' buffers start at this many bytes and double as needed.
+const MIN_LIST_BYTES: u64 = 1 << 16;
+
+fn list_buffer(gpu: &Arc<Gpu>, name: &str, bytes: u64) -> anyhow::Result<Buffer> {
+    Ok(Buffer::new(
+        gpu,
+        name,
+        bytes.max(MIN_LIST_BYTES).next_power_of_two(),
+        vk::BufferUsageFlags::STORAGE_BUFFER,
+        MemoryLocation::CpuToGpu,
+    )?)
+}
+
+impl PhotonTilesPass {
+    /// The pass at `subsample` (1: full resolution, else the 1/`subsample` targets) with the
+    /// über-BSDF lobes of `variant`, with lists for `slots` frames in flight.
+    pub fn new(
+        gpu: &Arc<Gpu>,
+        inputs: &PhotonVolumeInputs,
+        subsample: u32,
+        variant: BsdfVariant,
+        (slots, targets): (usize, &[&Image]),
+    ) -> anyhow::Result<Self> {
+        let mut kinds = vec![
+            BindingKind::UniformBuffer,
+            BindingKind::StorageBuffer,
+            BindingKind::StorageBuffer,
+            BindingKind::SampledImage,
+            BindingKind::SampledImage,
+            BindingKind::SampledImage,
+            BindingKind::SampledImage,
+            BindingKind::StorageBuffer,
+            BindingKind::StorageBuffer,
+        ];
+        kinds.extend([BindingKind::StorageImage; 4]);
+        let bindings = Binding::sequence(&kinds, vk::ShaderStageFlags::COMPUTE);
+        let layout = DescriptorLayout::new(
+            gpu,
+            "photon_tiles",
+            &bindings,
+            (MAX_PHOTON_BUFFERS * slots.max(1)) as u32,
+        )?;
+        let sampler = Sampler::new(gpu, "photon_tiles.nearest", Filter::Nearest, false)?;
+        let subsample = subsample.max(1);
+        let [a, b] = super::bsdf_constants(variant);
+        let pipeline = Pipeline::compute(
+            gpu,
+            &ComputeDesc {
+                name: "photon_tiles",
+                shader: &crate::gpu::shader_table::PHOTON_TILES_COMP,
+                set_layouts: &[&layout],
+                push_constant_size: size_of::<Push>() as u32,
+                specialization: &[a, b, SpecConstant::bool(2, subsample > 1)],
+            },
+        )?;
+        let mut pass = Self {
+            gpu: gpu.clone(),
+            pipeline,
+            layout,
+            slots: Vec::new(),
+            sampler,
+            subsample,
+        };
+        for i in 0..slots.max(1) {
+            let slot = Slot {
+                offsets: list_buffer(gpu, &format!("photon_tiles.offsets[{i}]"), 0)?,
+                indices: list_buffer(gpu, &format!("photon_tiles.indices[{i}]"), 0)?,
+                sets: Vec::new(),
+                stale: true,
+            };
+            pass.slots.push(slot);
+        }
+        for i in 0..pass.slots.len() {
+            pass.write_sets(i, inputs, targets)?;
+        }
+        Ok(pass)
+    }
+
+    fn write_sets(
+        &mut self,
+        slot: usize,
+        inputs: &PhotonVolumeInputs,
+        targets: &[&Image],
+    ) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            inputs.photons.len() <= MAX_PHOTON_BUFFERS,
+            "the photon map needs {} photon buffers, more than the {MAX_PHOTON_BUFFERS} the \
+             tiled estimator can read",
+            inputs.photons.len()
+        );
+        let s = &mut self.slots[slot];
+        for (i, photons) in inputs.photons.iter().enumerate() {
+            let writes = writes(
+                inputs,
+                photons,
+                (&s.offsets, &s.indices),
+                targets,
+                &self.sampler,
+            );
+            match s.sets.get(i) {
+                Some(&set) => self.layout.update(set, &writes),
+                None => s.sets.push(self.layout.allocate(&writes)?),
+            }
+        }
+        s.stale = false;
+        Ok(())
+    }
+
+    /// Points the pass at new photon buffers: each slot's sets are rewritten the next time
+    /// that slot records (a frame still in flight may be reading the old ones).
+    pub fn rebind(&mut self) {
+        for slot in &mut self.slots {
+            slot.stale = true;
+        }
+    }
+
+    /// Gathers `counts[i]` photons from photon buffer `i`, as listed in `lists`, with the
+    /// radii of `kernel` and `offset` (origin − eye) into `targets` (the photon volumes'):
+    /// `[indirect, global, weight]` at subsample 1, else `[irradiance, glossy, global, weight]`.
+    /// `slot` is the frame slot, whose previous frame has finished.
+    pub fn record(
+        &mut self,
+        cmd: &Cmd,
+        inputs: &PhotonVolumeInputs,
+        (counts, kernel, offset): (&[u32], &KernelSettings, glam::Vec3),
+        (lists, slot): (&TileLists, usize),
+        targets: &[&Image],
+    ) -> anyhow::Result<TileStats> {
+        let gpu = self.gpu.clone();
+        let offsets: &[u8] = bytemuck::cast_slice(&lists.offsets);
+        let indices: &[u8] = bytemuck::cast_slice(&lists.indices);
+        let s = &mut self.slots[slot];
+        if offsets.len() as u64 > s.offsets.size {
+            s.offsets = list_buffer(&gpu, &s.offsets.name.clone(), offsets.len() as u64)?;
+            s.stale = true;
+        }
+        if indices.len() as u64 > s.indices.size {
+            s.indices = list_buffer(&gpu, &s.indices.name.clone(), indices.len() as u64)?;
+            s.stale = true;
+        }
+        if s.stale || s.sets.len() < inputs.photons.len() {
+            self.write_sets(slot, inputs, targets)?;
+        }
+        let s = &self.slots[slot];
+        s.offsets.write(0, offsets)?;
+        s.indices.write(0, indices)?;
+
+        let _scope = cmd.scope("photon_tiles");
+        let g: &GBuffer = inputs.gbuffer;
+        for image in [&g.position, &g.normal, &g.albedo, &g.material] {
+            cmd.transition(image, Access::ComputeSampledRead);
+        }
+        for buffer in [&s.offsets, &s.indices] {
+            cmd.transition_buffer(buffer, Access::ComputeStorageRead);
+        }
+        let (width, height) = (targets[0].width, targets[0].height);
+        let mut first_dispatch = true;
+        let mut dispatches = 0;
+        for (b, (photons, &count)) in inputs.photons.iter().zip(counts).enumerate() {
+            // Buffer 0 always: its empty lists clear the targets when there are no photons.
+            if count == 0 && b > 0 {
+                continue;
+            }
+            if count > 0 {
+                // Only when read: an unread photon buffer may belong to the transfer queue.
+                cmd.transition_buffer(photons, Access::ComputeStorageRead);
+            }
+            // TILE_JOB entries of every tile's list per dispatch (`photon_tiles.comp`).
+            let jobs = lists.longest(b).div_ceil(TILE_JOB as usize).max(1);
+            for job in 0..jobs {
+                for &image in targets {
+                    cmd.transition(image, Access::ComputeStorageWrite);
+                }
+                cmd.bind_pipeline(&self.pipeline);
+                cmd.bind_sets(&self.pipeline, 0, &[s.sets[b]]);
+                cmd.push_constants(
+                    &self.pipeline,
+                    &Push {
+                        r_min: kernel.r_min,
+                        r_max: kernel.r_max,
+                        tile_columns: lists.columns,
+                        subsample: self.subsample,
+                        footprint: kernel.footprint,
+                        footprint_max: kernel.footprint_max,
+                        scale: kernel.scale,
+                        gather_exponent_max: kernel.gather_exponent_max(),
+                        offset: offset.extend(0.0).to_array(),
+                        width,
+                        height,
+                        first: lists.first(b),
+                        accumulate: u32::from(!first_dispatch),
+                        start: job as u32 * TILE_JOB,
+                        pad: [0; 3],
+                    },
+                );
+                cmd.dispatch(lists.columns, lists.rows, 1);
+                first_dispatch = false;
+                dispatches += 1;
+            }
+        }
+        Ok(TileStats {
+            tiles: lists.tiles(),
+            entries: lists.indices.len(),
+            longest: (0..counts.len())
+                .map(|b| lists.longest(b))
+                .max()
+                .unwrap_or(0),
+            dispatches,
+        })
+    }
+}
+
+/// The descriptor writes for photon buffer `photons`: bindings 0–12 of `photon_tiles.comp`
+/// (the fourth target, unused at full resolution, is the third again).
+fn writes<'a>(
+    inputs: &'a PhotonVolumeInputs,
+    photons: &'a Buffer,
+    (offsets, indices): (&'a Buffer, &'a Buffer),
+    targets: &[&'a Image],
+    sampler: &'a Sampler,
+) -> Vec<Write<'a>> {
+    let g = inputs.gbuffer;
+    let image = |image| Write::Image { image, sampler };
+    let mut writes = vec![
+        Write::Buffer(inputs.frame),
+        Write::Buffer(photons),
+        Write::Buffer(inputs.materials),
+        image(&g.position),
+        image(&g.normal),
+        image(&g.albedo),
+        image(&g.material),
+        Write::Buffer(offsets),
+        Write::Buffer(indices),
+    ];
+    for i in 0..4 {
+        writes.push(Write::StorageImage(targets[i.min(targets.len() - 1)]));
+    }
+    writes
+}
