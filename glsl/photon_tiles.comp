@@ -41,6 +41,9 @@ layout(set = 0, binding = 9, rgba32f) uniform image2D out0;   // indirect | irra
 layout(set = 0, binding = 10, rgba32f) uniform image2D out1;  // global | glossy
 layout(set = 0, binding = 11, rgba32f) uniform image2D out2;  // weight | global
 layout(set = 0, binding = 12, rgba32f) uniform image2D out3;  // unused | weight
+// Per photon of the map: its kernel's bounding sphere (eye-relative centre, radius a little
+// wider than kernel_radius's; w = 0: never reached), made on the CPU with the lists.
+layout(std430, set = 0, binding = 13) readonly buffer Spheres { vec4 spheres[]; };
 
 // Ids 0 and 1 are the über-BSDF's lobes (bsdf.glsl).
 layout(constant_id = 2) const bool SUBSAMPLED = false;
@@ -60,9 +63,9 @@ layout(push_constant) uniform Push {
     uint first;   // this buffer's first entry in offsets
     uint accumulate;  // 1: continue the targets' sums (not the first dispatch)
     uint start;   // the first entry of each tile's list this dispatch gathers, from its start
+    uint photon_base;  // this buffer's first photon's index in spheres
     uint pad0;
     uint pad1;
-    uint pad2;
 } push;
 
 void store(ivec2 px, vec4 a, vec4 b, vec4 c, vec4 d) {
@@ -157,8 +160,15 @@ void main() {
         vec4 my_power = vec4(0.0);
         vec4 my_wi = vec4(0.0);
         bool near = false;
+        uint index = 0u;
         if (k < end) {
-            Photon photon = photon_load(photons[indices[k]]);
+            index = indices[k];
+            vec4 sphere = spheres[push.photon_base + index];
+            vec3 gap = sphere.xyz - clamp(sphere.xyz, box_lo, box_hi);
+            near = dot(gap, gap) < sphere.w * sphere.w;
+        }
+        if (near) {
+            Photon photon = photon_load(photons[index]);
             float r_knn;
             vec3 normal = unpack_normal(photon.normal, r_knn);
             vec3 centre = photon.position + push.offset.xyz;
@@ -170,8 +180,6 @@ void main() {
             my_normal = vec4(normal, r.y);
             my_power = vec4(photon.power, rho_p > CAUSTIC_PATH_DENSITY ? 0.0 : 1.0);
             my_wi = vec4(wi, 0.0);
-            vec3 gap = centre - clamp(centre, box_lo, box_hi);
-            near = dot(gap, gap) < r.x * r.x;
         }
         uvec4 ballot = subgroupBallot(near);
         uint count = subgroupBallotBitCount(ballot);

@@ -396,7 +396,8 @@ struct RenderArgs {
     /// frames accumulate for --seconds. `progressive`: its iterations (default 16).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     frames: Option<u32>,
-    /// GPU methods without --frames: accumulate frames for this long (at least one frame).
+    /// GPU methods without --frames: accumulate frames for about this long, from the first
+    /// frame to the picture (at least one frame; frames still in flight are counted in).
     #[arg(long, default_value_t = DEFAULT_RENDER_SECONDS, value_parser = parse_seconds)]
     seconds: f64,
     /// GPU methods: every frame stands alone (no accumulation); the image is the last frame.
@@ -847,16 +848,23 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
             .set_debug_view(args.debug_view)
             .context("--debug-view")?;
         // --frames N: exactly N frames; otherwise as many as --seconds allows (one frame
-        // without accumulation, where more would only repeat it).
+        // without accumulation, where more would only repeat it), counting the frames still in
+        // flight: a frame is submitted only while the time so far, it and the frames after it
+        // (the ones in flight and the last, which `render` submits) fit in --seconds.
         let start = std::time::Instant::now();
         let mut submitted = 1;
+        let mut last_return = 0.0f64;
+        let mut period = 0.0f64;
         loop {
+            let elapsed = start.elapsed().as_secs_f64();
             let more = match args.frames {
                 Some(n) => submitted < n,
                 None => {
+                    // Another frame, the last one and those in flight, pipelined.
+                    let to_finish = (ispm::frame::FRAMES_IN_FLIGHT + 1) as f64 * period;
                     !args.no_accumulate
                         && renderer.plan().accumulate
-                        && start.elapsed().as_secs_f64() < args.seconds
+                        && elapsed + to_finish < args.seconds
                 }
             };
             if !more {
@@ -864,6 +872,11 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
             }
             renderer.submit_frame()?;
             submitted += 1;
+            // The interval between the last two submissions returning: once frames are in
+            // flight, a submission waits for the frame two before it, so this is the period.
+            let now = start.elapsed().as_secs_f64();
+            period = now - last_return;
+            last_return = now;
         }
         (renderer.render()?, renderer.triangles())
     };

@@ -55,7 +55,8 @@ struct Push {
     first: u32,
     accumulate: u32,
     start: u32,
-    pad: [u32; 3],
+    photon_base: u32,
+    pad: [u32; 2],
 }
 const _: () = assert!(std::mem::offset_of!(Push, offset) == 32);
 const _: () = assert!(std::mem::offset_of!(Push, width) == 48);
@@ -66,6 +67,7 @@ const _: () = assert!(size_of::<Push>() == 80);
 struct Slot {
     offsets: Buffer,
     indices: Buffer,
+    spheres: Buffer,
     sets: Vec<DescriptorSet>,
     /// The photon buffers changed since the sets were written.
     stale: bool,
@@ -115,6 +117,7 @@ impl PhotonTilesPass {
             BindingKind::StorageBuffer,
         ];
         kinds.extend([BindingKind::StorageImage; 4]);
+        kinds.push(BindingKind::StorageBuffer);
         let bindings = Binding::sequence(&kinds, vk::ShaderStageFlags::COMPUTE);
         let layout = DescriptorLayout::new(
             gpu,
@@ -147,6 +150,7 @@ impl PhotonTilesPass {
             let slot = Slot {
                 offsets: list_buffer(gpu, &format!("photon_tiles.offsets[{i}]"), 0)?,
                 indices: list_buffer(gpu, &format!("photon_tiles.indices[{i}]"), 0)?,
+                spheres: list_buffer(gpu, &format!("photon_tiles.spheres[{i}]"), 0)?,
                 sets: Vec::new(),
                 stale: true,
             };
@@ -175,7 +179,7 @@ impl PhotonTilesPass {
             let writes = writes(
                 inputs,
                 photons,
-                (&s.offsets, &s.indices),
+                (&s.offsets, &s.indices, &s.spheres),
                 targets,
                 &self.sampler,
             );
@@ -211,6 +215,7 @@ impl PhotonTilesPass {
         let gpu = self.gpu.clone();
         let offsets: &[u8] = bytemuck::cast_slice(&lists.offsets);
         let indices: &[u8] = bytemuck::cast_slice(&lists.indices);
+        let spheres: &[u8] = bytemuck::cast_slice(&lists.spheres);
         let s = &mut self.slots[slot];
         if offsets.len() as u64 > s.offsets.size {
             s.offsets = list_buffer(&gpu, &s.offsets.name.clone(), offsets.len() as u64)?;
@@ -220,25 +225,33 @@ impl PhotonTilesPass {
             s.indices = list_buffer(&gpu, &s.indices.name.clone(), indices.len() as u64)?;
             s.stale = true;
         }
+        if spheres.len() as u64 > s.spheres.size {
+            s.spheres = list_buffer(&gpu, &s.spheres.name.clone(), spheres.len() as u64)?;
+            s.stale = true;
+        }
         if s.stale || s.sets.len() < inputs.photons.len() {
             self.write_sets(slot, inputs, targets)?;
         }
         let s = &self.slots[slot];
         s.offsets.write(0, offsets)?;
         s.indices.write(0, indices)?;
+        s.spheres.write(0, spheres)?;
 
         let _scope = cmd.scope("photon_tiles");
         let g: &GBuffer = inputs.gbuffer;
         for image in [&g.position, &g.normal, &g.albedo, &g.material] {
             cmd.transition(image, Access::ComputeSampledRead);
         }
-        for buffer in [&s.offsets, &s.indices] {
+        for buffer in [&s.offsets, &s.indices, &s.spheres] {
             cmd.transition_buffer(buffer, Access::ComputeStorageRead);
         }
         let (width, height) = (targets[0].width, targets[0].height);
         let mut first_dispatch = true;
         let mut dispatches = 0;
+        let mut photon_base = 0u32;
         for (b, (photons, &count)) in inputs.photons.iter().zip(counts).enumerate() {
+            let base = photon_base;
+            photon_base += count;
             // Buffer 0 always: its empty lists clear the targets when there are no photons.
             if count == 0 && b > 0 {
                 continue;
@@ -272,7 +285,8 @@ impl PhotonTilesPass {
                         first: lists.first(b),
                         accumulate: u32::from(!first_dispatch),
                         start: job as u32 * TILE_JOB,
-                        pad: [0; 3],
+                        photon_base: base,
+                        pad: [0; 2],
                     },
                 );
                 cmd.dispatch(lists.columns, lists.rows, 1);
@@ -292,12 +306,12 @@ impl PhotonTilesPass {
     }
 }
 
-/// The descriptor writes for photon buffer `photons`: bindings 0–12 of `photon_tiles.comp`
+/// The descriptor writes for photon buffer `photons`: bindings 0–13 of `photon_tiles.comp`
 /// (the fourth target, unused at full resolution, is the third again).
 fn writes<'a>(
     inputs: &'a PhotonVolumeInputs,
     photons: &'a Buffer,
-    (offsets, indices): (&'a Buffer, &'a Buffer),
+    (offsets, indices, spheres): (&'a Buffer, &'a Buffer, &'a Buffer),
     targets: &[&'a Image],
     sampler: &'a Sampler,
 ) -> Vec<Write<'a>> {
@@ -317,5 +331,6 @@ fn writes<'a>(
     for i in 0..4 {
         writes.push(Write::StorageImage(targets[i.min(targets.len() - 1)]));
     }
+    writes.push(Write::Buffer(spheres));
     writes
 }

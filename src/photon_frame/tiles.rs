@@ -126,6 +126,10 @@ pub struct TileLists {
     pub offsets: Vec<u32>,
     /// Photon indices within their buffer.
     pub indices: Vec<u32>,
+    /// Per photon of the map (photon-map order, every buffer's in turn): its kernel's bounding
+    /// sphere, eye-relative centre and radius, a little wider than the shader's (w = 0 for a
+    /// photon left out), which the shader culls against before it unpacks the photon.
+    pub spheres: Vec<[f32; 4]>,
 }
 
 impl TileLists {
@@ -175,17 +179,21 @@ pub fn bin(
         .iter()
         .enumerate()
         .flat_map(|(b, &n)| (0..n).map(move |i| (b as u32, i)));
+    let mut spheres = Vec::with_capacity(counts.iter().map(|&n| n as usize).sum());
     for photon in photons {
         let Some((b, i)) = buffers.next() else {
             break;
         };
         let centre = photon.position + offset;
         if !photon.power.cmpgt(Vec3::ZERO).any() || !centre.is_finite() {
+            spheres.push([0.0; 4]);
             continue;
         }
         let (_, r_knn) = unpack_normal(photon.normal);
         let (r, _) = kernel_radius(r_knn, kernel, centre.length());
-        if let Some([x0, y0, x1, y1]) = screen.pixels(centre, r * RADIUS_MARGIN) {
+        let r = r * RADIUS_MARGIN;
+        spheres.push(centre.extend(r).to_array());
+        if let Some([x0, y0, x1, y1]) = screen.pixels(centre, r) {
             let t = PHOTON_TILE;
             rects.push((b, i, [x0 / t, y0 / t, x1 / t, y1 / t]));
         }
@@ -231,6 +239,7 @@ pub fn bin(
         rows,
         offsets,
         indices,
+        spheres,
     }
 }
 
