@@ -7,9 +7,11 @@
 // Tiled density estimation (--density tiled; src/passes/photon_tiles.rs has the picture): the
 // same radiance estimate as the photon volumes (photon_volumes.frag, and at --subsample N > 1
 // photon_volumes_subsampled.frag), gathered instead of splatted. One workgroup is one screen
-// tile of PHOTON_TILE² pixels; the CPU listed, per tile, the photons whose kernel's bounding
-// sphere may cover one of its pixels (src/photon_frame/tiles.rs). The workgroup reads its list
-// into shared memory PHOTON_TILE² photons at a time, and each pixel sums, over them, what the
+// tile of PHOTON_TILE² pixels; the CPU listed, per tile, the photons whose kernel's bounding sphere
+// may cover one of its pixels (src/photon_frame/tiles.rs). Each subgroup reads its tile's list
+// a subgroup's width at a time, keeps the photons whose sphere reaches the box around its
+// pixels' surface points, and passes them lane to lane (subgroupShuffle: no shared memory and
+// no barrier, which llvmpipe makes expensive); each pixel sums what the
 // fragment shader would have added had the volume covered it: the kernel test, the
 // same-surface rule, the front-side test and the regularised BSDF, set up once per pixel
 // instead of once per fragment. Outputs and their channels are the fragment shaders' (with
@@ -149,12 +151,17 @@ void main() {
     if (!subgroupAny(shaded)) {
         end = begin;
     }
-    uint lanes = gl_SubgroupSize;
+    // The subgroup's active lanes, which need not be all gl_SubgroupSize of them (llvmpipe
+    // vectorises along x: a workgroup narrower than its vector leaves lanes idle): each reads
+    // the entry of its rank among them.
+    uvec4 awake = subgroupBallot(true);
+    uint lanes = subgroupBallotBitCount(awake);
+    uint rank = subgroupBallotExclusiveBitCount(awake);
     for (uint base = begin; base < end; base += lanes) {
         // Each lane reads one photon of the next gl_SubgroupSize and tests it against the box;
         // then every lane tests the photons that passed, taking photon j's values from lane j
         // (no shared memory, no barrier).
-        uint k = base + gl_SubgroupInvocationID;
+        uint k = base + rank;
         vec4 my_centre = vec4(0.0);
         vec4 my_normal = vec4(0.0);
         vec4 my_power = vec4(0.0);

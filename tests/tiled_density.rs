@@ -96,6 +96,16 @@ fn the_tiled_gather_equals_the_photon_volumes_pixel_for_pixel() {
         &bundled("cornell-box"),
         settings(Density::Auto),
     );
+    // Partial tiles at the right and bottom edges.
+    assert_same_estimate(
+        "tiled_partial_tiles",
+        &bundled("cornell-box"),
+        RenderSettings {
+            width: 90,
+            height: 70,
+            ..settings(Density::Auto)
+        },
+    );
     // A caustic of caustic photons only (no same-surface rule, no support normalisation).
     assert_same_estimate(
         "tiled_caustic_ring",

@@ -3,23 +3,32 @@
 //! method that won in Mara, McGuire & Luebke (I3D 2013).
 //!
 //! ```text
-//!   CPU (photon_frame/tiles.rs)             GPU (photon_tiles.comp), one workgroup per tile
-//!   each photon's bounding sphere           ┌──────────────┐   PHOTON_TILE² photons of the
-//!   → the screen tiles it may cover         │ tile t       │   list at a time → shared memory;
-//!   → per tile, a list of photons  ───────► │ 16×16 pixels │   every pixel tests each against
-//!     (offsets + indices, per slot)         └──────────────┘   its G-buffer point and sums
+//!   CPU (photon_frame/tiles.rs), per frame   GPU (photon_tiles.comp), one workgroup per tile
+//!   each photon's bounding sphere            ┌────────────┐  each subgroup reads the list a
+//!   → the screen tiles it may cover          │ tile t     │  subgroup's width at a time, keeps
+//!   → per tile, a list of photons ─────────► │ 8×8 pixels │  the photons whose sphere reaches
+//!     (offsets, indices, spheres; per slot)  │            │  its pixels' box, passes them lane
+//!                                            └────────────┘  to lane (shuffles), and every
+//!                                                            pixel tests them and sums
 //! ```
 //!
-//! Each pixel sets up its surface and BSDF once, then pays a few multiplies for each listed
-//! photon that misses it, where a photon volume pays for rasterising and shading a fragment.
-//! On lavapipe the volumes' cost is fragment invocations, not arithmetic (docs/performance.md),
-//! so the gather is the faster estimator there; on a GPU with a hardware rasteriser that may
+//! Each pixel sets up its surface and BSDF once (the glossy lobe's directional albedo
+//! included), then pays a few multiplies for each listed photon that misses it, where a photon
+//! volume pays for rasterising and shading a fragment. On lavapipe the volumes' cost is
+//! fragment invocations, not arithmetic, so the gather is 2–5× cheaper there
+//! (docs/performance.md, "Density estimators"); on a GPU with a hardware rasteriser that may
 //! reverse, which is why both stay and `--density auto` picks per device
-//! ([`crate::frame::Density`]). The sums, channel for channel, are the fragment shaders': the
-//! support normalisation and the upsampling read them unchanged. A photon map over several
-//! buffers is one dispatch per buffer, each after the first adding to the targets.
+//! ([`crate::frame::Density`]). No shared memory and no barrier: llvmpipe runs a workgroup's
+//! SIMD vectors as coroutines, and barriers made a shared-memory version 3× slower than the
+//! photon volumes.
 //!
-//! The lists are written into host-visible buffers, one pair per frame slot, so a frame never
+//! The sums, channel for channel, are the fragment shaders': the support normalisation and
+//! the upsampling read them unchanged. A dispatch gathers at most [`TILE_JOB`] entries of each
+//! tile's list (llvmpipe ends an invocation's loops after 65535 iterations in all, silently);
+//! longer lists and further photon buffers take further dispatches, each continuing the sums
+//! where the last one left them, in list order, so the result is the one-pass sum bit for bit.
+//!
+//! The lists are written into host-visible buffers, one set per frame slot, so a frame never
 //! writes lists that a frame still in flight reads; the slot's descriptor sets follow its
 //! buffers when they grow, and are rewritten for new photon buffers only when that slot comes
 //! round again (its last frame has finished by then).
