@@ -264,7 +264,7 @@ pub fn run(
     settings: &BenchSettings,
     mut progress: impl FnMut(&str),
 ) -> anyhow::Result<BenchReport> {
-    let density = settings.render.density.resolve(gpu.properties.device_type);
+    let density = settings.render.density.resolve_for_device(&gpu.properties);
     let make_with = |name: &'static str,
                      (method, schedule, effects): (Method, Schedule, Effects),
                      density: Density| {

@@ -92,21 +92,29 @@ pub enum Density {
     /// each pixel (`passes/photon_tiles.rs`).
     Tiled,
     /// The faster on this device, as measured (docs/performance.md, "Density estimators"):
-    /// `tiled` on a CPU implementation (lavapipe), `volumes` on a GPU's hardware rasteriser.
+    /// `tiled` on a CPU implementation (lavapipe) with the compute subgroup operations it
+    /// needs, `volumes` on a GPU's hardware rasteriser (not measured there: the paper's).
     #[default]
     Auto,
 }
 
 impl Density {
-    /// `Auto` made concrete for a device of type `device_type`.
-    pub fn resolve(self, device_type: crate::gpu::vk::PhysicalDeviceType) -> Density {
+    /// `Auto` made concrete for a device of type `device_type` that has (`gather`) or lacks
+    /// the compute subgroup operations the tiled gather needs
+    /// ([`crate::gpu::DeviceProperties::compute_subgroup_gather`]).
+    pub fn resolve(self, device_type: crate::gpu::vk::PhysicalDeviceType, gather: bool) -> Density {
         match self {
-            Density::Auto if device_type == crate::gpu::vk::PhysicalDeviceType::CPU => {
+            Density::Auto if gather && device_type == crate::gpu::vk::PhysicalDeviceType::CPU => {
                 Density::Tiled
             }
             Density::Auto => Density::Volumes,
             other => other,
         }
+    }
+
+    /// [`Density::resolve`] for a device.
+    pub fn resolve_for_device(self, device: &crate::gpu::DeviceProperties) -> Density {
+        self.resolve(device.device_type, device.compute_subgroup_gather)
     }
 
     /// `Auto` made concrete for Vulkan device `device` (`--device`), or for the device the
@@ -124,7 +132,7 @@ impl Density {
             Some(i) => devices.get(i).filter(|(_, ok)| ok.is_ok()),
             None => usable.min_by_key(|(p, _)| crate::gpu::device_type_rank(p.device_type)),
         };
-        chosen.map_or(self, |(p, _)| self.resolve(p.device_type))
+        chosen.map_or(self, |(p, _)| self.resolve_for_device(p))
     }
 
     /// The GPU timing scope, stats stage and plan entry of the estimator.
@@ -552,9 +560,15 @@ impl Renderer {
     pub fn new(gpu: &Arc<Gpu>, scene: &Scene, settings: RenderSettings) -> anyhow::Result<Self> {
         // The density estimator for this device, before the plan lists it.
         let settings = RenderSettings {
-            density: settings.density.resolve(gpu.properties.device_type),
+            density: settings.density.resolve_for_device(&gpu.properties),
             ..settings
         };
+        anyhow::ensure!(
+            settings.density != Density::Tiled || gpu.properties.compute_subgroup_gather,
+            "--density tiled: {} lacks the compute-shader subgroup operations the tiled gather \
+             needs (basic, vote, arithmetic, ballot, shuffle); use --density volumes",
+            gpu.properties.name
+        );
         anyhow::ensure!(
             settings.width > 0 && settings.height > 0,
             "image size {}x{} is empty",

@@ -1108,11 +1108,16 @@ fn info(device: Option<usize>) -> anyhow::Result<()> {
         p.timestamp_period,
         gpu.clock_source()
     );
-    let density = ispm::frame::Density::Auto.resolve(p.device_type);
+    let density = ispm::frame::Density::Auto.resolve_for_device(p);
     println!(
-        "  --density auto: {density:?} on a {:?} device (measured on lavapipe, \
-         docs/performance.md \"Density estimators\")",
-        p.device_type
+        "  --density auto: {density:?} on a {:?} device, compute subgroup ops for the tiled \
+         gather: {} (measured on lavapipe, docs/performance.md \"Density estimators\")",
+        p.device_type,
+        if p.compute_subgroup_gather {
+            "yes"
+        } else {
+            "no"
+        }
     );
     println!(
         "  validation: {}",

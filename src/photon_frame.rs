@@ -367,7 +367,7 @@ impl PhotonFrame {
             materials: &gpu_scene.materials,
             gbuffer,
         };
-        let estimator = match settings.density.resolve(gpu.properties.device_type) {
+        let estimator = match settings.density.resolve_for_device(&gpu.properties) {
             Density::Tiled => {
                 let targets = estimate_targets(&indirect, support.as_ref(), subsampled.as_ref());
                 Estimator::Tiled(PhotonTilesPass::new(

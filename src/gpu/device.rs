@@ -194,6 +194,9 @@ pub struct DeviceProperties {
     pub calibrated_timestamps: bool,
     /// Most bytes one storage-buffer descriptor reaches (`maxStorageBufferRange`).
     pub max_storage_buffer_range: u32,
+    /// Whether compute shaders have the subgroup operations the tiled density estimator uses
+    /// (basic, vote, arithmetic, ballot, shuffle: `passes/photon_tiles.rs`).
+    pub compute_subgroup_gather: bool,
 }
 
 impl Gpu {
@@ -616,7 +619,10 @@ fn choose_device(
 
 fn describe(instance: &ash::Instance, pd: vk::PhysicalDevice) -> DeviceProperties {
     let mut driver = vk::PhysicalDeviceDriverProperties::default();
-    let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
+    let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
+    let mut props2 = vk::PhysicalDeviceProperties2::default()
+        .push_next(&mut driver)
+        .push_next(&mut subgroup);
     // SAFETY: pd came from this instance; props2 chains only structs alive for the call.
     unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
     let p = props2.properties;
@@ -645,6 +651,16 @@ fn describe(instance: &ash::Instance, pd: vk::PhysicalDevice) -> DevicePropertie
         families,
         calibrated_timestamps: has(ash::ext::calibrated_timestamps::NAME)
             || has(ash::khr::calibrated_timestamps::NAME),
+        compute_subgroup_gather: subgroup
+            .supported_stages
+            .contains(vk::ShaderStageFlags::COMPUTE)
+            && subgroup.supported_operations.contains(
+                vk::SubgroupFeatureFlags::BASIC
+                    | vk::SubgroupFeatureFlags::VOTE
+                    | vk::SubgroupFeatureFlags::ARITHMETIC
+                    | vk::SubgroupFeatureFlags::BALLOT
+                    | vk::SubgroupFeatureFlags::SHUFFLE,
+            ),
     }
 }
 
