@@ -79,6 +79,75 @@ void store(ivec2 px, vec4 a, vec4 b, vec4 c, vec4 d) {
     }
 }
 
+// The pixel's surface, set up once (main), and its sums: per invocation.
+vec3 pos;
+vec3 n_s = vec3(0.0, 0.0, 1.0);
+Bsdf bsdf;
+BsdfOriented o;
+vec3 c[4];
+vec4 weights = vec4(0.0);
+float glossy_albedo = 1.0;
+bool oriented = false;
+vec3 lambert = vec3(0.0);
+// Full resolution: total (rgb, volumes counted), global (rgb, Σ κ·r), Σ κ.
+// 1/N: Σ Φκ (and count), glossy, global Φκ (and Σ κ·r), Σ κ and the global glossy share.
+vec4 sum0 = vec4(0.0);
+vec3 glossy_sum = vec3(0.0);
+vec4 global_sum = vec4(0.0);
+float kappa_sum = 0.0;
+vec3 global_glossy = vec3(0.0);
+
+// Adds what the photon volume's fragment shader adds at this pixel (photon_volumes.frag, or
+// at 1/N photon_volumes_subsampled.frag) for a photon whose kernel's bounding sphere
+// (centre.xyz, r_xy = centre.w) contains the shaded point: no subgroup operation, so lanes may
+// leave it early.
+void add_photon(vec4 centre, vec4 normal, vec4 power, vec3 wi) {
+    float kappa = kernel_weight(centre.xyz, normal.xyz, centre.w, normal.w, pos);
+    if (!(kappa > 0.0)) {
+        return;
+    }
+    bool global_photon = power.w > 0.5;
+    if (global_photon && abs(dot(normal.xyz, n_s)) < SUPPORT_NORMAL_COS) {
+        return;
+    }
+    vec3 f = vec3(0.0);
+    if (!SUBSAMPLED) {
+        // photon_volumes.frag: the front-side test, then bsdf_eval (which normalises wi).
+        if (dot(wi, n_s) <= 0.0) {
+            return;
+        }
+        vec3 w;
+        float cos_i = (oriented && bsdf_unit(wi, w)) ? bsdf_reflected_cos(o, w) : 0.0;
+        if (cos_i > 0.0) {
+            f = bsdf_eval_oriented_with_albedo(bsdf, o, c, weights, glossy_albedo, w, cos_i);
+        }
+        vec3 contribution = f * power.rgb * kappa;
+        sum0 += vec4(contribution, 1.0);
+        if (global_photon) {
+            global_sum += vec4(contribution, kappa * centre.w);
+            kappa_sum += kappa;
+        }
+    } else {
+        if (!oriented) {
+            return;
+        }
+        float cos_i = bsdf_reflected_cos(o, wi);
+        if (cos_i <= 0.0) {
+            return;
+        }
+        f = bsdf_eval_oriented_with_albedo(bsdf, o, c, weights, glossy_albedo, wi, cos_i);
+        vec3 flux = power.rgb * kappa;
+        vec3 glossy = max(f - lambert, vec3(0.0)) * flux;
+        sum0 += vec4(flux, 1.0);
+        glossy_sum += glossy;
+        if (global_photon) {
+            global_sum += vec4(flux, kappa * centre.w);
+            kappa_sum += kappa;
+            global_glossy += glossy;
+        }
+    }
+}
+
 void main() {
     ivec2 px = ivec2(gl_GlobalInvocationID.xy);
     bool inside = px.x < int(push.width) && px.y < int(push.height);
@@ -86,23 +155,17 @@ void main() {
     // photon_volumes_subsampled.frag and upsample.comp's subsample_centre).
     int n = int(push.subsample);
     ivec2 g = SUBSAMPLED ? min(px * n + n / 2, ivec2(frame.counts.zw) - 1) : px;
-    vec4 pos = inside ? texelFetch(g_position, g, 0) : vec4(0.0);
-    bool shaded = inside && pos.w != 0.0;
+    vec4 position = inside ? texelFetch(g_position, g, 0) : vec4(0.0);
+    pos = position.xyz;
+    bool shaded = inside && position.w != 0.0;
 
     // Once per pixel: the surface, its regularised BSDF oriented to the eye, its lobes.
-    vec3 n_s = vec3(0.0, 0.0, 1.0);
-    Bsdf bsdf;
-    BsdfOriented o;
-    vec3 c[4];
-    vec4 weights = vec4(0.0);
-    float glossy_albedo = 1.0;
-    bool oriented = false;
     if (shaded) {
         n_s = normalize(texelFetch(g_normal, g, 0).xyz);
         GpuMaterial m = materials[texelFetch(g_material, g, 0).x];
         bsdf = bsdf_regularized(material_bsdf(m, texelFetch(g_albedo, g, 0).rgb),
                                 push.gather_exponent_max);
-        oriented = bsdf_orient(bsdf, normalize(-pos.xyz), n_s, n_s, o);
+        oriented = bsdf_orient(bsdf, normalize(-pos), n_s, n_s, o);
         if (oriented) {
             bsdf_lobe_reflectances(bsdf, o, c);
             weights = bsdf_weights_of(c);
@@ -111,15 +174,7 @@ void main() {
             }
         }
     }
-    vec3 lambert = oriented ? c[LOBE_LAMBERTIAN] * (1.0 / PI) : vec3(0.0);
-
-    // Full resolution: total (rgb, volumes counted), global (rgb, Σ κ·r), Σ κ.
-    // 1/N: Σ Φκ (and count), glossy, global Φκ (and Σ κ·r), Σ κ and the global glossy share.
-    vec4 sum0 = vec4(0.0);
-    vec3 glossy_sum = vec3(0.0);
-    vec4 global_sum = vec4(0.0);
-    float kappa_sum = 0.0;
-    vec3 global_glossy = vec3(0.0);
+    lambert = oriented ? c[LOBE_LAMBERTIAN] * (1.0 / PI) : vec3(0.0);
 
     uint tile = gl_WorkGroupID.y * push.tile_columns + gl_WorkGroupID.x;
     uint list_begin = offsets[push.first + tile];
@@ -146,8 +201,8 @@ void main() {
     end = max(end, begin);
     // The box around this subgroup's shaded points: a listed photon whose sphere misses it
     // reaches none of them (most of a tile's list, for a subgroup that is one row of it).
-    vec3 box_lo = subgroupMin(shaded ? pos.xyz : vec3(3.0e38));
-    vec3 box_hi = subgroupMax(shaded ? pos.xyz : vec3(-3.0e38));
+    vec3 box_lo = subgroupMin(shaded ? pos : vec3(3.0e38));
+    vec3 box_hi = subgroupMax(shaded ? pos : vec3(-3.0e38));
     if (!subgroupAny(shaded)) {
         end = begin;
     }
@@ -177,7 +232,8 @@ void main() {
         if (near) {
             Photon photon = photon_load(photons[index]);
             float r_knn;
-            vec3 normal = unpack_normal(photon.normal, r_knn);
+            unpack_normal(photon.normal, r_knn);
+            vec3 normal = normalize(photon.normal);  // as photon_volumes.frag
             vec3 centre = photon.position + push.offset.xyz;
             vec2 r = kernel_radius(r_knn, push.r_min, push.r_max, push.scale, push.footprint,
                                    push.footprint_max, length(centre));
@@ -194,60 +250,16 @@ void main() {
             uint j = subgroupBallotFindLSB(ballot);
             ballot[j >> 5u] &= ~(1u << (j & 31u));
             vec4 centre = subgroupShuffle(my_centre, j);
-            vec3 d = pos.xyz - centre.xyz;
+            vec3 d = pos - centre.xyz;
             bool hit = shaded && dot(d, d) < centre.w * centre.w;
-            if (!subgroupAny(hit)) {
-                continue;  // the cheap test first: most listed photons miss every pixel here
-            }
-            vec4 normal = subgroupShuffle(my_normal, j);
-            vec4 power = subgroupShuffle(my_power, j);
-            vec3 wi = subgroupShuffle(my_wi, j).xyz;
-            if (!hit) {
-                continue;
-            }
-            float kappa = kernel_weight(centre.xyz, normal.xyz, centre.w, normal.w, pos.xyz);
-            if (!(kappa > 0.0)) {
-                continue;
-            }
-            bool global_photon = power.w > 0.5;
-            if (global_photon && abs(dot(normal.xyz, n_s)) < SUPPORT_NORMAL_COS) {
-                continue;
-            }
-            vec3 f = vec3(0.0);
-            if (!SUBSAMPLED) {
-                // photon_volumes.frag: the front-side test, then bsdf_eval.
-                if (dot(wi, n_s) <= 0.0) {
-                    continue;
-                }
-                float cos_i = oriented ? bsdf_reflected_cos(o, wi) : 0.0;
-                if (cos_i > 0.0) {
-                    f = bsdf_eval_oriented_with_albedo(bsdf, o, c, weights, glossy_albedo, wi,
-                                                       cos_i);
-                }
-                vec3 contribution = f * power.rgb * kappa;
-                sum0 += vec4(contribution, 1.0);
-                if (global_photon) {
-                    global_sum += vec4(contribution, kappa * centre.w);
-                    kappa_sum += kappa;
-                }
-            } else {
-                // photon_volumes_subsampled.frag.
-                if (!oriented) {
-                    continue;
-                }
-                float cos_i = bsdf_reflected_cos(o, wi);
-                if (cos_i <= 0.0) {
-                    continue;
-                }
-                f = bsdf_eval_oriented_with_albedo(bsdf, o, c, weights, glossy_albedo, wi, cos_i);
-                vec3 flux = power.rgb * kappa;
-                vec3 glossy = max(f - lambert, vec3(0.0)) * flux;
-                sum0 += vec4(flux, 1.0);
-                glossy_sum += glossy;
-                if (global_photon) {
-                    global_sum += vec4(flux, kappa * centre.w);
-                    kappa_sum += kappa;
-                    global_glossy += glossy;
+            // The cheap test first: most listed photons miss every pixel here. The branch is
+            // uniform, so every lane takes part in the shuffles inside it.
+            if (subgroupAny(hit)) {
+                vec4 normal = subgroupShuffle(my_normal, j);
+                vec4 power = subgroupShuffle(my_power, j);
+                vec3 wi = subgroupShuffle(my_wi, j).xyz;
+                if (hit) {
+                    add_photon(centre, normal, power, wi);
                 }
             }
         }

@@ -56,24 +56,18 @@ void main() {
         frame_from_normal(dir, t, b);
         float far_side = d + bound;
         float half_size = far_side * bound / sqrt(d * d - bound * bound) * BILLBOARD_MARGIN;
+        if (push.subsample > 1u) {
+            // At 1/N resolution a fragment is made where the billboard covers the
+            // low-resolution pixel's centre, but the kernel is evaluated at the full-resolution
+            // pixel at the centre of its N×N block (photon_volumes_subsampled.frag): half a
+            // full-resolution pixel away, and up to N more where the size is not a multiple of
+            // N (the low-resolution grid is ⌈W/N⌉ wide). The billboard grows by two
+            // low-resolution pixels at its distance (footprint: one pixel's size per metre), so
+            // every pixel whose sample the sphere covers is drawn.
+            half_size += 2.0 * push.footprint * far_side;
+        }
         vec3 world = dir * far_side + (t * in_position.x + b * in_position.y) * half_size;
         gl_Position = frame.view_proj * vec4(world, 1.0);
-        vec4 middle = frame.view_proj * vec4(dir * far_side, 1.0);
-        if (push.subsample > 1u && gl_Position.w > 0.0 && middle.w > 0.0) {
-            // At 1/N resolution a fragment is generated where the billboard covers the
-            // low-resolution pixel's centre, but the kernel is evaluated at the full-resolution
-            // pixel at the centre of its N×N block, up to half a full-resolution pixel away
-            // (photon_volumes_subsampled.frag): each corner moves out from the middle by a
-            // low-resolution pixel, so every pixel whose sample the sphere covers is drawn.
-            vec2 ndc = gl_Position.xy / gl_Position.w;
-            vec2 out_dir = ndc - middle.xy / middle.w;
-            float len = length(out_dir);
-            if (len > 0.0) {
-                vec2 pixel = 2.0 * float(push.subsample) / vec2(frame.counts.zw);
-                ndc += out_dir / len * pixel;
-                gl_Position.xy = ndc * gl_Position.w;
-            }
-        }
     }
     v_photon = uint(gl_InstanceIndex);
     v_radius = r;

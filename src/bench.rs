@@ -314,7 +314,12 @@ pub fn run(
             Effects::Auto,
         )?);
     }
-    if settings.compare_density {
+    let compare_density = settings.compare_density
+        && (density == Density::Tiled || gpu.properties.compute_subgroup_gather);
+    if settings.compare_density && !compare_density {
+        progress("--compare-density: this device lacks the tiled gather's subgroup operations");
+    }
+    if compare_density {
         let (name, other) = match density {
             Density::Tiled => ("volumes", Density::Volumes),
             _ => ("tiled", Density::Tiled),
@@ -341,9 +346,8 @@ pub fn run(
         }
     }
     let planned = settings.compare_effects.then(|| result(&configs[3]));
-    let other_density = settings
-        .compare_density
-        .then(|| result(configs.last().expect("the other density's configuration")));
+    let other_density =
+        compare_density.then(|| result(configs.last().expect("the other density's configuration")));
     let (o, s, d) = (
         result(&configs[0]),
         result(&configs[1]),

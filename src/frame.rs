@@ -337,7 +337,7 @@ pub struct FrameStats {
     #[serde(skip)]
     pub kernel: Option<crate::photon::kernel::KernelSettings>,
     /// The tiled estimator's lists of the frame (`--density tiled`; `None` with the photon
-    /// volumes or without photons).
+    /// volumes or without a photon part).
     pub tiles: Option<TileStats>,
 }
 

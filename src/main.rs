@@ -860,7 +860,9 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
             let more = match args.frames {
                 Some(n) => submitted < n,
                 None => {
-                    // Another frame, the last one and those in flight, pipelined.
+                    // This frame and the FRAMES_IN_FLIGHT after it finishing (the frames in
+                    // flight overlap them and the last frame, which `render` submits, is one
+                    // of them): it may run over by a frame's period, and stops early by as much.
                     let to_finish = (ispm::frame::FRAMES_IN_FLIGHT + 1) as f64 * period;
                     !args.no_accumulate
                         && renderer.plan().accumulate

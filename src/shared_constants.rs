@@ -105,8 +105,7 @@ pub const BILLBOARD_INSIDE: f32 = 1.001;
 pub const BILLBOARD_MARGIN: f32 = 1.001;
 
 // Tiled density estimation (`passes/photon_tiles.rs`, `photon_tiles.comp`): pixels per side of
-// a screen tile, one workgroup's; the photons of a tile's list are read into shared memory
-// PHOTON_TILE² at a time.
+// a screen tile, one workgroup's (8: one row is one of lavapipe's 8-lane SIMD vectors).
 pub const PHOTON_TILE: u32 = 8;
 // The most entries of one tile's list one dispatch of `photon_tiles.comp` gathers: lavapipe
 // ends an invocation's loops after 65535 iterations in all (the tile loop takes about

@@ -73,7 +73,11 @@ pub fn frame_json(
             "gather_exponent_max": k.gather_exponent_max(),
         })),
         // The density estimator's pass, and the tiled one's lists (`passes/photon_tiles.rs`).
-        "density": if s.tiles.is_some() { "tiled" } else { "volumes" },
+        "density": match (s.tiles.is_some(), s.kernel.is_some()) {
+            (true, _) => Some("tiled"),
+            (false, true) => Some("volumes"),
+            (false, false) => None,
+        },
         "tiles": s.tiles,
         "bounces": bounces,
         "attrition": s.attrition,

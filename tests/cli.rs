@@ -250,6 +250,7 @@ fn bench_measures_overlapped_serial_and_direct_frames_and_writes_json_and_figure
         json.to_str().expect("utf8"),
         "--figure",
         svg.to_str().expect("utf8"),
+        "--compare-density",
     ]);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
@@ -311,6 +312,18 @@ fn bench_measures_overlapped_serial_and_direct_frames_and_writes_json_and_figure
     );
     assert!(report["overlap"].as_f64().is_some_and(|v| v > 0.0));
     assert!(report["speedup"].as_f64().is_some_and(|v| v > 0.0));
+    // --compare-density: the other estimator's frame, in the same chunks.
+    let other = match common::estimator_pass() {
+        "photon_tiles" => "photon_volumes",
+        _ => "photon_tiles",
+    };
+    let o = &report["other_density"];
+    assert_eq!(o["chunk_frame_ms"].as_array().map(Vec::len), Some(2), "{o}");
+    assert!(o["stages"][format!("gpu.{other}")]["median"]
+        .as_f64()
+        .is_some_and(|v| v > 0.0));
+    assert!(report["density_speedup"].as_f64().is_some_and(|v| v > 0.0));
+    assert!(stdout.contains("density:"), "{stdout}");
     let figure = std::fs::read_to_string(&svg).expect("figure written");
     assert!(figure.starts_with("<svg") && figure.contains(common::estimator_pass()));
 }

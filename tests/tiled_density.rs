@@ -116,12 +116,17 @@ fn the_tiled_gather_equals_the_photon_volumes_pixel_for_pixel() {
 
 #[test]
 fn the_tiled_gather_equals_the_photon_volumes_when_subsampled() {
-    for subsample in [2, 3] {
+    // 96×72 divides by 2 and 3; 97×71 by neither 3 nor 4, so the low-resolution grid is
+    // stretched against the full-resolution one (the photon volumes' billboards must cover the
+    // drift).
+    for (subsample, width, height) in [(2, 96, 72), (3, 96, 72), (3, 97, 71), (4, 97, 71)] {
         assert_same_estimate(
-            &format!("tiled_subsample_{subsample}"),
+            &format!("tiled_subsample_{subsample}_{width}x{height}"),
             &bundled("cornell-box"),
             RenderSettings {
                 subsample,
+                width,
+                height,
                 ..settings(Density::Auto)
             },
         );

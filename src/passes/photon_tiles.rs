@@ -225,6 +225,19 @@ impl PhotonTilesPass {
         let offsets: &[u8] = bytemuck::cast_slice(&lists.offsets);
         let indices: &[u8] = bytemuck::cast_slice(&lists.indices);
         let spheres: &[u8] = bytemuck::cast_slice(&lists.spheres);
+        let reach = u64::from(gpu.properties.max_storage_buffer_range);
+        for (what, bytes) in [
+            ("offsets", offsets),
+            ("indices", indices),
+            ("spheres", spheres),
+        ] {
+            anyhow::ensure!(
+                bytes.len() as u64 <= reach,
+                "the tiled gather's photon lists need {} bytes of {what}, more than one storage \
+                 buffer reaches on this device ({reach}): use --density volumes or fewer photons",
+                bytes.len()
+            );
+        }
         let s = &mut self.slots[slot];
         if offsets.len() as u64 > s.offsets.size {
             s.offsets = list_buffer(&gpu, &s.offsets.name.clone(), offsets.len() as u64)?;
