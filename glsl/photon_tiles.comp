@@ -213,7 +213,7 @@ void main() {
     uint lanes = subgroupBallotBitCount(awake);
     uint rank = subgroupBallotExclusiveBitCount(awake);
     for (uint base = begin; base < end; base += lanes) {
-        // Each lane reads one photon of the next gl_SubgroupSize and tests it against the box;
+        // Each active lane reads one photon of the next `lanes` and tests it against the box;
         // then every lane tests the photons that passed, taking photon j's values from lane j
         // (no shared memory, no barrier).
         uint k = base + rank;

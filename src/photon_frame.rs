@@ -148,9 +148,9 @@ pub struct PhotonFrame {
     kernel_clamp: KernelSettings,
     /// Height of the image the estimate is made at (the low one when subsampling).
     estimate_height: u32,
-    /// The screen the tiled estimator bins for: the full image size and the subsample factor
-    /// (the frame gives the `view_proj` of each estimate).
-    screen: tiles::Screen,
+    /// The full image size and the subsample factor: with the `view_proj` the frame gives each
+    /// estimate, the screen the tiled estimator bins for.
+    screen_size: ((u32, u32), u32),
     /// The tiled estimator's lists of the last recorded estimate.
     tile_stats: Option<crate::frame::TileStats>,
 }
@@ -438,11 +438,7 @@ impl PhotonFrame {
             eye: scene.camera.position().as_dvec3(),
             kernel_clamp,
             estimate_height,
-            screen: tiles::Screen {
-                view_proj: glam::Mat4::IDENTITY,
-                size: (radiance.width, radiance.height),
-                subsample,
-            },
+            screen_size: ((radiance.width, radiance.height), subsample),
             tile_stats: None,
         })
     }

@@ -86,9 +86,11 @@ impl PhotonFrame {
             Estimator::Volumes(pass) => pass.record(cmd, &inputs, volumes, &targets),
             Estimator::Tiled(pass) => {
                 let (traced, radii, offset) = (&self.traced, &self.radii, volumes.2);
+                let (size, subsample) = self.screen_size;
                 let screen = tiles::Screen {
                     view_proj,
-                    ..self.screen
+                    size,
+                    subsample,
                 };
                 let lists = timing::timed("photon tiles", || {
                     tiles::bin(
