@@ -82,7 +82,17 @@ pub enum Schedule {
 
 /// How the radiance estimate is made from the photon map (`--density`). Both give the same
 /// sums (tests/tiled_density.rs); they differ in speed, by device.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    clap::ValueEnum,
+    serde::Serialize,
+    serde::Deserialize,
+)]
 #[serde(rename_all = "kebab-case")]
 pub enum Density {
     /// Photon volumes: each photon's kernel rasterised as a billboard and shaded per fragment

@@ -69,19 +69,20 @@ impl Quality {
     /// The preset's knobs: points of the single-frame front of the four bundled scenes' sweeps
     /// taken together, picked by `docs/tools/presets.py` (docs/accuracy.md §5.3: geometric
     /// means over the scenes of the frame time and of the relMSE over each scene's best,
-    /// 160×120, lavapipe, idle). Bounces are not a knob: Russian roulette ends the paths
-    /// ([`DEFAULT_BOUNCES`] is only the safety cap). Accumulated frames are not either: `render`
-    /// accumulates any preset for its `--seconds` or `--frames`, and the sweep measured four
-    /// frames of 10k photons at full resolution beating every single frame (978.6 ms, 1.28×).
+    /// 160×120, lavapipe with the tiled gather, idle, 2026-11-26). Bounces are not a knob:
+    /// Russian roulette ends the paths ([`DEFAULT_BOUNCES`] is only the safety cap).
+    /// Accumulated frames are not either: `render` accumulates any preset for its `--seconds`
+    /// or `--frames`, and the sweep measured four frames of 10k photons at full resolution
+    /// beating every single frame (473.2 ms, 1.33×).
     pub fn preset(self) -> Preset {
         let (photons, radius_scale, subsample) = match self {
-            // The fastest point of the front (164.7 ms, 1.85× the best error).
+            // The fastest point of the front (92.2 ms, 2.06× the best error).
             Quality::Draft => (10_000, 1.0, 4),
-            // 193.2 ms, 1.61×.
+            // 99.1 ms, 1.78×.
             Quality::Interactive => (10_000, 2.0, 4),
-            // 258.4 ms, 1.43×.
+            // 118.8 ms, 1.59×.
             Quality::High => (10_000, 2.0, 2),
-            // The most accurate single frame measured: 1493.1 ms, 1.29×.
+            // The most accurate single frame measured: 898.8 ms, 1.35×.
             Quality::Reference => (160_000, 2.0, 1),
         };
         Preset {

@@ -214,6 +214,7 @@ fn more_photons_at_a_fixed_kernel_never_worsen_the_indirect_error() {
                     caustic_share: ispm::ispm::CAUSTIC_SHARE,
                     upsample: Default::default(),
                     accumulate: 1,
+                    density: ispm::frame::Density::Auto,
                 };
                 let m = measure(&gpu, &scene, &config, (size, size), 1, &refs).expect("measure");
                 assert!(

@@ -19,7 +19,9 @@ import math
 import sys
 from collections import defaultdict
 
-KEY = ("photons", "radius_scale", "subsample", "accumulate")
+KEY = ("photons", "radius_scale", "subsample", "accumulate", "density")
+# Columns older CSVs lack, as they were: one frame, the photon volumes.
+DEFAULTS = {"accumulate": "1", "density": "volumes"}
 
 
 def read(paths):
@@ -42,7 +44,7 @@ def main(paths):
     best = {s: min(float(r["rel_mse"]) for r in ispm if r["scene"] == s) for s in scenes}
     by_key = defaultdict(dict)
     for r in main_grid:
-        by_key[tuple(r.get(k, "1") for k in KEY)][r["scene"]] = r
+        by_key[tuple(r.get(k, DEFAULTS.get(k, "1")) for k in KEY)][r["scene"]] = r
     points = []
     for key, per in by_key.items():
         if set(per) != set(scenes):
@@ -52,7 +54,7 @@ def main(paths):
         points.append((t, e, key, per))
     dominated = lambda p, pool: any(q[0] <= p[0] and q[1] <= p[1] and (q[0], q[1]) != (p[0], p[1])
                                     for q in pool)
-    label = lambda k: f"{int(k[0]) // 1000}k, r×{float(k[1]):g}, N {k[2]}, {k[3]} frame(s)"
+    label = lambda k: f"{int(k[0]) // 1000}k, r×{float(k[1]):g}, N {k[2]}, {k[3]} frame(s), {k[4]}"
     # The aggregate front of every configuration, accumulated ones included (they show what
     # the frames buy); the presets are points of the front of single frames, since a preset
     # sets per-frame knobs and `render` accumulates them for its own --seconds/--frames.
@@ -70,7 +72,7 @@ def main(paths):
     for t, e, k, _ in front:
         print(f"| {label(k)} | {t:.1f} ms | {e:.2f}× |")
     draft, reference = front[0], front[-1]
-    # Evenly spaced in error, not in time: past ~350 ms the single-frame front is nearly flat in
+    # Evenly spaced in error, not in time: past its middle the single-frame front is nearly flat in
     # error (more photons buy little), so points spaced in time would cost more for nothing.
     lo, hi = math.log(draft[1]), math.log(reference[1])
     # Four distinct points where the front has them: the middle two from the points between.

@@ -14,6 +14,7 @@
 //! | `upsample` | `joint` (bilateral) or `bilinear` upsampling at subsample > 1 (`--upsample`) | joint |
 //! | `method` | `ispm`, or `photon-gather` (the CPU k-d tree baseline) | ispm |
 //! | `accumulate` | frames averaged into one image, each with new photons and smaller kernels (`render --frames`; progressive accumulation) | 1 |
+//! | `density` | the density estimator, `volumes`, `tiled` or `auto` (`--density`; `auto` is recorded as what it resolves to on the device) | auto |
 //!
 //! "Bounce-map resolution": one bounce-map texel emits one photon, so a light's texel count *is*
 //! its photon count and cannot vary on its own; what does vary independently is how those texels
@@ -23,8 +24,11 @@
 //!
 //! Configurations are normalised before they are deduplicated: at subsample 1 there is no
 //! upsampling (the `upsample` value is recorded as `joint`); the `photon-gather` baseline has no
-//! subsampling, upsampling, caustic views or accumulation.
+//! subsampling, upsampling, caustic views, accumulation or density estimator (recorded as
+//! `volumes`, its kernel's sums). `auto` is resolved for the device ([`Grid::resolve_density`])
+//! before the configurations are made, so a record names the estimator that measured it.
 
+use crate::frame::Density;
 use crate::passes::upsample::Upsample;
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
@@ -63,10 +67,18 @@ pub struct Config {
     /// written before the knob existed read as 1.
     #[serde(default = "one")]
     pub accumulate: u32,
+    /// The density estimator (never `Auto` once resolved). Results written before the knob
+    /// existed were all made by the photon volumes and read as `Volumes`.
+    #[serde(default = "volumes")]
+    pub density: Density,
 }
 
 fn one() -> u32 {
     1
+}
+
+fn volumes() -> Density {
+    Density::Volumes
 }
 
 impl Config {
@@ -76,6 +88,7 @@ impl Config {
             self.subsample = 1;
             self.caustic_share = 0.0;
             self.accumulate = 1;
+            self.density = Density::Volumes;
         }
         self.accumulate = self.accumulate.max(1);
         if self.subsample <= 1 {
@@ -85,7 +98,8 @@ impl Config {
         self
     }
 
-    /// A short unique name, e.g. `ispm p40000 b8 r1 s2 c0.5 joint`.
+    /// A short unique name, e.g. `ispm p40000 b8 r1 s2 c0.5 joint`, with ` tiled` for the
+    /// tiled gather (the photon volumes' records keep their names from before the knob).
     pub fn label(&self) -> String {
         let upsample = match (self.subsample, self.upsample) {
             (1, _) => "",
@@ -97,8 +111,12 @@ impl Config {
         } else {
             String::new()
         };
+        let density = match self.density {
+            Density::Tiled => " tiled",
+            Density::Volumes | Density::Auto => "",
+        };
         format!(
-            "{} p{} b{} r{} s{} c{}{}{}",
+            "{} p{} b{} r{} s{} c{}{}{}{}",
             self.method.name(),
             self.photons,
             self.bounces,
@@ -106,7 +124,8 @@ impl Config {
             self.subsample,
             self.caustic_share,
             upsample,
-            accumulate
+            accumulate,
+            density
         )
     }
 }
@@ -122,6 +141,7 @@ pub struct Grid {
     pub caustic_share: Vec<f32>,
     pub upsample: Vec<Upsample>,
     pub accumulate: Vec<u32>,
+    pub density: Vec<Density>,
 }
 
 impl Default for Grid {
@@ -135,6 +155,7 @@ impl Default for Grid {
             caustic_share: vec![crate::ispm::CAUSTIC_SHARE],
             upsample: vec![Upsample::Joint],
             accumulate: vec![1],
+            density: vec![Density::Auto],
         }
     }
 }
@@ -228,6 +249,17 @@ impl Grid {
                         .map(|v| positive_int(knob, v, 4096.0).map(|n| n as u32))
                         .collect::<Result<_>>()?;
                 }
+                "density" => {
+                    grid.density = values
+                        .iter()
+                        .map(|v| match *v {
+                            "volumes" => Ok(Density::Volumes),
+                            "tiled" => Ok(Density::Tiled),
+                            "auto" => Ok(Density::Auto),
+                            _ => bail!("density={v}: not volumes, tiled or auto"),
+                        })
+                        .collect::<Result<_>>()?;
+                }
                 "method" => {
                     grid.method = values
                         .iter()
@@ -240,14 +272,23 @@ impl Grid {
                 }
                 _ => bail!(
                     "--grid: unknown knob {knob:?} (photons, bounces, radius, subsample, \
-                     caustic-share, upsample, method, accumulate)"
+                     caustic-share, upsample, method, accumulate, density)"
                 ),
             }
         }
         Ok(grid)
     }
 
-    /// Every combination, normalised and without duplicates, in grid order.
+    /// The grid with `auto` made concrete as `resolve` makes it (the device's choice).
+    pub fn resolve_density(mut self, resolve: impl Fn(Density) -> Density) -> Self {
+        for d in &mut self.density {
+            *d = resolve(*d);
+        }
+        self
+    }
+
+    /// Every combination, normalised and without duplicates, in grid order (`ispm sweep` makes
+    /// `auto` densities concrete first, [`Self::resolve_density`]).
     pub fn configs(&self) -> Vec<Config> {
         let mut out: Vec<Config> = Vec::new();
         for &method in &self.method {
@@ -258,19 +299,22 @@ impl Grid {
                             for &caustic_share in &self.caustic_share {
                                 for &upsample in &self.upsample {
                                     for &accumulate in &self.accumulate {
-                                        let c = Config {
-                                            method,
-                                            photons,
-                                            bounces,
-                                            radius_scale,
-                                            subsample,
-                                            caustic_share,
-                                            upsample,
-                                            accumulate,
-                                        }
-                                        .normalised();
-                                        if !out.contains(&c) {
-                                            out.push(c);
+                                        for &density in &self.density {
+                                            let c = Config {
+                                                method,
+                                                photons,
+                                                bounces,
+                                                radius_scale,
+                                                subsample,
+                                                caustic_share,
+                                                upsample,
+                                                accumulate,
+                                                density,
+                                            }
+                                            .normalised();
+                                            if !out.contains(&c) {
+                                                out.push(c);
+                                            }
                                         }
                                     }
                                 }
@@ -338,6 +382,32 @@ mod tests {
     }
 
     #[test]
+    fn the_density_estimator_is_a_knob_resolved_before_the_records_are_keyed() {
+        let g = Grid::parse(
+            "photons=1k;radius=1;subsample=1;density=volumes,tiled,auto;method=ispm,photon-gather",
+        )
+        .unwrap();
+        // `auto` resolved as a CPU device with subgroup operations resolves it: a duplicate of
+        // `tiled`, so measured once.
+        let resolved =
+            g.resolve_density(|d| d.resolve(crate::gpu::vk::PhysicalDeviceType::CPU, true));
+        let labels: Vec<String> = resolved.configs().iter().map(Config::label).collect();
+        assert_eq!(
+            labels,
+            [
+                "ispm p1000 b256 r1 s1 c0.5",
+                "ispm p1000 b256 r1 s1 c0.5 tiled",
+                "photon-gather p1000 b256 r1 s1 c0",
+            ]
+        );
+        // Results written before the knob were the photon volumes'.
+        let old = r#"{"method":"ispm","photons":1000,"bounces":8,"radius_scale":1.0,
+            "subsample":1,"caustic_share":0.5,"upsample":"joint"}"#;
+        let c: Config = serde_json::from_str(old).unwrap();
+        assert_eq!(c.density, Density::Volumes);
+    }
+
+    #[test]
     fn bad_grid_specs_name_the_problem() {
         for (spec, words) in [
             ("photons=0", "photons=0"),
@@ -347,6 +417,7 @@ mod tests {
             ("caustic-share=2", "0.95"),
             ("method=path", "photon-gather"),
             ("accumulate=0", "accumulate=0"),
+            ("density=splat", "volumes, tiled or auto"),
         ] {
             let e = Grid::parse(spec).unwrap_err().to_string();
             assert!(e.contains(words), "{spec}: {e}");

@@ -136,6 +136,7 @@ impl Job<'_> {
             caustic_share: c.caustic_share,
             schedule: Schedule::Overlapped,
             effects: Effects::All,
+            density: c.density,
             ..Default::default()
         };
         let accumulate = c.accumulate.max(1);

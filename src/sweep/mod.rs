@@ -84,7 +84,12 @@ pub fn run(
     let mut results = Results::load(out)?;
     let scene_hash = hash::hex(reference::scene_hash(scene));
     let (width, height) = (settings.width, settings.height);
-    let configs = settings.grid.configs();
+    // `auto` as this device resolves it, so every record names the estimator that made it.
+    let configs = settings
+        .grid
+        .clone()
+        .resolve_density(|d| d.resolve_for_device(&gpu.properties))
+        .configs();
     let todo: Vec<&Config> = configs
         .iter()
         .filter(|c| !results.contains(&results::key(c, &scene_hash, width, height)))

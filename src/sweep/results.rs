@@ -136,7 +136,7 @@ impl Results {
             .collect();
         let mut out = String::from(
             "scene,scene_hash,width,height,frames,method,photons,bounces,radius_scale,r_max,\
-             subsample,caustic_share,upsample,accumulate,frame_ms,gpu_ms,cpu_ms,rel_mse,rel_mse_direct,\
+             subsample,caustic_share,upsample,accumulate,density,frame_ms,gpu_ms,cpu_ms,rel_mse,rel_mse_direct,\
              rel_mse_indirect,flip,stored_photons,pareto",
         );
         for s in &stages {
@@ -147,7 +147,7 @@ impl Results {
             let (c, m) = (&r.config, &r.measurement);
             // Scene names are file paths or bundled names: quote them, doubling quotes.
             out += &format!(
-                "\"{}\",{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.6e},{:.6e},{:.6e},\
+                "\"{}\",{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.6e},{:.6e},{:.6e},\
                  {:.6},{},{}",
                 r.scene.replace('"', "\"\""),
                 r.scene_hash,
@@ -166,6 +166,10 @@ impl Results {
                     crate::passes::upsample::Upsample::Bilinear => "bilinear",
                 },
                 c.accumulate,
+                match c.density {
+                    crate::frame::Density::Tiled => "tiled",
+                    crate::frame::Density::Volumes | crate::frame::Density::Auto => "volumes",
+                },
                 m.frame_ms,
                 m.gpu_ms,
                 m.cpu_ms,
