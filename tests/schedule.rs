@@ -171,12 +171,16 @@ fn overlap(a: &ispm::timing::Span, b: &ispm::timing::Span) -> bool {
 
 /// The paper's Figure 3: in the overlapped schedule the CPU trace of a frame runs while the GPU
 /// draws (lavapipe's GPU work runs on its own threads); in the serial one nothing on the GPU
-/// runs during any CPU trace. Frame 0 (cold caches) is left out.
+/// runs during any CPU trace. The default (`auto`) overlaps them only where the device does
+/// not run on the host's cores: on a CPU device (lavapipe) the trace waits for box B, and the
+/// trace says so with a `box B wait: CPU device` span per traced frame. Frame 0 (cold caches)
+/// is left out.
 #[test]
-fn cpu_trace_overlaps_gpu_work_only_in_the_overlapped_schedule() {
+fn cpu_trace_overlaps_gpu_work_only_where_the_schedule_lets_it() {
     let _one_at_a_time = exclusive();
     const FRAMES: u64 = 4;
-    for schedule in [Schedule::Overlapped, Schedule::Serial] {
+    let device_type = common::gpu().properties.device_type;
+    for schedule in [Schedule::Overlapped, Schedule::Serial, Schedule::Auto] {
         let spans = captured_frames(schedule, FRAMES);
         let gpu: Vec<_> = spans.iter().filter(|s| s.is_gpu()).collect();
         let traces: Vec<_> = spans
@@ -184,23 +188,35 @@ fn cpu_trace_overlaps_gpu_work_only_in_the_overlapped_schedule() {
             .filter(|s| !s.is_gpu() && s.name == "cpu_trace")
             .collect();
         assert_eq!(traces.len(), FRAMES as usize, "{schedule:?}");
+        let beside = schedule.trace_beside_box_b(device_type);
+        let waits = spans
+            .iter()
+            .filter(|s| !s.is_gpu() && s.name == "box B wait: CPU device")
+            .count();
+        let expected_waits = if beside || schedule == Schedule::Serial {
+            0
+        } else {
+            FRAMES as usize
+        };
+        assert_eq!(waits, expected_waits, "{schedule:?}: box B waits");
         for t in traces.iter().filter(|t| t.frame != Some(0)) {
             let during: Vec<&str> = gpu
                 .iter()
                 .filter(|g| overlap(g, t) && g.depth == 0)
                 .map(|g| g.name.as_str())
                 .collect();
-            match schedule {
-                Schedule::Overlapped => assert!(
+            if beside {
+                assert!(
                     !during.is_empty(),
-                    "frame {:?}: no GPU pass ran during the CPU trace",
+                    "{schedule:?} frame {:?}: no GPU pass ran during the CPU trace",
                     t.frame
-                ),
-                Schedule::Serial => assert!(
+                );
+            } else {
+                assert!(
                     during.is_empty(),
-                    "frame {:?}: serial, yet {during:?} ran during the CPU trace",
+                    "{schedule:?} frame {:?}: yet {during:?} ran during the CPU trace",
                     t.frame
-                ),
+                );
             }
             eprintln!(
                 "{schedule:?} frame {:?}: during the trace: {during:?}",
@@ -208,6 +224,28 @@ fn cpu_trace_overlaps_gpu_work_only_in_the_overlapped_schedule() {
             );
         }
     }
+}
+
+/// Which schedules run the trace beside box B, by device type.
+#[test]
+fn the_default_schedule_keeps_the_trace_off_a_cpu_devices_cores() {
+    use ispm::gpu::vk::PhysicalDeviceType as T;
+    for (schedule, device, beside) in [
+        (Schedule::Auto, T::CPU, false),
+        (Schedule::Auto, T::DISCRETE_GPU, true),
+        (Schedule::Auto, T::INTEGRATED_GPU, true),
+        (Schedule::Overlapped, T::CPU, true),
+        (Schedule::Overlapped, T::DISCRETE_GPU, true),
+        (Schedule::Serial, T::CPU, false),
+        (Schedule::Serial, T::DISCRETE_GPU, false),
+    ] {
+        assert_eq!(
+            schedule.trace_beside_box_b(device),
+            beside,
+            "{schedule:?} on {device:?}"
+        );
+    }
+    assert_eq!(Schedule::default(), Schedule::Auto);
 }
 
 /// Lights going dark and coming back between frames in flight: the dark frames draw no photons

@@ -134,7 +134,7 @@ impl Job<'_> {
             subsample: c.subsample,
             upsample: c.upsample,
             caustic_share: c.caustic_share,
-            schedule: Schedule::Overlapped,
+            schedule: Schedule::Auto,
             effects: Effects::All,
             density: c.density,
             ..Default::default()
