@@ -2,7 +2,8 @@
 // Support normalisation of the global photons' estimate (src/passes/support.rs): the share
 // f(s) of the cone kernel around pixel s that lies on s's own surface, measured in screen
 // space from the eye G-buffer, and total ← total − G + G / max(f, SUPPORT_FRACTION_MIN).
-// Caustic photons (not in G) are left alone. At --subsample N > 1 (SUBSAMPLED) the targets
+// Caustic photons (not in G) are left alone. (G / f, r) is written back into global_share
+// (the denoiser's input: the normalised share and the mean kernel radius). At --subsample N > 1 (SUBSAMPLED) the targets
 // are the low-resolution ones: each pixel stands for the G-buffer pixel at the centre of its
 // N×N block (as in photon_volumes_subsampled.frag), the irradiance and glossy estimates are
 // both normalised, and the global photons' glossy share is global_weight's gba.
@@ -14,7 +15,7 @@ layout(set = 0, binding = 0) uniform Frame { FrameUniforms frame; };
 layout(set = 0, binding = 1) uniform sampler2D g_position;
 layout(set = 0, binding = 2) uniform sampler2D g_normal;
 layout(set = 0, binding = 3, rgba32f) uniform image2D total;
-layout(set = 0, binding = 4, rgba32f) uniform readonly image2D global_share;  // a: Σ κ·r
+layout(set = 0, binding = 4, rgba32f) uniform image2D global_share;  // a: Σ κ·r; ← (G / f, r)
 layout(set = 0, binding = 5, rgba32f) uniform image2D global_weight;  // r: Σ κ; g ← f
 // At --subsample N > 1: the low-resolution glossy estimate (otherwise `total` again, unused).
 layout(set = 0, binding = 6, rgba32f) uniform image2D total_glossy;
@@ -116,6 +117,9 @@ void main() {
     float scale = 1.0 / max(f, SUPPORT_FRACTION_MIN) - 1.0;
     vec4 old = imageLoad(total, id);
     imageStore(total, id, vec4(old.rgb + g.rgb * scale, old.a));
+    // The normalised global share and its mean kernel radius, for the denoiser
+    // (passes/denoise.rs), which filters it alone, up to the scale of its kernels.
+    imageStore(global_share, id, vec4(g.rgb * (1.0 + scale), r));
     if (SUBSAMPLED) {
         vec4 glossy = imageLoad(total_glossy, id);
         imageStore(total_glossy, id, vec4(glossy.rgb + weight.gba * scale, glossy.a));

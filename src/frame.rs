@@ -5,9 +5,10 @@
 //!                        │           │            ▲                 │           │
 //!  graphics queue    [ box A ]──┐ [ box B ] ......│.................│......[ box D ]
 //!                    constants, │ shadow maps,    │                 │      photon volumes,
-//!                    light      │ eye G-buffer,   │                 │      upsample, composite,
-//!                    G-buffers, │ direct          │                 │      translucent, tonemap
-//!                    bounce map │                 │                 │          ▲
+//!                    light      │ eye G-buffer,   │                 │      denoise, upsample,
+//!                    G-buffers, │ direct          │                 │      composite,
+//!                    bounce map │                 │                 │      translucent, tonemap
+//!                               │                 │                 │          ▲
 //!  transfer queue               └─►[ readback ]───┘                 └─►[ upload ]
 //! ```
 //!
@@ -218,6 +219,11 @@ pub struct RenderSettings {
     pub subsample: u32,
     /// How a subsampled estimate is upsampled (joint bilateral, or plain bilinear).
     pub upsample: crate::passes::upsample::Upsample,
+    /// Levels of the indirect light's edge-avoiding à-trous filter for a frame that starts an
+    /// accumulation or is not accumulated, fewer as frames accumulate (`--denoise`;
+    /// `passes/denoise.rs`). 0 (the default here; the command line's is
+    /// [`crate::passes::denoise::DEFAULT_LEVELS`]): the raw estimate.
+    pub denoise: u32,
     pub schedule: Schedule,
     /// `Auto`: the effects plan (`plan::EffectsPlan`) may skip what the scene does not need;
     /// `All`: every pass and shader variant runs (`--effects all`, for comparison).
@@ -268,6 +274,7 @@ impl Default for RenderSettings {
             exposure_ev: 0.0,
             subsample: 1,
             upsample: Default::default(),
+            denoise: 0,
             schedule: Schedule::Auto,
             effects: Effects::Auto,
             bsdf_variant: BsdfVariant::ALL,
@@ -1403,11 +1410,16 @@ impl Renderer {
             check.image(cmd, Checked::Direct, &self.radiance)?;
         }
         if let Some(photons) = &mut self.photons {
+            // Frames already in the mean this frame joins (0: it starts one, or stands alone).
+            let accumulated = match (&self.accumulate, self.plan.accumulate) {
+                (Some(_), true) => self.accumulated,
+                _ => 0,
+            };
             photons.record_estimate(
                 cmd,
                 (&self.frame_uniforms, &self.scene.materials, &self.gbuffer),
                 (&mut self.radiance, slot, frame.uniforms.view_proj),
-                (composite, self.value_check.as_mut()),
+                (composite, accumulated, self.value_check.as_mut()),
             )?;
         }
         if let Some(translucent) = &mut self.translucent {

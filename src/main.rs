@@ -122,6 +122,13 @@ struct ViewArgs {
     /// a GPU; `ispm info` says which).
     #[arg(long, value_enum, default_value = "auto")]
     density: ispm::frame::Density,
+    /// GPU methods: levels of the edge-avoiding à-trous filter over the indirect light (taps up
+    /// to ±2·(2^N − 1) pixels apart, on one surface), fewer as still frames accumulate and none
+    /// from frame 2^N on, so the mean converges as without it (0: the raw estimate;
+    /// docs/accuracy.md, "The denoiser").
+    #[arg(long, value_name = "N", default_value_t = ispm::passes::denoise::DEFAULT_LEVELS,
+          value_parser = clap::value_parser!(u32).range(0..=ispm::passes::denoise::MAX_LEVELS as i64))]
+    denoise: u32,
     /// Every frame stands alone: no progressive accumulation while the view stands still.
     #[arg(long)]
     no_accumulate: bool,
@@ -213,6 +220,13 @@ struct BenchArgs {
     /// a GPU; `ispm info` says which).
     #[arg(long, value_enum, default_value = "auto")]
     density: ispm::frame::Density,
+    /// GPU methods: levels of the edge-avoiding à-trous filter over the indirect light (taps up
+    /// to ±2·(2^N − 1) pixels apart, on one surface), fewer as still frames accumulate and none
+    /// from frame 2^N on, so the mean converges as without it (0: the raw estimate;
+    /// docs/accuracy.md, "The denoiser").
+    #[arg(long, value_name = "N", default_value_t = ispm::passes::denoise::DEFAULT_LEVELS,
+          value_parser = clap::value_parser!(u32).range(0..=ispm::passes::denoise::MAX_LEVELS as i64))]
+    denoise: u32,
     /// The schedule measured against the serial one: `auto` (the default: the paper's
     /// overlapped frame, except that on a CPU device such as lavapipe the trace waits for the
     /// passes that would share its cores) or `overlapped` (the paper's order on every device);
@@ -354,6 +368,13 @@ struct PlanArgs {
     /// `--device` chooses, or on the first usable one).
     #[arg(long, value_enum, default_value = "auto")]
     density: ispm::frame::Density,
+    /// GPU methods: levels of the edge-avoiding à-trous filter over the indirect light (taps up
+    /// to ±2·(2^N − 1) pixels apart, on one surface), fewer as still frames accumulate and none
+    /// from frame 2^N on, so the mean converges as without it (0: the raw estimate;
+    /// docs/accuracy.md, "The denoiser").
+    #[arg(long, value_name = "N", default_value_t = ispm::passes::denoise::DEFAULT_LEVELS,
+          value_parser = clap::value_parser!(u32).range(0..=ispm::passes::denoise::MAX_LEVELS as i64))]
+    denoise: u32,
     /// Plan the view of the file's camera N (0-based, in node order; default: the first).
     #[arg(long, value_name = "N")]
     camera: Option<usize>,
@@ -415,6 +436,13 @@ struct RenderArgs {
     /// a GPU; `ispm info` says which).
     #[arg(long, value_enum, default_value = "auto")]
     density: ispm::frame::Density,
+    /// GPU methods: levels of the edge-avoiding à-trous filter over the indirect light (taps up
+    /// to ±2·(2^N − 1) pixels apart, on one surface), fewer as still frames accumulate and none
+    /// from frame 2^N on, so the mean converges as without it (0: the raw estimate;
+    /// docs/accuracy.md, "The denoiser").
+    #[arg(long, value_name = "N", default_value_t = ispm::passes::denoise::DEFAULT_LEVELS,
+          value_parser = clap::value_parser!(u32).range(0..=ispm::passes::denoise::MAX_LEVELS as i64))]
+    denoise: u32,
     /// GPU methods: `overlapped` traces the photons on the CPU while the GPU draws the eye
     /// G-buffer and direct light and keeps frames in flight (the paper's Figure 3); `auto` does
     /// the same except on a CPU device (lavapipe), whose passes run on the cores the trace
@@ -633,6 +661,7 @@ fn view(args: ViewArgs, device: Option<usize>) -> anyhow::Result<()> {
             upsample: knobs.upsample,
             accumulate: !args.no_accumulate,
             density: args.density,
+            denoise: args.denoise,
             ..Default::default()
         },
         device_index: device,
@@ -690,6 +719,7 @@ fn bench(args: BenchArgs, device: Option<usize>) -> anyhow::Result<()> {
             shadow_resolution: args.shadow_resolution.clamp(16, 8192),
             check_values: args.check_values,
             density: args.density,
+            denoise: args.denoise,
             schedule: args.schedule,
             ..Default::default()
         },
@@ -842,6 +872,7 @@ fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
         upsample: knobs.upsample,
         schedule: args.schedule,
         density: args.density,
+        denoise: args.denoise,
         effects: args.effects,
         caustic_share: args.caustic_share,
         emitter_lights: args.emitter_lights.min(64),
@@ -1051,6 +1082,7 @@ fn plan(args: PlanArgs, device: Option<usize>) -> anyhow::Result<()> {
         subsample: args.subsample.or(preset.map(|p| p.subsample)).unwrap_or(1),
         effects: args.effects,
         density: args.density.resolve_for(device),
+        denoise: args.denoise,
         ..Default::default()
     };
     let plan = ispm::plan::EffectsPlan::analyse(&scene, &settings, &scene.camera);

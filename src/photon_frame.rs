@@ -33,6 +33,7 @@ use crate::gpu_scene::GpuScene;
 use crate::ispm::{BouncePlan, Capacity};
 use crate::passes::bounce_map::{BounceMapIo, BounceMapPass, ViewBatch};
 use crate::passes::composite::CompositePass;
+use crate::passes::denoise::DenoisePass;
 use crate::passes::eye_gbuffer::GBuffer;
 use crate::passes::light_gbuffer::LightGBufferPass;
 use crate::passes::photon_tiles::PhotonTilesPass;
@@ -127,6 +128,8 @@ pub struct PhotonFrame {
     /// pass that normalises it by its kernel's support on the surface (`passes/support.rs`).
     support: Option<([Image; 2], SupportPass)>,
     composite: CompositePass,
+    /// `--denoise L > 0`: the indirect light's filter and its levels L (`passes/denoise.rs`).
+    denoise: Option<(DenoisePass, u32)>,
     /// The last frame's bounce map and photon map per light (positions relative to
     /// `plan.origin`), and the plan they were traced with (`retrace.rs`).
     traced: Traced,
@@ -383,6 +386,20 @@ impl PhotonFrame {
             )),
         };
         let composite = CompositePass::new(gpu, &indirect, radiance)?;
+        // The denoiser filters the global share the support pass normalised, within the
+        // estimate it belongs to (the low-resolution irradiance when subsampling).
+        let denoise = match settings.denoise {
+            0 => None,
+            levels => {
+                let (total, global) = match (&subsampled, &support) {
+                    (Some(sub), _) => (&sub.low[0], &sub.support.0[0]),
+                    (None, Some((images, _))) => (&indirect, &images[0]),
+                    (None, None) => unreachable!("the support targets exist at subsample 1"),
+                };
+                let pass = DenoisePass::new(gpu, gbuffer, (total, global), subsample)?;
+                Some((pass, levels))
+            }
+        };
         let kernel_clamp =
             KernelSettings::scene_relative(&gpu_scene.bounds, settings.photons, settings.radius);
         let estimate_height = upsample::low_size(radiance.width, radiance.height, subsample).1;
@@ -429,6 +446,7 @@ impl PhotonFrame {
             indirect,
             support,
             composite,
+            denoise,
             traced: Traced::default(),
             reuse_lights: settings.effects == Effects::Auto,
             neighbours: Neighbours::for_photons(settings.photons),

@@ -213,6 +213,9 @@ pub struct EffectsPlan {
     /// The density estimator (`--density`; the renderer resolves `Auto` for its device before
     /// it plans).
     pub density: crate::frame::Density,
+    /// Levels of the indirect light's denoiser for a frame that starts an accumulation
+    /// (`--denoise`, 0: off; `passes/denoise.rs`).
+    pub denoise: u32,
     /// Whether still frames are averaged (`RenderSettings::accumulate`, and only where the
     /// frames differ: a frame with photon-mapped indirect light, or lit by emitters' area
     /// samples).
@@ -557,6 +560,7 @@ impl SceneAnalysis {
             max_bounces_reason,
             subsample: self.subsample,
             density: settings.density,
+            denoise: settings.denoise,
             accumulate,
             emitters: self.emitters.clone(),
             motion: MotionPlan::of(scene),
@@ -616,6 +620,7 @@ impl EffectsPlan {
             max_bounces_reason: "--effects all: --bounces (at least 1)".to_string(),
             subsample,
             density: settings.density,
+            denoise: settings.denoise,
             accumulate: settings.accumulate && (ispm || has_area_samples(scene)),
             emitters: emitters_decision(scene, settings),
             motion: MotionPlan::of(scene),
@@ -757,6 +762,21 @@ impl EffectsPlan {
                 "the photon volumes' kernels at surface boundaries",
             )
         };
+        let denoise = if !indirect.needed {
+            photon("denoise")
+        } else if self.denoise > 0 {
+            pass(
+                "denoise",
+                true,
+                &format!(
+                    "--denoise {}: the indirect light's blotches, fewer levels as frames \
+                     accumulate",
+                    self.denoise
+                ),
+            )
+        } else {
+            pass("denoise", false, "--denoise 0")
+        };
         let translucent = |name| pass(name, self.translucent.needed, &self.translucent.reason);
         // The density estimator that runs, and the one that does not (`--density`).
         use crate::frame::Density;
@@ -798,6 +818,7 @@ impl EffectsPlan {
             volumes,
             tiles,
             support,
+            denoise,
             upsample,
             photon("composite"),
             translucent("environment"),

@@ -22,6 +22,7 @@ pub const STAGES: &[&str] = &[
     "photon_volumes",
     "photon_tiles",
     "support",
+    "denoise",
     "upsample",
     "composite",
     "environment",

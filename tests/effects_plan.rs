@@ -629,7 +629,7 @@ fn drain_reports_the_passes_and_variants_skipped_as_finish_does() {
             .collect()
     };
     // The first frame traces: the plan's skips only (the other density estimator, full
-    // resolution, no glass, frames that stand alone).
+    // resolution, no denoiser, no glass, frames that stand alone).
     let other = match common::estimator_pass() {
         "photon_tiles" => "photon_volumes",
         _ => "photon_tiles",
@@ -638,6 +638,7 @@ fn drain_reports_the_passes_and_variants_skipped_as_finish_does() {
         names(&drained),
         [
             other,
+            "denoise",
             "upsample",
             "environment",
             "translucent",
@@ -655,7 +656,7 @@ fn drain_reports_the_passes_and_variants_skipped_as_finish_does() {
     common::assert_validation_clean(&gpu);
     assert_eq!(
         drained.passes_skipped.len(),
-        10,
+        11,
         "{:?}",
         drained.passes_skipped
     );

@@ -49,7 +49,7 @@ fn accumulated_indirect_and_normals(
     photons: usize,
     checkpoints: &[u32],
 ) -> (Vec<Vec<f32>>, Vec<Vec3>) {
-    accumulated_indirect_seeded_and_normals(scene, photons, (1, 1), checkpoints)
+    accumulated_indirect_seeded_and_normals(scene, photons, (1, 1, 0), checkpoints)
 }
 
 /// [`accumulated_indirect`] with the renderer's seed `seed`.
@@ -59,14 +59,15 @@ fn accumulated_indirect_seeded(
     seed: u32,
     checkpoints: &[u32],
 ) -> Vec<Vec<f32>> {
-    accumulated_indirect_seeded_and_normals(scene, photons, (seed, 1), checkpoints).0
+    accumulated_indirect_seeded_and_normals(scene, photons, (seed, 1, 0), checkpoints).0
 }
 
-/// [`accumulated_indirect_and_normals`] with the renderer's seed and `--subsample`.
+/// [`accumulated_indirect_and_normals`] with the renderer's seed, `--subsample` and
+/// `--denoise` levels.
 fn accumulated_indirect_seeded_and_normals(
     scene: &Scene,
     photons: usize,
-    (seed, subsample): (u32, u32),
+    (seed, subsample, denoise): (u32, u32, u32),
     checkpoints: &[u32],
 ) -> (Vec<Vec<f32>>, Vec<Vec3>) {
     let gpu = common::gpu();
@@ -87,6 +88,7 @@ fn accumulated_indirect_seeded_and_normals(
         RenderSettings {
             seed,
             subsample,
+            denoise,
             ..settings(photons, true)
         },
     )
@@ -172,6 +174,138 @@ fn the_mean_of_still_frames_converges_to_the_path_tracer_in_a_closed_diffuse_roo
     );
 }
 
+/// The denoiser (`passes/denoise.rs`) on the closed diffuse room: it lowers the error of the
+/// first frames, never raises it at any count, and the filtered frames' share of the mean
+/// falls as 1/N once they stop (from frame 2^L − 1 on), so the accumulation converges to where
+/// the raw one does.
+#[test]
+fn the_denoiser_lowers_a_frames_error_and_its_share_of_the_mean_falls_as_one_over_n() {
+    let scene = ispm::reference::scenes::cornell(2);
+    let reference = path_traced(&scene, REFERENCE_PASSES);
+    let run = |denoise| {
+        accumulated_indirect_seeded_and_normals(&scene, 10_000, (1, 1, denoise), &CHECKPOINTS).0
+    };
+    let levels = ispm::passes::denoise::DEFAULT_LEVELS;
+    let (raw, denoised, two) = (run(0), run(levels), run(2));
+    let e_raw = curve("raw", &raw, &CHECKPOINTS, &reference.indirect);
+    let e_denoised = curve(
+        &format!("--denoise {levels}"),
+        &denoised,
+        &CHECKPOINTS,
+        &reference.indirect,
+    );
+    let above = |e: f64| e - reference.floor;
+    assert!(
+        above(e_denoised[0]) <= 0.7 * above(e_raw[0]),
+        "one frame: {:.5} above the floor denoised, {:.5} raw",
+        above(e_denoised[0]),
+        above(e_raw[0])
+    );
+    for (k, (d, r)) in e_denoised.iter().zip(&e_raw).enumerate() {
+        assert!(
+            *d <= r * 1.02,
+            "{} frames: denoised {d:.5}, raw {r:.5}",
+            CHECKPOINTS[k]
+        );
+    }
+    // With 2 levels frames 0–2 are filtered: the mean's difference from the raw mean is theirs,
+    // and N·difference stays what it was at 4 frames.
+    let difference = |a: &[f32], b: &[f32]| -> f64 {
+        let d: f64 = a.iter().zip(b).map(|(x, y)| f64::from((x - y).abs())).sum();
+        d / b.iter().map(|y| f64::from(y.abs())).sum::<f64>()
+    };
+    let scaled: Vec<f64> = (1..CHECKPOINTS.len())
+        .map(|k| f64::from(CHECKPOINTS[k]) * difference(&two[k], &raw[k]))
+        .collect();
+    eprintln!(
+        "--denoise 2: N × |mean − raw mean| / |raw mean| at {CHECKPOINTS:?}[1..]: {scaled:.5?}"
+    );
+    assert!(scaled[0] > 1e-3, "the filter changed nothing: {scaled:?}");
+    for s in &scaled[1..] {
+        assert!(
+            (s / scaled[0] - 1.0).abs() < 0.02,
+            "the filtered frames' share does not fall as 1/N: {scaled:?}"
+        );
+    }
+}
+
+/// The denoiser filters the global photons' share only: the glass ball's caustic focus on
+/// `cornell-box`'s floor (the brightest indirect light on the floor, made by caustic photons)
+/// keeps its light, while the global light around it is smoothed.
+#[test]
+fn the_denoiser_leaves_a_caustic_alone() {
+    let scene = ispm::scene::bundled::resolve(Some("cornell-box")).expect("scene");
+    let gpu = common::gpu();
+    let (width, height) = (128u32, 96u32);
+    let render = |denoise| {
+        let mut renderer = Renderer::new(
+            &gpu,
+            &scene,
+            RenderSettings {
+                width,
+                height,
+                denoise,
+                ..settings(20_000, false)
+            },
+        )
+        .expect("renderer");
+        let frame = renderer.render().expect("frame");
+        assert_eq!(
+            frame.stats.passes_run.iter().any(|p| p == "denoise"),
+            denoise > 0,
+            "{:?}",
+            frame.stats.passes_run
+        );
+        let indirect = renderer
+            .photons()
+            .expect("photon part")
+            .read_indirect()
+            .expect("indirect");
+        let normals = renderer.read_gbuffer("normal").expect("normal");
+        // Facing up: the floor (f16 normals; background is zero).
+        let up: Vec<bool> = normals
+            .chunks_exact(8)
+            .map(|c| common::f16_to_f32(u16::from_le_bytes([c[2], c[3]])) > 0.9)
+            .collect();
+        (indirect, up)
+    };
+    let ((raw, floor), (denoised, _)) = (render(0), render(ispm::passes::denoise::DEFAULT_LEVELS));
+    common::assert_validation_clean(&gpu);
+    let lum =
+        |image: &[f32], i: usize| f64::from(image[i * 4] + image[i * 4 + 1] + image[i * 4 + 2]);
+    let mut on_floor: Vec<usize> = (0..floor.len()).filter(|&i| floor[i]).collect();
+    on_floor.sort_by(|&a, &b| lum(&raw, b).total_cmp(&lum(&raw, a)));
+    assert!(on_floor.len() > 1000, "{} floor pixels", on_floor.len());
+    // The brightest 2 % of the floor: the focus.
+    let focus = &on_floor[..on_floor.len() / 50];
+    let sum =
+        |image: &[f32], pixels: &[usize]| -> f64 { pixels.iter().map(|&i| lum(image, i)).sum() };
+    let (r, d) = (sum(&raw, focus), sum(&denoised, focus));
+    let rest = &on_floor[on_floor.len() / 50..];
+    // How much the filter moved the rest of the floor, pixel by pixel (it is meant to).
+    let moved: f64 = rest
+        .iter()
+        .map(|&i| (lum(&denoised, i) - lum(&raw, i)).abs())
+        .sum::<f64>()
+        / sum(&raw, rest);
+    eprintln!(
+        "cornell-box {width}×{height}, the brightest 2 % of the floor's indirect light ({} \
+         pixels): {r:.3} raw, {d:.3} denoised ({:+.2} %); the rest of the floor moved by {:.1} % \
+         per pixel",
+        focus.len(),
+        100.0 * (d / r - 1.0),
+        100.0 * moved
+    );
+    assert!(
+        moved > 0.02,
+        "the filter did not smooth the floor: {moved:.4}"
+    );
+    assert!(
+        (d / r - 1.0).abs() < 0.03,
+        "the focus: {d:.3} denoised against {r:.3} raw"
+    );
+}
+
 /// Pixels within `reach` pixels of a crease or corner of the geometry: another surface's normal
 /// (more than about 25 degrees away) is that close, and no background is.
 fn near_creases(normals: &[Vec3], size: usize, reach: i32) -> Vec<bool> {
@@ -203,20 +337,28 @@ fn near_creases(normals: &[Vec3], size: usize, reach: i32) -> Vec<bool> {
 
 #[test]
 fn corners_and_edges_of_a_closed_room_are_within_five_percent_of_the_path_tracer() {
-    corners_and_edges_within_five_percent(1);
+    corners_and_edges_within_five_percent(1, 0);
 }
 
 #[test]
 fn corners_and_edges_stay_within_five_percent_at_subsample_2() {
     // The support normalisation runs on the low-resolution targets too (passes/support.rs).
-    corners_and_edges_within_five_percent(2);
+    corners_and_edges_within_five_percent(2, 0);
 }
 
-fn corners_and_edges_within_five_percent(subsample: u32) {
+#[test]
+fn corners_and_edges_stay_within_five_percent_with_the_denoiser() {
+    // The filter's weights keep it on one surface (passes/denoise.rs): it must not carry the
+    // walls' light into the corners or out of them.
+    corners_and_edges_within_five_percent(1, ispm::passes::denoise::DEFAULT_LEVELS);
+    corners_and_edges_within_five_percent(2, ispm::passes::denoise::DEFAULT_LEVELS);
+}
+
+fn corners_and_edges_within_five_percent(subsample: u32, denoise: u32) {
     let scene = ispm::reference::scenes::cornell(2);
     let reference = path_traced(&scene, REFERENCE_PASSES);
     let (images, normals) =
-        accumulated_indirect_seeded_and_normals(&scene, 10_000, (1, subsample), &[1, 32]);
+        accumulated_indirect_seeded_and_normals(&scene, 10_000, (1, subsample, denoise), &[1, 32]);
     let size = CONVERGENCE_SIZE as usize;
     let edges = near_creases(&normals, size, 2);
     let count = edges.iter().filter(|&&e| e).count();
@@ -242,7 +384,8 @@ fn corners_and_edges_within_five_percent(subsample: u32) {
     };
     let (ratios, others) = (ratios(&edges), ratios(&elsewhere));
     eprintln!(
-        "cornell(2) at subsample {subsample}, ISPM / path tracer of the indirect light: within 2 \
+        "cornell(2) at subsample {subsample}, --denoise {denoise}, ISPM / path tracer of the \
+         indirect light: within 2 \
          pixels of creases ({count} pixels) {:.4} (1 frame), {:.4} (32 frames); elsewhere \
          {:.4}, {:.4}",
         ratios[0], ratios[1], others[0], others[1]

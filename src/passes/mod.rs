@@ -24,6 +24,7 @@ pub mod accumulate;
 pub mod bounce_map;
 pub mod composite;
 pub mod debug_view;
+pub mod denoise;
 pub mod direct;
 pub mod environment;
 pub mod eye_gbuffer;

@@ -26,6 +26,7 @@
 //!
 //! ```text
 //!   total ← total − G + G / max(f, SUPPORT_FRACTION_MIN)      (floor ½: a straight convex edge)
+//!   share ← (G / max(f, SUPPORT_FRACTION_MIN), r̄)             (for the denoiser, `denoise.rs`)
 //! ```
 //!
 //! Global photons are also kept to their own surface (|n_photon · n_s| ≥ `SUPPORT_NORMAL_COS`,

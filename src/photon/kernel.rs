@@ -148,6 +148,12 @@ impl KernelSettings {
         GATHER_EXPONENT / (self.scale * self.scale)
     }
 
+    /// Radians per pixel of the image the footprint floor was set for ([`Self::for_view`]; 0
+    /// without one).
+    pub fn pixel_angle(&self) -> f32 {
+        self.footprint / FOOTPRINT_PIXELS
+    }
+
     /// The same clamp with the footprint floor of an estimate made by a perspective camera of
     /// vertical field of view `yfov` (radians) into an image `height` pixels high.
     pub fn for_view(self, yfov: f32, height: u32) -> Self {

@@ -40,13 +40,15 @@ impl PhotonFrame {
     /// targets before the upsample reads them, the indirect image before the composite
     /// (`passes/value_check.rs`). `slot` is the frame slot (the tiled estimator's lists are
     /// per slot) and `view_proj` the frame's camera-relative world → clip (what they are
-    /// binned for).
+    /// binned for). `accumulated`: the frames already in the mean this frame joins (0 when it
+    /// starts one or is not accumulated), which sets the denoiser's levels
+    /// ([`crate::passes::denoise::levels_for`]).
     pub fn record_estimate(
         &mut self,
         cmd: &Cmd,
         (frame, materials, gbuffer): (&Buffer, &Buffer, &GBuffer),
         (radiance, slot, view_proj): (&mut Image, usize, glam::Mat4),
-        (composite, mut check): (bool, Option<&mut ValueCheckPass>),
+        (composite, accumulated, mut check): (bool, u32, Option<&mut ValueCheckPass>),
     ) -> anyhow::Result<()> {
         if self.count() > 0 {
             for (_, photons) in self.buffers.used() {
@@ -105,6 +107,10 @@ impl PhotonFrame {
                 self.tile_stats = Some(stats);
             }
         }
+        let denoise_levels = self.denoise.as_ref().map_or(0, |(_, levels)| {
+            crate::passes::denoise::levels_for(*levels, accumulated)
+        });
+        let denoise = (denoise_levels, self.kernel.pixel_angle());
         match &mut self.subsampled {
             None => {
                 let (images, support) = self
@@ -112,11 +118,17 @@ impl PhotonFrame {
                     .as_ref()
                     .expect("the support targets exist at subsample 1");
                 support.record(cmd, gbuffer, (&self.indirect, None), images, 1);
+                if let Some((pass, _)) = &mut self.denoise {
+                    pass.record(cmd, gbuffer, (&self.indirect, &images[0]), denoise);
+                }
             }
             Some(sub) => {
                 let (images, support) = &sub.support;
                 let low = (&sub.low[0], Some(&sub.low[1]));
                 support.record(cmd, gbuffer, low, images, sub.subsample);
+                if let Some((pass, _)) = &mut self.denoise {
+                    pass.record(cmd, gbuffer, (&sub.low[0], &images[0]), denoise);
+                }
                 if let Some(check) = check.as_deref_mut() {
                     check.image(cmd, Checked::IndirectLowIrradiance, &sub.low[0])?;
                     check.image(cmd, Checked::IndirectLowGlossy, &sub.low[1])?;
