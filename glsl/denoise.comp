@@ -13,8 +13,9 @@
 //             · exp(−|a_q − a_p|² / ALBEDO_SIGMA²)
 // (normal similarity, distance from p's tangent plane relative to p's distance from the eye,
 // albedo similarity), normalised. Background pixels (position.w = 0) are neither filtered nor
-// used, and a level filters a pixel only while its step is at most the pixel's mean global
-// kernel radius on screen (the blotches' scale; src's alpha holds that radius in metres).
+// used, and a level filters a pixel only while its step is at most push.reach × the pixel's
+// mean global kernel radius on screen (the blotches' scale; src's alpha holds that radius in
+// metres).
 // There is no colour (luminance) stop: the noise to remove is a blotch of many pixels, which
 // a colour stop would keep.
 #include "shared.glsl"
@@ -41,8 +42,8 @@ layout(push_constant) uniform Push {
     float normal_power;
     float plane_sigma;
     float albedo_sigma;
-    float pixel_angle;  // radians per image pixel (the estimate's: low-resolution ones at N > 1)
-    uint pad1;
+    float pixel_angle;  // 2·tan(fov/2)/height: one image pixel's size per metre of distance
+    float reach;        // a level filters while its step is at most reach × the kernel radius
 } push;
 
 // The G-buffer pixel image pixel `id` shades.
@@ -61,8 +62,8 @@ void main() {
     vec4 centre = imageLoad(src, px);
     if (push.mode != FILTER) {
         vec4 t = imageLoad(total, px);
-        float sign = push.mode == SPLIT ? -1.0 : 1.0;
-        imageStore(total, px, vec4(t.rgb + sign * centre.rgb, t.a));
+        float s = push.mode == SPLIT ? -1.0 : 1.0;
+        imageStore(total, px, vec4(t.rgb + s * centre.rgb, t.a));
         return;
     }
     ivec2 gp = shaded(px);
@@ -73,10 +74,10 @@ void main() {
     }
     float dist = max(length(pos.xyz), 1e-6);
     // Up to the scale of the kernels that made this pixel's estimate: a level whose taps are
-    // further apart than their mean radius (alpha: r in metres, from support.comp) on screen
-    // leaves the pixel as it is. No global photon here (r = 0): nothing to filter.
+    // further apart than reach × their mean radius (alpha: r in metres, from support.comp) on
+    // screen leaves the pixel as it is. No global photon here (r = 0): nothing to filter.
     float r_px = centre.a / (dist * push.pixel_angle);
-    if (!(float(push.step) <= r_px)) {
+    if (!(float(push.step) <= push.reach * r_px)) {
         imageStore(dst, px, centre);
         return;
     }
@@ -85,7 +86,7 @@ void main() {
     ivec2 last = ivec2(push.size) - 1;
 
     vec3 sum = vec3(0.0);
-    float total = 0.0;
+    float wsum = 0.0;
     for (int j = -2; j <= 2; ++j) {
         for (int i = -2; i <= 2; ++i) {
             ivec2 q = px + ivec2(i, j) * push.step;
@@ -105,9 +106,9 @@ void main() {
             float albedo_w = exp(-dot(da, da) / (push.albedo_sigma * push.albedo_sigma));
             float w = H[abs(i)] * H[abs(j)] * normal_w * plane_w * albedo_w;
             sum += w * imageLoad(src, q).rgb;
-            total += w;
+            wsum += w;
         }
     }
-    // The centre's own weight is H[0]² > 0, so total > 0.
-    imageStore(dst, px, vec4(sum / total, centre.a));
+    // The centre's own weight is H[0]² > 0, so wsum > 0.
+    imageStore(dst, px, vec4(sum / wsum, centre.a));
 }

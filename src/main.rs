@@ -124,7 +124,7 @@ struct ViewArgs {
     density: ispm::frame::Density,
     /// GPU methods: levels of the edge-avoiding à-trous filter over the indirect light (taps up
     /// to ±2·(2^N − 1) pixels apart, on one surface), fewer as still frames accumulate and none
-    /// from frame 2^N on, so the mean converges as without it (0: the raw estimate;
+    /// from the 2^N-th on, so the mean converges as without it (0: the raw estimate;
     /// docs/accuracy.md, "The denoiser").
     #[arg(long, value_name = "N", default_value_t = ispm::passes::denoise::DEFAULT_LEVELS,
           value_parser = clap::value_parser!(u32).range(0..=ispm::passes::denoise::MAX_LEVELS as i64))]
@@ -222,7 +222,7 @@ struct BenchArgs {
     density: ispm::frame::Density,
     /// GPU methods: levels of the edge-avoiding à-trous filter over the indirect light (taps up
     /// to ±2·(2^N − 1) pixels apart, on one surface), fewer as still frames accumulate and none
-    /// from frame 2^N on, so the mean converges as without it (0: the raw estimate;
+    /// from the 2^N-th on, so the mean converges as without it (0: the raw estimate;
     /// docs/accuracy.md, "The denoiser").
     #[arg(long, value_name = "N", default_value_t = ispm::passes::denoise::DEFAULT_LEVELS,
           value_parser = clap::value_parser!(u32).range(0..=ispm::passes::denoise::MAX_LEVELS as i64))]
@@ -370,7 +370,7 @@ struct PlanArgs {
     density: ispm::frame::Density,
     /// GPU methods: levels of the edge-avoiding à-trous filter over the indirect light (taps up
     /// to ±2·(2^N − 1) pixels apart, on one surface), fewer as still frames accumulate and none
-    /// from frame 2^N on, so the mean converges as without it (0: the raw estimate;
+    /// from the 2^N-th on, so the mean converges as without it (0: the raw estimate;
     /// docs/accuracy.md, "The denoiser").
     #[arg(long, value_name = "N", default_value_t = ispm::passes::denoise::DEFAULT_LEVELS,
           value_parser = clap::value_parser!(u32).range(0..=ispm::passes::denoise::MAX_LEVELS as i64))]
@@ -438,7 +438,7 @@ struct RenderArgs {
     density: ispm::frame::Density,
     /// GPU methods: levels of the edge-avoiding à-trous filter over the indirect light (taps up
     /// to ±2·(2^N − 1) pixels apart, on one surface), fewer as still frames accumulate and none
-    /// from frame 2^N on, so the mean converges as without it (0: the raw estimate;
+    /// from the 2^N-th on, so the mean converges as without it (0: the raw estimate;
     /// docs/accuracy.md, "The denoiser").
     #[arg(long, value_name = "N", default_value_t = ispm::passes::denoise::DEFAULT_LEVELS,
           value_parser = clap::value_parser!(u32).range(0..=ispm::passes::denoise::MAX_LEVELS as i64))]

@@ -229,6 +229,41 @@ fn the_denoiser_lowers_a_frames_error_and_its_share_of_the_mean_falls_as_one_ove
     }
 }
 
+/// Once an accumulation is long enough that the denoiser has no levels left, the frame's stats
+/// say it was skipped and why (the plan lists it as running).
+#[test]
+fn a_stopped_denoiser_is_reported_as_skipped() {
+    let scene = ispm::reference::scenes::cornell(2);
+    let gpu = common::gpu();
+    let mut renderer = Renderer::new(
+        &gpu,
+        &scene,
+        RenderSettings {
+            denoise: 1,
+            ..settings(2_000, true)
+        },
+    )
+    .expect("renderer");
+    let first = renderer.render().expect("frame 0");
+    assert!(first.stats.passes_run.iter().any(|p| p == "denoise"));
+    // Frame 1 of the accumulation: 1 − ⌊log₂ 2⌋ = 0 levels.
+    let second = renderer.render().expect("frame 1");
+    common::assert_validation_clean(&gpu);
+    assert_eq!(second.stats.accumulated_frames, 2);
+    assert!(!second.stats.passes_run.iter().any(|p| p == "denoise"));
+    let skipped = second
+        .stats
+        .passes_skipped
+        .iter()
+        .find(|p| p.name == "denoise")
+        .expect("denoise listed as skipped");
+    assert!(
+        skipped.reason.contains("2 frames accumulated"),
+        "{}",
+        skipped.reason
+    );
+}
+
 /// The denoiser filters the global photons' share only: the glass ball's caustic focus on
 /// `cornell-box`'s floor (the brightest indirect light on the floor, made by caustic photons)
 /// keeps its light, while the global light around it is smoothed.

@@ -35,15 +35,19 @@ def gather_time(gather, err):
     `gather`: (time, error) by photon count; error falls with time between consecutive points
     where the interpolation is used."""
     pts = sorted(gather)
+    fastest = pts[0]
+    if fastest[1] <= err:
+        return fastest[0], "<"  # reached by its fastest point already: less than that
     for (t0, e0), (t1, e1) in zip(pts, pts[1:]):
-        if min(e0, e1) <= err <= max(e0, e1) and e0 != e1:
+        # Only where the error falls with time (more photons can make it grow: glass-sphere).
+        if e1 < e0 and e1 <= err <= e0:
             f = (math.log(err) - math.log(e0)) / (math.log(e1) - math.log(e0))
             return math.exp(math.log(t0) + f * (math.log(t1) - math.log(t0))), "="
     best = min(pts, key=lambda p: p[1])
     if err < best[1]:
         return best[0], ">"  # never reached: more than its most accurate point's time
-    fastest = min(pts)
-    return fastest[0], "<"  # reached by its fastest point already: less than that
+    # Reached by a slower point only after the error rose and fell: its first such time.
+    return min(t for t, e in pts if e <= err), "="
 
 
 def main(paths):

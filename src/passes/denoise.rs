@@ -1,6 +1,11 @@
 //! Denoise (compute, graphics queue): an edge-avoiding à-trous wavelet filter (Dammertz,
-//! Sewtz, Hanika & Lensch, HPG 2010) over the full-resolution indirect radiance, after the
-//! density estimate (and its upsampling) and before `composite` adds it to the frame.
+//! Sewtz, Hanika & Lensch, HPG 2010) over the global photons' share of the density estimate,
+//! right after the support normalisation (`support.rs`) and before the upsample (at
+//! `--subsample N > 1` it filters the low-resolution irradiance, each pixel standing for the
+//! G-buffer pixel at the centre of its N×N block) and the composite. Caustic photons are never
+//! filtered: the pass takes the support pass's normalised global share G/f out of the
+//! estimate (split), filters it level by level (ping-pong between the share image and a
+//! scratch image, so the share image is overwritten), and adds the result back (merge).
 //!
 //! ```text
 //!   level 0   taps 1 px apart     ·····        5×5 B3-spline taps, each weighted by how alike
@@ -13,17 +18,21 @@
 //! kernels, which a per-pixel filter cannot see and many frames are needed to average away
 //! (docs/accuracy.md, "The denoiser"). L levels reach ±2·(2^L − 1) pixels at the cost of L
 //! passes of 25 taps, and the geometric weights keep the filter on one surface: walls, corners
-//! and silhouettes stay sharp. There is no colour stop, so it also blurs real detail of the
-//! indirect light smaller than its reach within a surface: bias.
+//! and silhouettes stay sharp. A level filters a pixel only while its step is at most `reach`
+//! × the pixel's mean global kernel radius on screen (the support pass writes that radius
+//! beside G/f): the blotches' scale, no wider. There is no colour stop, so it also blurs real detail
+//! of the indirect light smaller than its reach within a surface: bias.
 //!
 //! **It vanishes as frames accumulate.** Frame i of a progressive accumulation (i = 0, 1, …)
-//! is filtered with `levels(L, i) = L − ⌊log₂(i + 1)⌋` levels (none from frame 2^L − 1 on),
+//! is filtered with `levels(L, i) = L − ⌊log₂(i + 1)⌋` levels (none from frame i = 2^L − 1,
+//! the 2^L-th, on) at `reach = 1/√(i + 1)` ([`reach_for`]),
 //! so the accumulated mean, whose kernels shrink to converge, converges to the same limit: the
 //! filtered frames are a fixed number, their share of the mean falls as 1/N. A frame that is
 //! not accumulated (a moving camera, `bench`) gets all L levels.
 //!
-//! Reads: the eye G-buffer (`ComputeSampledRead`), `indirect` and a scratch image of its size,
-//! alternately (`ComputeStorageRead` / `ComputeStorageWrite`). Writes: `indirect`.
+//! Reads: the eye G-buffer (`ComputeSampledRead`). Reads and writes: the estimate (`indirect`,
+//! or the low-resolution irradiance), the support pass's global-share image and a scratch
+//! image of its size (`ComputeStorageRead` / `ComputeStorageWrite`).
 
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
@@ -57,9 +66,11 @@ struct Push {
     normal_power: f32,
     plane_sigma: f32,
     albedo_sigma: f32,
-    /// Radians per image pixel (the low-resolution ones at `--subsample N > 1`).
+    /// One image pixel's size per metre of distance at the image's centre, `2·tan(fov/2)/height`
+    /// (the low-resolution pixels at `--subsample N > 1`).
     pixel_angle: f32,
-    pad: u32,
+    /// A level filters a pixel while its step is at most `reach` × its kernel radius on screen.
+    reach: f32,
 }
 
 /// What a dispatch does (`glsl/denoise.comp`).
@@ -77,6 +88,12 @@ enum Mode {
 /// frame that is not accumulated) gets of `levels` (module docs).
 pub fn levels_for(levels: u32, accumulated: u32) -> u32 {
     levels.saturating_sub((accumulated.saturating_add(1)).ilog2())
+}
+
+/// How far, in kernel radii on screen, frame `accumulated` filters (module docs):
+/// `1/√(accumulated + 1)`, so the filtered frames' bias shrinks as the mean's noise does.
+pub fn reach_for(accumulated: u32) -> f32 {
+    (f64::from(accumulated) + 1.0).sqrt().recip() as f32
 }
 
 pub struct DenoisePass {
@@ -158,14 +175,14 @@ impl DenoisePass {
     }
 
     /// Filters the global share of `total` with `levels` levels (nothing at 0): takes it out,
-    /// filters it, adds it back. `pixel_angle`: radians per pixel of `total` (what turns a
-    /// kernel radius into pixels).
+    /// filters it, adds it back. `pixel_angle`: a pixel of `total`'s size per metre of
+    /// distance (what turns a kernel radius into pixels).
     pub fn record(
-        &mut self,
+        &self,
         cmd: &Cmd,
         gbuffer: &GBuffer,
         (total, global): (&Image, &Image),
-        (levels, pixel_angle): (u32, f32),
+        (levels, pixel_angle, reach): (u32, f32, f32),
     ) {
         if levels == 0 {
             return;
@@ -184,7 +201,7 @@ impl DenoisePass {
             plane_sigma: PLANE_SIGMA,
             albedo_sigma: ALBEDO_SIGMA,
             pixel_angle,
-            pad: 0,
+            reach,
         };
         let groups = super::image_groups(global.width, global.height);
         // Every dispatch binds all three storage images (the shader declares `src` read,
@@ -226,7 +243,15 @@ impl DenoisePass {
 
 #[cfg(test)]
 mod tests {
-    use super::levels_for;
+    use super::{levels_for, reach_for};
+
+    #[test]
+    fn the_reach_falls_as_the_square_root_of_the_frames() {
+        assert_eq!(reach_for(0), 1.0);
+        assert!((reach_for(3) - 0.5).abs() < 1e-7);
+        assert!((reach_for(15) - 0.25).abs() < 1e-7);
+        assert!(reach_for(u32::MAX) > 0.0);
+    }
 
     #[test]
     fn the_filter_halves_its_levels_reach_as_frames_double_and_then_stops() {

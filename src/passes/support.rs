@@ -29,6 +29,10 @@
 //!   share ← (G / max(f, SUPPORT_FRACTION_MIN), r̄)             (for the denoiser, `denoise.rs`)
 //! ```
 //!
+//! (Only pixels with geometry and global photons are rewritten; elsewhere the share keeps
+//! (G, Σ κ·r), which is (0, 0) without global photons, and the denoiser leaves such pixels
+//! as they are.)
+//!
 //! Global photons are also kept to their own surface (|n_photon · n_s| ≥ `SUPPORT_NORMAL_COS`,
 //! 0.9): a floor photon no longer lights the wall beside it, so f counts exactly the kernels
 //! that can reach s. Caustic photons (ρp > `CAUSTIC_PATH_DENSITY`) are neither restricted nor

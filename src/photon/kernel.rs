@@ -148,8 +148,8 @@ impl KernelSettings {
         GATHER_EXPONENT / (self.scale * self.scale)
     }
 
-    /// Radians per pixel of the image the footprint floor was set for ([`Self::for_view`]; 0
-    /// without one).
+    /// A pixel's size per metre of distance, `2·tan(fov/2)/height`, of the image the footprint
+    /// floor was set for ([`Self::for_view`]; 0 without one).
     pub fn pixel_angle(&self) -> f32 {
         self.footprint / FOOTPRINT_PIXELS
     }

@@ -110,7 +110,11 @@ impl PhotonFrame {
         let denoise_levels = self.denoise.as_ref().map_or(0, |(_, levels)| {
             crate::passes::denoise::levels_for(*levels, accumulated)
         });
-        let denoise = (denoise_levels, self.kernel.pixel_angle());
+        let denoise = (
+            denoise_levels,
+            self.kernel.pixel_angle(),
+            crate::passes::denoise::reach_for(accumulated),
+        );
         match &mut self.subsampled {
             None => {
                 let (images, support) = self
@@ -118,7 +122,7 @@ impl PhotonFrame {
                     .as_ref()
                     .expect("the support targets exist at subsample 1");
                 support.record(cmd, gbuffer, (&self.indirect, None), images, 1);
-                if let Some((pass, _)) = &mut self.denoise {
+                if let Some((pass, _)) = &self.denoise {
                     pass.record(cmd, gbuffer, (&self.indirect, &images[0]), denoise);
                 }
             }
@@ -126,7 +130,7 @@ impl PhotonFrame {
                 let (images, support) = &sub.support;
                 let low = (&sub.low[0], Some(&sub.low[1]));
                 support.record(cmd, gbuffer, low, images, sub.subsample);
-                if let Some((pass, _)) = &mut self.denoise {
+                if let Some((pass, _)) = &self.denoise {
                     pass.record(cmd, gbuffer, (&sub.low[0], &images[0]), denoise);
                 }
                 if let Some(check) = check.as_deref_mut() {
