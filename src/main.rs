@@ -73,7 +73,7 @@ struct SweepArgs {
     #[arg(long)]
     out: PathBuf,
     /// Knobs and their values, `KNOB=V,V;KNOB=V` (photons, bounces, radius, subsample,
-    /// caustic-share, upsample, method), e.g. `photons=10k,40k;subsample=1,2`; knobs not named
+    /// caustic-share, upsample, accumulate, density, method), e.g. `photons=10k,40k;subsample=1,2`; knobs not named
     /// keep their defaults (docs/accuracy.md §5).
     #[arg(long, default_value = "")]
     grid: String,
@@ -1154,9 +1154,8 @@ fn info(device: Option<usize>) -> anyhow::Result<()> {
     );
     let density = ispm::frame::Density::Auto.resolve_for_device(p);
     println!(
-        "  --density auto: {density:?} on a {:?} device, compute subgroup ops for the tiled \
-         gather: {} (measured on lavapipe, docs/performance.md \"Density estimators\")",
-        p.device_type,
+        "  --density auto: {density:?}, compute subgroup ops for the tiled gather: {} (measured \
+         on lavapipe and an NVIDIA H100, docs/performance.md \"Density estimators\")",
         if p.compute_subgroup_gather {
             "yes"
         } else {

@@ -801,7 +801,7 @@ impl EffectsPlan {
                 pass(
                     "photon_tiles",
                     false,
-                    "--density auto: the device decides (tiled on a CPU implementation)",
+                    "--density auto: the tiled gather where the device has its subgroup operations",
                 ),
                 photon("photon_volumes"),
             ),

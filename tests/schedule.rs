@@ -169,12 +169,17 @@ fn overlap(a: &ispm::timing::Span, b: &ispm::timing::Span) -> bool {
     a.begin_ns < b.end_ns && b.begin_ns < a.end_ns
 }
 
+/// A box B at least this long (GPU time) overlaps the trace in a schedule that does not wait for
+/// it: the host starts the trace within a fraction of a millisecond of box B's submission.
+const BOX_B_LONG_MS: f64 = 2.0;
+
 /// The paper's Figure 3: in the overlapped schedule the CPU trace of a frame runs while the GPU
 /// draws (lavapipe's GPU work runs on its own threads); in the serial one nothing on the GPU
 /// runs during any CPU trace. The default (`auto`) overlaps them only where the device does
 /// not run on the host's cores: on a CPU device (lavapipe) the trace waits for box B, and the
 /// trace says so with a `box B wait: CPU device` span per traced frame. Frame 0 (cold caches)
-/// is left out.
+/// is left out. On a GPU that finishes box B before the host has its bounce map back there is
+/// nothing to overlap: the overlap is required only of a box B that takes `BOX_B_LONG_MS`.
 #[test]
 fn cpu_trace_overlaps_gpu_work_only_where_the_schedule_lets_it() {
     let _one_at_a_time = exclusive();
@@ -205,10 +210,28 @@ fn cpu_trace_overlaps_gpu_work_only_where_the_schedule_lets_it() {
                 .filter(|g| overlap(g, t) && g.depth == 0)
                 .map(|g| g.name.as_str())
                 .collect();
-            if beside {
+            // Box B's length on the GPU this frame: on a fast GPU (an H100 draws it in a
+            // fraction of a millisecond at this size) it may end before the host has its
+            // bounce map back, with nothing left to overlap. Only a box B long enough that the
+            // trace cannot have started after it without waiting for it must overlap the trace.
+            let box_b: Vec<_> = (gpu.iter())
+                .filter(|g| g.frame == t.frame && g.depth == 0)
+                .filter(|g| ["shadow_maps", "eye_gbuffer", "direct"].contains(&g.name.as_str()))
+                .collect();
+            let begin = box_b.iter().map(|g| g.begin_ns).min().unwrap_or(0);
+            let end = box_b.iter().map(|g| g.end_ns).max().unwrap_or(0);
+            let box_b_ms = end.saturating_sub(begin) as f64 * 1e-6;
+            if beside && box_b_ms >= BOX_B_LONG_MS {
                 assert!(
                     !during.is_empty(),
-                    "{schedule:?} frame {:?}: no GPU pass ran during the CPU trace",
+                    "{schedule:?} frame {:?}: no GPU pass ran during the CPU trace, though box \
+                     B took {box_b_ms:.2} ms",
+                    t.frame
+                );
+            } else if beside {
+                eprintln!(
+                    "{schedule:?} frame {:?}: box B took {box_b_ms:.3} ms, too short to need \
+                     overlapping the trace",
                     t.frame
                 );
             } else {

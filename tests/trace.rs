@@ -6,7 +6,7 @@ mod common;
 
 use common::cli::{assert_clean_failure, ispm};
 use ispm::frame::{RenderSettings, Renderer};
-use ispm::gpu::{ClockSource, Gpu, GpuOptions};
+use ispm::gpu::{ClockSource, Gpu, GpuOptions, QueueRole};
 use serde_json::Value;
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::OnceLock;
@@ -171,13 +171,30 @@ fn trace_names_one_track_per_gpu_queue_and_per_cpu_thread() {
         .filter(|e| e.gpu)
         .map(|e| e.tid)
         .collect();
-    assert_eq!(gpu_tracks.len(), 1, "lavapipe has one queue: {names:?}");
-    for tid in gpu_tracks {
-        let name = &trace.tracks[&tid];
-        assert!(
-            name.starts_with("GPU ") && name.contains("graphics"),
-            "{name}"
-        );
+    // One track per queue of the device that recorded work, named by the roles it serves:
+    // lavapipe has one queue for all three; a GPU with dedicated compute and transfer queues
+    // (NVIDIA) shows the graphics queue and the transfer queue of the upload and readback.
+    let gpu = common::gpu();
+    let labels: Vec<String> = (0..gpu.queue_list().len())
+        .map(|i| gpu.queue_label(i))
+        .collect();
+    let graphics = gpu.queue_label(gpu.queue_index(QueueRole::Graphics));
+    assert!(
+        (1..=labels.len()).contains(&gpu_tracks.len()),
+        "{} GPU tracks for the device's queues {labels:?}: {names:?}",
+        gpu_tracks.len()
+    );
+    for tid in &gpu_tracks {
+        let name = &trace.tracks[tid];
+        assert!(labels.contains(name), "{name} is none of {labels:?}");
+    }
+    // Each pass on its role's queue: the frame's draws on the graphics queue's track.
+    let draws: Vec<_> = (trace.events.iter())
+        .filter(|e| e.gpu && e.name == "eye_gbuffer")
+        .collect();
+    assert!(!draws.is_empty(), "no eye_gbuffer scope: {names:?}");
+    for e in draws {
+        assert_eq!(trace.tracks[&e.tid], graphics, "{e:?}");
     }
     assert!(names.contains(&"main"), "{names:?}");
     assert!(

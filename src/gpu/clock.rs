@@ -140,16 +140,18 @@ pub(super) fn calibration_choice(
             .iter()
             .any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == name))
     };
-    let (extension, domains) = if has(ash::khr::calibrated_timestamps::NAME) {
-        let f = ash::khr::calibrated_timestamps::Instance::new(entry, instance);
+    // The EXT first: the KHR is the same extension promoted (2023), and validation layers older
+    // than it (Debian 12's 1.3.239) warn on a device that enables the KHR name (NVIDIA offers both).
+    let (extension, domains) = if has(ash::ext::calibrated_timestamps::NAME) {
+        let f = ash::ext::calibrated_timestamps::Instance::new(entry, instance);
         // SAFETY: pd supports the extension, so its physical-device command may be called.
         let d = unsafe { f.get_physical_device_calibrateable_time_domains(pd) };
-        (ash::khr::calibrated_timestamps::NAME, d)
-    } else if has(ash::ext::calibrated_timestamps::NAME) {
-        let f = ash::ext::calibrated_timestamps::Instance::new(entry, instance);
+        (ash::ext::calibrated_timestamps::NAME, d)
+    } else if has(ash::khr::calibrated_timestamps::NAME) {
+        let f = ash::khr::calibrated_timestamps::Instance::new(entry, instance);
         // SAFETY: as above.
         let d = unsafe { f.get_physical_device_calibrateable_time_domains(pd) };
-        (ash::ext::calibrated_timestamps::NAME, d)
+        (ash::khr::calibrated_timestamps::NAME, d)
     } else {
         return None;
     };

@@ -194,6 +194,10 @@ pub struct DeviceProperties {
     pub calibrated_timestamps: bool,
     /// Most bytes one storage-buffer descriptor reaches (`maxStorageBufferRange`).
     pub max_storage_buffer_range: u32,
+    /// Bits of sub-pixel precision the rasteriser snaps vertex positions to
+    /// (`subPixelPrecisionBits`, at least 4): a fragment's interpolated attributes belong to a
+    /// point up to half a 2^-bits pixel step away from its pixel's centre ray.
+    pub sub_pixel_precision_bits: u32,
     /// Whether compute shaders have the subgroup operations the tiled density estimator uses
     /// (basic, vote, arithmetic, ballot, shuffle: `passes/photon_tiles.rs`).
     pub compute_subgroup_gather: bool,
@@ -648,6 +652,7 @@ fn describe(instance: &ash::Instance, pd: vk::PhysicalDevice) -> DevicePropertie
         driver_info: text(driver.driver_info_as_c_str()),
         timestamp_period: p.limits.timestamp_period,
         max_storage_buffer_range: p.limits.max_storage_buffer_range,
+        sub_pixel_precision_bits: p.limits.sub_pixel_precision_bits,
         families,
         calibrated_timestamps: has(ash::ext::calibrated_timestamps::NAME)
             || has(ash::khr::calibrated_timestamps::NAME),

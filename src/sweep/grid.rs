@@ -389,8 +389,7 @@ mod tests {
         .unwrap();
         // `auto` resolved as a CPU device with subgroup operations resolves it: a duplicate of
         // `tiled`, so measured once.
-        let resolved =
-            g.resolve_density(|d| d.resolve(crate::gpu::vk::PhysicalDeviceType::CPU, true));
+        let resolved = g.resolve_density(|d| d.resolve(true));
         let labels: Vec<String> = resolved.configs().iter().map(Config::label).collect();
         assert_eq!(
             labels,

@@ -1,0 +1,193 @@
+#!/usr/bin/env bash
+# Runs ispm's benchmarks, an accuracy-vs-time sweep and the test suite on a lent GPU machine, in
+# one call of the `device` tool, with the results under $OUT (docs/performance.md "On a GPU").
+#
+# The device machine has no Rust toolchain and a time budget of minutes, so everything is built
+# here first by tools/device/pack.sh (stripped test binaries, the release `ispm`, the cached
+# references, the Vulkan loader and the Khronos validation layer as .debs) and carried:
+#
+#   bash tools/device/pack.sh
+#   run(command="bash tools/device/gpu-run.sh tests bench sweep", carry=[".gl", ".device"],
+#       timeout_s=590)
+#
+# Stages (arguments, run in the order given): `render` (the README's render with stats and a
+# trace), `shadows` (direct light alone at several shadow-map sizes), `bench` (`ispm bench` on
+# every bundled scene), `tests` (the test suite, validation on), `crashes` (the binaries that crashed, again and again, with and without validation), `sweep`
+# (the 160x120 accuracy-vs-time sweep of docs/tools/headline.py). BUDGET seconds in all; each
+# stage stops at it, and everything lands in one $OUT/results.tgz (the tool returns few files),
+# also when the run is cut short.
+set -uo pipefail
+DEST=${OUT:-/tmp/ispm-gpu-dest}
+OUT=/tmp/ispm-gpu-out
+BUDGET=${BUDGET:-570}
+rm -rf "$OUT" && mkdir -p "$OUT" "$DEST"
+trap 'tar -C "$OUT" -czf "$DEST/results.tgz" .' EXIT
+root=$PWD
+t0=$(date +%s)
+log() { echo "[$(($(date +%s) - t0)) s] $*" | tee -a "$OUT/progress.log"; }
+left() { echo $((BUDGET - ($(date +%s) - t0))); }
+
+# The Vulkan loader into /, the validation layer beside it (unpacking more into / can break it).
+for f in .gl/*.deb; do
+  case $f in
+  *validationlayers*) dpkg -x "$f" /opt/vvl ;;
+  *) dpkg -x "$f" / ;;
+  esac
+done
+ldconfig
+for icd in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json /usr/share/vulkan/icd.d/nvidia_icd.json \
+  /etc/vulkan/icd.d/nvidia_icd.json; do
+  if [ -f "$icd" ]; then export VK_DRIVER_FILES=$icd; break; fi
+done
+export __EGL_VENDOR_LIBRARY_FILENAMES=/usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json
+export VK_ADD_LAYER_PATH=/opt/vvl/usr/share/vulkan/explicit_layer.d
+export LD_LIBRARY_PATH=/opt/vvl/usr/lib/x86_64-linux-gnu${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
+export XDG_CACHE_HOME=$root/.device/cache
+# Test binaries name files by the path the crate was built at (CARGO_MANIFEST_DIR).
+built_at=$(cat .device/built_at)
+if [ "$root" != "$built_at" ] && [ ! -e "$built_at" ]; then
+  mkdir -p "$(dirname "$built_at")"
+  ln -sfn "$root" "$built_at"
+fi
+
+log "unpacking"
+if command -v xz >/dev/null; then
+  tar -xJf .device/payload.tar.xz -C .device
+else
+  python3 -c 'import sys, tarfile; tarfile.open(sys.argv[1]).extractall(sys.argv[2])' \
+    .device/payload.tar.xz .device
+fi
+mkdir -p target/debug target/tmp # CARGO_TARGET_TMPDIR of the tests
+cp .device/bin/ispm-test target/debug/ispm # the binary the tests spawn (CARGO_BIN_EXE_ispm)
+R=.device/bin/ispm-release
+
+{
+  nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.mem,temperature.gpu,utilization.gpu \
+    --format=csv
+  nproc
+  uptime
+  echo "VK_DRIVER_FILES=${VK_DRIVER_FILES:-unset}"
+} >"$OUT/machine.txt" 2>&1
+log "info"
+if ! ISPM_VALIDATION=1 timeout 60 $R info >"$OUT/info.txt" 2>&1 ||
+  ! grep -qi "${ISPM_GPU_VENDOR:-nvidia}" "$OUT/info.txt"; then
+  log "no NVIDIA Vulkan device: see info.txt"
+  cat "$OUT/info.txt"
+  ls -la /usr/local/nvidia/share/vulkan/icd.d /usr/share/vulkan/icd.d 2>&1 | tee -a "$OUT/info.txt"
+  exit 1
+fi
+cat "$OUT/info.txt"
+
+
+# The README's default render, with its stats and a Perfetto trace of every queue and thread;
+# then the 640x480 bench's default (100k photons) as a render, for its trace.
+stage_render() {
+  log "render"
+  timeout 90 $R render cornell-box -o "$OUT/cornell-box.png" --stats "$OUT/render-stats.json" \
+    --trace "$OUT/render-trace.json" >"$OUT/render.txt" 2>&1 || log "render: rc $?"
+  timeout 90 $R render cornell-box --quality none --size 640x480 --frames 12 \
+    -o "$OUT/cornell-box-100k.png" --stats "$OUT/render-100k-stats.json" \
+    --trace "$OUT/render-100k-trace.json" >"$OUT/render-100k.txt" 2>&1 || log "render 100k: rc $?"
+}
+
+# The dotted arcs on the floor of the default render on an H100 (not on lavapipe): direct light
+# alone, and the shadow maps at other resolutions.
+stage_shadows() {
+  mkdir -p "$OUT/shadows"
+  local args=(cornell-box --size 640x480 --frames 8)
+  log "shadows"
+  timeout 60 $R render "${args[@]}" -o "$OUT/shadows/default.png" >/dev/null 2>&1
+  timeout 60 $R render "${args[@]}" --method direct -o "$OUT/shadows/direct.png" >/dev/null 2>&1
+  for n in 512 4096; do
+    timeout 60 $R render "${args[@]}" --method direct --shadow-resolution $n \
+      -o "$OUT/shadows/direct-$n.png" >/dev/null 2>&1
+  done
+}
+
+# Benchmarks: every bundled scene at two sizes, both estimators, overlapped against serial.
+bench() {
+  local name=$1
+  shift
+  local t=$(($(left) - 5))
+  if [ "$t" -lt 10 ]; then
+    log "skip bench $name (time)"
+    return
+  fi
+  log "bench $name"
+  timeout "$t" $R bench "$@" --json "$OUT/bench/$name.json" >"$OUT/bench/$name.txt" 2>&1 ||
+    log "bench $name: rc $?"
+}
+stage_bench() {
+  mkdir -p "$OUT/bench"
+  for scene in cornell-box caustic-ring glass-sphere diffuse-box; do
+    bench "$scene-640x480" "$scene" --size 640x480 --frames 20 --chunks 5 --compare-density
+  done
+  for n in 1 4; do
+    bench "cornell-box-1920x1080-s$n" cornell-box --size 1920x1080 --frames 12 --chunks 3 \
+      --subsample $n --compare-density
+  done
+  bench diffuse-box-1920x1080 diffuse-box --size 1920x1080 --frames 12 --chunks 3 --compare-density
+}
+
+# The test suite, four binaries at a time, validation on. `viewer` needs xvfb-run and `layouts`
+# spirv-val, neither on the device machine (both run in CI).
+stage_tests() {
+  mkdir -p "$OUT/tests"
+  local deadline=$(($(date +%s) + $(left) - 5))
+  log "tests (until $((deadline - t0)) s)"
+  # Longest first (by size, a fair proxy), so the slow ones do not start last.
+  ls -S .device/tests | grep -vx 'viewer\|layouts' | ISPM_VALIDATION=1 xargs -P 4 -I{} bash -c '
+    cd "$0"; t=$(($1 - $(date +%s)))
+    if [ "$t" -lt 5 ]; then echo "{} rc=skipped" >>"$2/tests/summary.txt"; exit 0; fi
+    timeout "$t" ".device/tests/{}" >"$2/tests/{}.log" 2>&1
+    echo "{} rc=$?" >>"$2/tests/summary.txt"' "$root" "$deadline" "$OUT"
+  touch "$OUT/tests/summary.txt"
+  log "tests: $(grep -c 'rc=0$' "$OUT/tests/summary.txt") passed, $(grep -vc 'rc=0$' "$OUT/tests/summary.txt") not"
+  grep -v 'rc=0$' "$OUT/tests/summary.txt"
+}
+
+# Binaries that crashed (SIGSEGV) once under the parallel suite: each of CRASHERS, REPEAT times,
+# four at a time, alternately with and without the validation layer.
+stage_crashes() {
+  mkdir -p "$OUT/crashes"
+  local deadline=$(($(date +%s) + $(left) - 5))
+  log "crashes (until $((deadline - t0)) s)"
+  for i in $(seq 1 "${REPEAT:-4}"); do
+    for b in ${CRASHERS:-translucent render_direct}; do echo "$b $i 1"; echo "$b $i 0"; done
+  done | xargs -P 4 -L1 bash -c '
+    cd "$0"; t=$(($1 - $(date +%s)))
+    if [ "$t" -lt 5 ]; then exit 0; fi
+    ISPM_VALIDATION=$5 timeout "$t" ".device/tests/$3" >"$2/crashes/$3-$4-v$5.log" 2>&1
+    echo "$3 run $4 validation $5 rc=$?" >>"$2/crashes/summary.txt"' "$root" "$deadline" "$OUT"
+  touch "$OUT/crashes/summary.txt"
+  sort "$OUT/crashes/summary.txt"
+}
+
+# Accuracy against time at 160x120 against the cached references (the headline's sweep),
+# both estimators, and the CPU photon-gather baseline on this machine's cores.
+stage_sweep() {
+  mkdir -p "$OUT/sweep"
+  for scene in cornell-box caustic-ring glass-sphere diffuse-box; do
+    local t=$(($(left) - 5))
+    if [ "$t" -lt 10 ]; then break; fi
+    log "sweep $scene"
+    local common=(--out "$OUT/sweep/$scene" --size 160x120 --frames 3)
+    timeout "$t" $R sweep "$scene" "${common[@]}" \
+      --grid 'photons=10k,40k,160k;radius=1,2;subsample=1,2,4;density=volumes,tiled' \
+      >>"$OUT/sweep/$scene.log" 2>&1
+    t=$(($(left) - 5))
+    [ "$t" -ge 10 ] && timeout "$t" $R sweep "$scene" "${common[@]}" \
+      --grid 'method=photon-gather;photons=10k,40k,160k;radius=1;subsample=1' \
+      >>"$OUT/sweep/$scene.log" 2>&1
+  done
+}
+
+for stage in "$@"; do
+  "stage_$stage"
+done
+log "done"
+for f in "$OUT"/bench/*.txt; do
+  [ -f "$f" ] || continue
+  echo "== $f"
+  tail -n 4 "$f"
+done
