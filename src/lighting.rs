@@ -13,12 +13,15 @@
 //! in f64) to the light's clip space, so precision does not depend on the distance from the
 //! world origin.
 //!
-//! The shadow maps' views map the near plane to depth 0 and the far plane to 1, the near plane
-//! 10⁻⁴ of the scene's diagonal from the light. The photons' views ([`LightSetup::photon_views`]:
-//! light G-buffers, bounce map) are the same views with depth reversed (near 1, far 0,
-//! `LIGHT_VIEW_NEAR_Z`) and the near plane at 10⁻⁶ of the diagonal: with a D32F depth buffer the
-//! precision of reversed depth is relative to the distance, so a light 0.1 mm from a surface
-//! still sends its photons onto it (hard case "a light touching a surface", docs/stability.md).
+//! Every light view has reversed depth (near plane at depth 1, far plane at 0,
+//! `LIGHT_VIEW_NEAR_Z`): with a D32F depth buffer its precision is relative to the distance. The
+//! shadow maps' near plane is 10⁻⁴ of the scene's diagonal from the light. With standard depth
+//! (near 0, far 1) a float32 step near depth 1 was about 0.7 mm of distance on the Cornell box's
+//! floor, less than the normal offset's margin at 1024² shadow maps, which NVIDIA's rasteriser
+//! turned into shadow acne (docs/performance.md, "On an NVIDIA H100"). The photons' views
+//! ([`LightSetup::photon_views`]: light G-buffers, bounce map) put the near plane at 10⁻⁶ of the
+//! diagonal, so a light 0.1 mm from a surface still sends its photons onto it (hard case "a
+//! light touching a surface", docs/stability.md).
 
 use crate::layout::{
     GpuLight, ShadowView, LIGHT_AREA_SAMPLE, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT,
@@ -49,9 +52,9 @@ fn any_perpendicular(d: DVec3) -> DVec3 {
 /// How a setup's views map depth.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Depth {
-    /// Near plane at depth 0, 10⁻⁴ of the scene's diagonal from the light (shadow maps).
+    /// Near plane 10⁻⁴ of the scene's diagonal from the light (shadow maps).
     Shadow,
-    /// Near plane at depth 1 (`LIGHT_VIEW_NEAR_Z`), 10⁻⁶ of the diagonal (photon views).
+    /// Near plane 10⁻⁶ of the diagonal (photon views).
     Photon,
 }
 
@@ -64,21 +67,16 @@ impl Depth {
         }
     }
 
-    /// `m` (to clip space with depth 0 at the near plane) with this depth mapping: for photon
-    /// views z' = w − z, which maps the near plane to 1 and the far plane to 0.
+    /// `m` (to clip space with depth 0 at the near plane) with reversed depth: z' = w − z, which
+    /// maps the near plane to 1 and the far plane to 0 (module docs).
     fn apply(self, m: DMat4) -> DMat4 {
-        match self {
-            Depth::Shadow => m,
-            Depth::Photon => {
-                let reverse = DMat4::from_cols(
-                    glam::DVec4::X,
-                    glam::DVec4::Y,
-                    glam::DVec4::new(0.0, 0.0, -1.0, 0.0),
-                    glam::DVec4::new(0.0, 0.0, 1.0, 1.0),
-                );
-                reverse * m
-            }
-        }
+        let reverse = DMat4::from_cols(
+            glam::DVec4::X,
+            glam::DVec4::Y,
+            glam::DVec4::new(0.0, 0.0, -1.0, 0.0),
+            glam::DVec4::new(0.0, 0.0, 1.0, 1.0),
+        );
+        reverse * m
     }
 }
 
@@ -345,7 +343,8 @@ mod tests {
         let shadow = LightSetup::new(&lights, DVec3::ZERO, &bounds, 256, 0);
         let photon = LightSetup::photon_views(&lights, DVec3::ZERO, &bounds);
         let close = 1e-5 * diagonal;
-        assert!(ndc_z(&shadow, close) < 0.0, "clipped by the shadow view");
+        // Both reverse depth: nearer than the shadow view's near plane is beyond depth 1.
+        assert!(ndc_z(&shadow, close) > 1.0, "clipped by the shadow view");
         let (near, far) = (ndc_z(&photon, close), ndc_z(&photon, 1.5));
         assert!(near > 0.0 && near <= 1.0, "{near}");
         assert!(far > 0.0 && far < near, "reversed: {far} beyond {near}");
@@ -368,6 +367,41 @@ mod tests {
         let ndc = clip.truncate() / clip.w;
         assert!(ndc.x.abs() < 1.0 && ndc.y.abs() < 1.0, "{ndc}");
         assert!(ndc.z > 0.0 && ndc.z < 1.0, "{ndc}");
+    }
+
+    /// The shadow lookup's normal offset (`glsl/common/shadows.glsl`) must move the looked-up
+    /// depth by many float32 steps, or rasterisers that round the stored depth a step
+    /// differently (NVIDIA's) show shadow acne. With standard depth (near 0, far 1) a floor
+    /// 1.9 scene units below a spot under a 4096² map got under one step; reversed depth gives
+    /// thousands (docs/performance.md, "On an NVIDIA H100").
+    #[test]
+    fn the_normal_offset_spans_many_float32_depth_steps_on_a_floor_below_a_spot() {
+        let lights = [light(LightKind::Spot {
+            inner_cone_angle: 0.3,
+            outer_cone_angle: 0.5,
+        })];
+        let camera = DVec3::new(0.0, 0.0, 3.0);
+        let s = LightSetup::new(&lights, camera, &unit_bounds(), 4096, 3);
+        let (view, light_at) = (s.views[0], Vec3::new(0.0, 0.9, 0.0));
+        let depth = |p: Vec3| {
+            let clip = view.view_proj * (p - camera.as_vec3()).extend(1.0);
+            clip.z / clip.w
+        };
+        for x in [0.0f32, 0.05, 0.2, 0.4] {
+            let p = Vec3::new(x, -1.0, 0.1);
+            let (n, wi) = (Vec3::Y, (light_at - p).normalize());
+            let texel = view.params.x * (light_at - p).length();
+            let cos_t = n.dot(wi).clamp(0.0, 1.0);
+            let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+            let q = p + n * (1.5 * texel * sin_t.max(0.2));
+            let (zp, zq) = (depth(p), depth(q));
+            let step = f32::from_bits(zp.to_bits() + 1) - zp;
+            let steps = (zq - zp).abs() / step;
+            assert!(
+                (0.0..1.0).contains(&zp) && steps >= 64.0,
+                "x = {x}: depth {zp}, the offset moves it {steps} float32 steps"
+            );
+        }
     }
 
     #[test]

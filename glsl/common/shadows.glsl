@@ -26,7 +26,8 @@ float shadow_visibility(GpuLight light, vec3 p, vec3 n, vec3 wi) {
     }
     vec3 ndc = clip.xyz / clip.w;
     vec2 uv = ndc.xy * 0.5 + 0.5;
-    if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))) || ndc.z > 1.0) {
+    // Reversed depth (lighting.rs): beyond the far plane is below 0.
+    if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))) || ndc.z < 0.0) {
         // Outside the light's view: spot cones and fitted directional frusta cover every
         // point the light reaches, so a point outside is not lit through this view.
         return light.shadow.x == LIGHT_SPOT ? 0.0 : 1.0;

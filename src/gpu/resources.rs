@@ -377,12 +377,14 @@ impl Sampler {
             .address_mode_w(mode)
             .max_lod(0.0);
         if filter == Filter::LinearCompare {
+            // Shadow maps have reversed depth (`lighting.rs`): a point is lit where its depth
+            // is at least the stored one, and beyond the map's border (depth 0, the far end).
             info = info
                 .compare_enable(true)
-                .compare_op(vk::CompareOp::LESS_OR_EQUAL)
+                .compare_op(vk::CompareOp::GREATER_OR_EQUAL)
                 .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_BORDER)
                 .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_BORDER)
-                .border_color(vk::BorderColor::FLOAT_OPAQUE_WHITE);
+                .border_color(vk::BorderColor::FLOAT_TRANSPARENT_BLACK);
         }
         // SAFETY: the device is live and `info` is valid.
         let raw =

@@ -48,8 +48,10 @@ impl ShadowMapPass {
                     format: FORMAT,
                     test: true,
                     write: true,
-                    compare: vk::CompareOp::LESS_OR_EQUAL,
-                    bias: Some((1.0, 1.5)),
+                    // Reversed depth (`lighting.rs`): nearer is larger, and the bias pushes the
+                    // stored depth away from the light, towards 0.
+                    compare: vk::CompareOp::GREATER_OR_EQUAL,
+                    bias: Some((-1.0, -1.5)),
                 }),
                 // Both faces: thin and open geometry must cast shadows too.
                 cull: vk::CullModeFlags::NONE,
@@ -70,7 +72,7 @@ impl ShadowMapPass {
                 Some(&Attachment {
                     image: atlas,
                     layer: layer as u32,
-                    load: Load::Clear([1.0; 4]),
+                    load: Load::Clear([0.0; 4]), // reversed depth: 0 is the far end
                 }),
             );
             cmd.bind_pipeline(&self.pipeline);
