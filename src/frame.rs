@@ -126,7 +126,7 @@ pub enum Density {
     Tiled,
     /// The faster, as measured (docs/performance.md, "Density estimators"): `tiled` wherever
     /// the device has the compute subgroup operations it needs (its estimate took 2–5× less
-    /// time than the volumes' on lavapipe and 50–250× less on an NVIDIA H100), else `volumes`.
+    /// time than the volumes' on lavapipe and 13–280× less on an NVIDIA H100), else `volumes`.
     #[default]
     Auto,
 }

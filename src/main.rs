@@ -73,8 +73,9 @@ struct SweepArgs {
     #[arg(long)]
     out: PathBuf,
     /// Knobs and their values, `KNOB=V,V;KNOB=V` (photons, bounces, radius, subsample,
-    /// caustic-share, upsample, accumulate, density, method), e.g. `photons=10k,40k;subsample=1,2`; knobs not named
-    /// keep their defaults (docs/accuracy.md §5).
+    /// caustic-share, upsample, accumulate, density, method), e.g.
+    /// `photons=10k,40k;subsample=1,2`; knobs not named keep their defaults (docs/accuracy.md
+    /// §5).
     #[arg(long, default_value = "")]
     grid: String,
     /// Image size, WIDTHxHEIGHT.

@@ -141,7 +141,8 @@ pub(super) fn calibration_choice(
             .any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == name))
     };
     // The EXT first: the KHR is the same extension promoted (2023), and validation layers older
-    // than it (Debian 12's 1.3.239) warn on a device that enables the KHR name (NVIDIA offers both).
+    // than it (Debian 12's 1.3.239) warn on a device that enables the KHR name (NVIDIA offers
+    // both).
     let (extension, domains) = if has(ash::ext::calibrated_timestamps::NAME) {
         let f = ash::ext::calibrated_timestamps::Instance::new(entry, instance);
         // SAFETY: pd supports the extension, so its physical-device command may be called.
