@@ -274,14 +274,19 @@ mod tests {
         }
     }
 
+    /// A spot narrow enough for one view, pointing down from (0, 0.9, 0).
+    fn narrow_spot() -> Light {
+        light(LightKind::Spot {
+            inner_cone_angle: 0.3,
+            outer_cone_angle: 0.5,
+        })
+    }
+
     /// A point light, a narrow spot (one view), a wide spot (a cube) and a directional light.
     fn every_kind() -> [Light; 4] {
         [
             light(LightKind::Point),
-            light(LightKind::Spot {
-                inner_cone_angle: 0.3,
-                outer_cone_angle: 0.5,
-            }),
+            narrow_spot(),
             light(LightKind::Spot {
                 inner_cone_angle: 1.0,
                 outer_cone_angle: 1.5,
@@ -329,10 +334,7 @@ mod tests {
     fn photon_views_reverse_depth_and_see_a_surface_a_hundred_thousandth_of_the_scene_away() {
         // The unit box's diagonal is 2√3: 10⁻⁵ of it is 35 µm, inside the shadow views' near
         // plane (10⁻⁴) and outside the photon views' (10⁻⁶).
-        let lights = [light(LightKind::Spot {
-            inner_cone_angle: 0.3,
-            outer_cone_angle: 0.5,
-        })];
+        let lights = [narrow_spot()];
         let bounds = unit_bounds();
         let diagonal = f64::from((bounds.max - bounds.min).length());
         let ndc_z = |s: &LightSetup, distance: f64| {
@@ -356,10 +358,7 @@ mod tests {
 
     #[test]
     fn a_point_below_a_spot_projects_inside_its_view_and_in_depth_range() {
-        let lights = [light(LightKind::Spot {
-            inner_cone_angle: 0.3,
-            outer_cone_angle: 0.5,
-        })];
+        let lights = [narrow_spot()];
         let camera = DVec3::new(0.0, 0.0, 3.0);
         let s = LightSetup::new(&lights, camera, &unit_bounds(), 256, 3);
         let p = DVec3::new(0.1, -1.0, 0.0) - camera;
@@ -376,10 +375,7 @@ mod tests {
     /// thousands (docs/performance.md, "On an NVIDIA H100").
     #[test]
     fn the_normal_offset_spans_many_float32_depth_steps_on_a_floor_below_a_spot() {
-        let lights = [light(LightKind::Spot {
-            inner_cone_angle: 0.3,
-            outer_cone_angle: 0.5,
-        })];
+        let lights = [narrow_spot()];
         let camera = DVec3::new(0.0, 0.0, 3.0);
         let s = LightSetup::new(&lights, camera, &unit_bounds(), 4096, 3);
         let (view, light_at) = (s.views[0], Vec3::new(0.0, 0.9, 0.0));
