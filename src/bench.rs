@@ -25,6 +25,10 @@
 //! photon map reused), joins the alternation, and `effects_speedup` = all ÷ planned frame
 //! period. Every configuration's last frame reports the passes it ran and skipped and the lobes
 //! compiled out, with the plan's reasons (`FrameStats`).
+//!
+//! `--compare-density` adds the overlapped frame with the other density estimator, and
+//! `--compare-subsample N` the overlapped frame with the indirect light estimated at 1/N
+//! resolution ([`SubsampleSpeedup`]), each in the same alternation.
 
 use crate::frame::{Density, Method, RenderSettings, Renderer, ReusedLight, Schedule, SkippedPass};
 use crate::gpu::Gpu;
@@ -50,6 +54,9 @@ pub struct BenchSettings {
     pub compare_effects: bool,
     /// Also measure the overlapped frame with the other density estimator (`--density`).
     pub compare_density: bool,
+    /// Also measure the overlapped frame with the indirect light estimated at 1/N resolution
+    /// (`--compare-subsample N`), against the overlapped one at `render.subsample`.
+    pub compare_subsample: Option<u32>,
 }
 
 /// Median and spread of one stage, in milliseconds.
@@ -76,6 +83,8 @@ pub struct ConfigResult {
     pub gpu_ms: f64,
     /// Median per frame of the CPU photon trace.
     pub cpu_ms: f64,
+    /// The subsample factor its frames estimated the indirect light at.
+    pub subsample: u32,
     /// The passes the last measured frame ran (`FrameStats::passes_run`).
     pub passes_run: Vec<String>,
     /// The passes it skipped, with the effects plan's reasons.
@@ -113,6 +122,11 @@ pub struct BenchReport {
     /// Its frame period ÷ the overlapped frame's (`--compare-density`): how much slower the
     /// other estimator's frame is.
     pub density_speedup: Option<f64>,
+    /// The overlapped frame with the estimate at another subsample factor
+    /// (`--compare-subsample` only).
+    pub other_subsample: Option<ConfigResult>,
+    /// What subsampling buys (`--compare-subsample` only).
+    pub subsample_speedup: Option<SubsampleSpeedup>,
     /// Overlapped frame period ÷ max(CPU stage, GPU stage).
     pub overlap: f64,
     /// Serial frame period ÷ overlapped frame period.
@@ -120,6 +134,57 @@ pub struct BenchReport {
     /// The last overlapped chunk's spans (for the schedule figure).
     #[serde(skip)]
     pub last_overlapped_spans: Vec<Span>,
+}
+
+/// The radiance estimate at two subsample factors, measured in the same alternating chunks
+/// (`--compare-subsample`). The estimate is the density pass (`gpu.photon_tiles` or
+/// `gpu.photon_volumes`) plus, when subsampled, `gpu.upsample`; the host's tile lists
+/// (`cpu.photon tiles`) are given apart, as they do not run on the GPU.
+#[derive(Clone, Debug, Serialize)]
+pub struct SubsampleSpeedup {
+    /// The overlapped frame's factor (`--subsample`) and the compared one.
+    pub base_factor: u32,
+    pub factor: u32,
+    /// Median ms per frame of the estimate (density pass + upsample) at each factor.
+    pub base_estimate_ms: f64,
+    pub estimate_ms: f64,
+    /// `base_estimate_ms ÷ estimate_ms`: how many times cheaper the estimate is at `factor`.
+    pub estimate: f64,
+    /// The density pass alone, base ÷ compared.
+    pub density_pass: f64,
+    /// Median ms per frame of the host's tile lists at each factor (0 for the volumes).
+    pub base_binning_ms: f64,
+    pub binning_ms: f64,
+    /// Frame period, base ÷ compared.
+    pub frame: f64,
+}
+
+/// Median ms of the density pass and of the upsample, per frame.
+fn estimate_ms(c: &ConfigResult) -> (f64, f64) {
+    let median = |k: &str| c.stages.get(k).map_or(0.0, |t| t.median);
+    (
+        median("gpu.photon_tiles") + median("gpu.photon_volumes"),
+        median("gpu.upsample"),
+    )
+}
+
+impl SubsampleSpeedup {
+    fn new(base: &ConfigResult, base_factor: u32, other: &ConfigResult, factor: u32) -> Self {
+        let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { 0.0 };
+        let ((base_pass, base_up), (pass, up)) = (estimate_ms(base), estimate_ms(other));
+        let binning = |c: &ConfigResult| c.stages.get("cpu.photon tiles").map_or(0.0, |t| t.median);
+        Self {
+            base_factor,
+            factor,
+            base_estimate_ms: base_pass + base_up,
+            estimate_ms: pass + up,
+            estimate: ratio(base_pass + base_up, pass + up),
+            density_pass: ratio(base_pass, pass),
+            base_binning_ms: binning(base),
+            binning_ms: binning(other),
+            frame: ratio(base.frame_ms, other.frame_ms),
+        }
+    }
 }
 
 struct Config {
@@ -211,6 +276,7 @@ fn result(config: &Config) -> ConfigResult {
         stages,
         gpu_ms: quantile(&gpu_per_frame(&config.spans), 0.5),
         cpu_ms,
+        subsample: config.last_stats.subsample,
         passes_run: config.last_stats.passes_run.clone(),
         passes_skipped: config.last_stats.passes_skipped.clone(),
         variants_skipped: config.last_stats.variants_skipped.clone(),
@@ -268,11 +334,13 @@ pub fn run(
     let density = settings.render.density.resolve_for_device(&gpu.properties);
     let make_with = |name: &'static str,
                      (method, schedule, effects): (Method, Schedule, Effects),
-                     density: Density| {
+                     density: Density,
+                     subsample: u32| {
         let render = RenderSettings {
             method,
             schedule,
             density,
+            subsample,
             // `All`: every frame traces (a planned frame of a static scene reuses its photon
             // map) and runs every pass and variant.
             effects,
@@ -289,7 +357,12 @@ pub fn run(
         })
     };
     let make = |name: &'static str, method: Method, schedule: Schedule, effects: Effects| {
-        make_with(name, (method, schedule, effects), density)
+        make_with(
+            name,
+            (method, schedule, effects),
+            density,
+            settings.render.subsample,
+        )
     };
     // The frame measured against the serial one: the schedule asked for (`--schedule`: the
     // default `auto`, or `overlapped` to run the trace beside box B on a CPU device too).
@@ -317,7 +390,11 @@ pub fn run(
             _ => ("tiled", Density::Tiled),
         };
         let frame = (Method::Ispm, overlapped, Effects::All);
-        configs.push(make_with(name, frame, other)?);
+        configs.push(make_with(name, frame, other, settings.render.subsample)?);
+    }
+    if let Some(factor) = settings.compare_subsample {
+        let frame = (Method::Ispm, overlapped, Effects::All);
+        configs.push(make_with("subsampled", frame, density, factor.max(1))?);
     }
     for c in &mut configs {
         progress(&format!("warm-up: {}", c.name));
@@ -338,6 +415,9 @@ pub fn run(
         }
     }
     let planned = settings.compare_effects.then(|| result(&configs[3]));
+    let other_subsample = settings
+        .compare_subsample
+        .map(|_| result(&configs.pop().expect("the subsampled configuration")));
     let other_density =
         compare_density.then(|| result(configs.last().expect("the other density's configuration")));
     let (o, s, d) = (
@@ -345,6 +425,9 @@ pub fn run(
         result(&configs[1]),
         result(&configs[2]),
     );
+    let subsample_speedup = other_subsample
+        .as_ref()
+        .map(|c| SubsampleSpeedup::new(&o, o.subsample.max(1), c, c.subsample));
     let bound = o.cpu_ms.max(o.gpu_ms);
     let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { 0.0 };
     Ok(BenchReport {
@@ -363,6 +446,8 @@ pub fn run(
             .as_ref()
             .map(|c| ratio(c.frame_ms, o.frame_ms)),
         other_density,
+        other_subsample,
+        subsample_speedup,
         overlapped: o,
         serial: s,
         direct_only: d,
@@ -402,7 +487,8 @@ impl BenchReport {
         let configs = [&self.overlapped, &self.serial, &self.direct_only]
             .into_iter()
             .chain(&self.planned)
-            .chain(&self.other_density);
+            .chain(&self.other_density)
+            .chain(&self.other_subsample);
         for c in configs {
             if let Some(check) = &c.value_check {
                 let values: u64 = check.per_buffer.iter().map(|b| b.values).sum();
@@ -448,6 +534,22 @@ impl BenchReport {
                 other.name,
                 self.density,
                 if a.1 > 0.0 { b.1 / a.1 } else { 0.0 },
+            );
+        }
+        if let Some(s) = &self.subsample_speedup {
+            out += &format!(
+                "\nsubsample: estimate (density pass + upsample) {:.2} ms at 1/{} against {:.2} ms \
+                 at 1/{}: {:.3}x cheaper (density pass {:.3}x); host tile lists {:.2} / {:.2} ms; \
+                 frame {:.3}x\n",
+                s.estimate_ms,
+                s.factor,
+                s.base_estimate_ms,
+                s.base_factor,
+                s.estimate,
+                s.density_pass,
+                s.binning_ms,
+                s.base_binning_ms,
+                s.frame,
             );
         }
         out

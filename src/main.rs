@@ -238,6 +238,11 @@ struct BenchArgs {
     /// alternating chunks: `density_speedup` = its frame period ÷ the overlapped one's.
     #[arg(long)]
     compare_density: bool,
+    /// Also measure the overlapped frame with the indirect light estimated at 1/N resolution
+    /// (`--subsample N`) in the same alternating chunks: `subsample_speedup` says how many
+    /// times cheaper its radiance estimate (density pass + upsample) and frame are.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=64))]
+    compare_subsample: Option<u32>,
     /// Also measure the frame as the effects plan makes it (`--effects auto`) against the
     /// overlapped frame, which runs every pass and variant (`--effects all`), in the same
     /// alternating chunks.
@@ -729,6 +734,7 @@ fn bench(args: BenchArgs, device: Option<usize>) -> anyhow::Result<()> {
         chunks: args.chunks,
         compare_effects: args.compare_effects,
         compare_density: args.compare_density,
+        compare_subsample: args.compare_subsample,
     };
     let report = ispm::bench::run(&gpu, &scene, scene_name, &settings, |step| {
         log::info!("bench: {step}")

@@ -224,7 +224,8 @@ fn plan_of_a_missing_file_fails_with_one_line_naming_it() {
 }
 
 /// `ispm bench`: the three configurations side by side, every pass with a median, the overlap
-/// figures, the JSON and the schedule figure.
+/// figures, the JSON and the schedule figure; with the other density estimator and a
+/// subsampled estimate in the same chunks.
 #[test]
 fn bench_measures_overlapped_serial_and_direct_frames_and_writes_json_and_figure() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -251,6 +252,8 @@ fn bench_measures_overlapped_serial_and_direct_frames_and_writes_json_and_figure
         "--figure",
         svg.to_str().expect("utf8"),
         "--compare-density",
+        "--compare-subsample",
+        "2",
     ]);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
@@ -324,6 +327,19 @@ fn bench_measures_overlapped_serial_and_direct_frames_and_writes_json_and_figure
         .is_some_and(|v| v > 0.0));
     assert!(report["density_speedup"].as_f64().is_some_and(|v| v > 0.0));
     assert!(stdout.contains("density:"), "{stdout}");
+    // --compare-subsample 2: the estimate at 1/2 beside the full-resolution one, and its upsample.
+    let s = &report["other_subsample"];
+    assert_eq!(s["subsample"].as_u64(), Some(2), "{s}");
+    assert_eq!(report["overlapped"]["subsample"].as_u64(), Some(1));
+    assert!(s["stages"]["gpu.upsample"]["median"]
+        .as_f64()
+        .is_some_and(|v| v > 0.0));
+    let speedup = &report["subsample_speedup"];
+    assert_eq!(speedup["factor"].as_u64(), Some(2), "{speedup}");
+    assert_eq!(speedup["base_factor"].as_u64(), Some(1), "{speedup}");
+    assert!(speedup["estimate_ms"].as_f64().is_some_and(|v| v > 0.0));
+    assert!(speedup["estimate"].as_f64().is_some_and(|v| v > 0.0));
+    assert!(stdout.contains("subsample:"), "{stdout}");
     let figure = std::fs::read_to_string(&svg).expect("figure written");
     assert!(figure.starts_with("<svg") && figure.contains(common::estimator_pass()));
 }
