@@ -14,6 +14,7 @@ use divan::Bencher;
 use glam::Vec3;
 use ispm::frame::{Method, RenderSettings, Renderer};
 use ispm::gpu::{Gpu, GpuOptions};
+use ispm::pass_id::PassId;
 use ispm::reference::scenes::{cornell, point_light};
 use ispm::scene::{Light, Scene};
 use std::sync::Arc;
@@ -63,9 +64,9 @@ fn frames(bencher: Bencher, moving: &[usize]) {
         assert_eq!(frame.stats.lights_retraced, moving);
         stages.push([
             frame.stats.cpu_trace_ms,
-            frame.gpu_ms("light_gbuffers"),
-            frame.gpu_ms("bounce_map"),
-            frame.gpu_ms("readback"),
+            frame.gpu_ms(PassId::LightGbuffers),
+            frame.gpu_ms(PassId::BounceMap),
+            frame.gpu_ms(PassId::Readback),
         ]);
     });
     let median = |k: usize| {

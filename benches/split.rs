@@ -14,6 +14,7 @@
 use divan::Bencher;
 use ispm::frame::{Method, RenderSettings, Renderer};
 use ispm::gpu::{Gpu, GpuOptions};
+use ispm::pass_id::PassId;
 use ispm::plan::Effects;
 
 fn main() {
@@ -42,10 +43,10 @@ fn frames(bencher: Bencher, range: Option<u64>) {
         let frame = r.render().expect("frame");
         stages.push([
             frame.stats.frame_ms,
-            frame.gpu_ms("bounce_map"),
-            frame.gpu_ms("readback"),
-            frame.gpu_ms("upload"),
-            frame.gpu_ms("photon_volumes"),
+            frame.gpu_ms(PassId::BounceMap),
+            frame.gpu_ms(PassId::Readback),
+            frame.gpu_ms(PassId::Upload),
+            frame.gpu_ms(PassId::PhotonVolumes),
         ]);
     });
     let median = |k: usize| {

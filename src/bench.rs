@@ -32,6 +32,7 @@
 
 use crate::frame::{Density, Method, RenderSettings, Renderer, ReusedLight, Schedule, SkippedPass};
 use crate::gpu::Gpu;
+use crate::pass_id::PassId;
 use crate::plan::Effects;
 use crate::scene::{Scene, FRAME_STEP_SECONDS};
 use crate::timing::{self, Span};
@@ -159,12 +160,19 @@ pub struct SubsampleSpeedup {
     pub frame: f64,
 }
 
+impl ConfigResult {
+    /// The median ms per frame of stage `pass`, if it ran.
+    pub fn median(&self, pass: PassId) -> Option<f64> {
+        self.stages.get(&pass.stage_key()).map(|t| t.median)
+    }
+}
+
 /// Median ms of the density pass and of the upsample, per frame.
 fn estimate_ms(c: &ConfigResult) -> (f64, f64) {
-    let median = |k: &str| c.stages.get(k).map_or(0.0, |t| t.median);
+    let median = |pass| c.median(pass).unwrap_or(0.0);
     (
-        median("gpu.photon_tiles") + median("gpu.photon_volumes"),
-        median("gpu.upsample"),
+        median(PassId::PhotonTiles) + median(PassId::PhotonVolumes),
+        median(PassId::Upsample),
     )
 }
 
@@ -268,7 +276,9 @@ pub fn gpu_per_frame(spans: &[Span]) -> Vec<f64> {
 
 fn result(config: &Config) -> ConfigResult {
     let stages = stage_times(&config.spans, |_| true);
-    let cpu_ms = stages.get("cpu.cpu_trace").map_or(0.0, |t| t.median);
+    let cpu_ms = stages
+        .get(&PassId::CpuTrace.stage_key())
+        .map_or(0.0, |t| t.median);
     ConfigResult {
         name: config.name.to_string(),
         frame_ms: quantile(&config.chunk_ms, 0.5),
@@ -514,10 +524,10 @@ impl BenchReport {
         }
         if let (Some(other), Some(speedup)) = (&self.other_density, self.density_speedup) {
             let pass = |c: &ConfigResult| {
-                ["gpu.photon_tiles", "gpu.photon_volumes"]
-                    .iter()
-                    .find_map(|k| c.stages.get(*k).map(|t| (*k, t.median)))
-                    .unwrap_or(("gpu.photon_volumes", 0.0))
+                [PassId::PhotonTiles, PassId::PhotonVolumes]
+                    .into_iter()
+                    .find_map(|p| c.median(p).map(|ms| (p.stage_key(), ms)))
+                    .unwrap_or((PassId::PhotonVolumes.stage_key(), 0.0))
             };
             let (a, b) = (pass(&self.overlapped), pass(other));
             out += &format!(

@@ -44,6 +44,7 @@ use crate::gpu::{
 use crate::gpu_scene::GpuScene;
 use crate::layout::FrameUniforms;
 use crate::lighting::LightSetup;
+use crate::pass_id::PassId;
 use crate::passes::accumulate::AccumulatePass;
 use crate::passes::debug_view::{DebugInputs, DebugView, DebugViewPass};
 use crate::passes::direct::{DirectInputs, DirectPass};
@@ -166,11 +167,11 @@ impl Density {
         chosen.map_or(self, |(p, _)| self.resolve_for_device(p))
     }
 
-    /// The GPU timing scope, stats stage and plan entry of the estimator.
-    pub fn pass_name(self) -> &'static str {
+    /// The estimator's pass (`Auto` unresolved: the photon volumes).
+    pub fn pass(self) -> PassId {
         match self {
-            Density::Tiled => "photon_tiles",
-            Density::Volumes | Density::Auto => "photon_volumes",
+            Density::Tiled => PassId::PhotonTiles,
+            Density::Volumes | Density::Auto => PassId::PhotonVolumes,
         }
     }
 }
@@ -304,10 +305,10 @@ pub struct FrameImage {
 impl FrameImage {
     /// GPU milliseconds of the frame's passes named `name` (timestamp scopes), summed: 0 for
     /// none (a fold from +0.0: `Sum` of no f64 is -0.0, which JSON would print).
-    pub fn gpu_ms(&self, name: &str) -> f64 {
+    pub fn gpu_ms(&self, pass: PassId) -> f64 {
         self.gpu_spans
             .iter()
-            .filter(|s| s.name == name)
+            .filter(|s| s.name == pass.name())
             .fold(0.0, |sum, s| sum + s.ms())
     }
 }
@@ -420,24 +421,37 @@ impl ReusedLight {
 
 /// The photon passes a frame that reuses the last photon map skips: the emission and trace
 /// ([`TRACE_PASSES`]), then the upload.
-const REUSE_SKIPS: &[&str] = &[
-    "light_gbuffers",
-    "bounce_map",
-    "readback",
-    "cpu_trace",
-    "upload",
+const REUSE_SKIPS: &[PassId] = &[
+    PassId::LightGbuffers,
+    PassId::BounceMap,
+    PassId::Readback,
+    PassId::CpuTrace,
+    PassId::Upload,
 ];
 
 /// The photon passes a frame in which every light keeps its photons skips (the kept map is
 /// still uploaded: `photon_frame/retrace.rs`).
-pub(crate) const TRACE_PASSES: &[&str] = REUSE_SKIPS.split_at(4).0;
+pub(crate) const TRACE_PASSES: &[PassId] = REUSE_SKIPS.split_at(4).0;
 
-/// `names` as skipped passes, each for `reason`.
-pub(crate) fn skipped(names: &[&str], reason: &str) -> Vec<SkippedPass> {
-    names
+/// Did `pass` run in a frame whose GPU scopes were named `scopes` and whose photon trace took
+/// `cpu_trace_ms`: the one rule of the stats' `passes_skipped` and the viewer's overlay.
+pub fn pass_ran<'a>(
+    pass: PassId,
+    mut scopes: impl Iterator<Item = &'a str>,
+    cpu_trace_ms: f64,
+) -> bool {
+    match pass {
+        PassId::CpuTrace => cpu_trace_ms > 0.0,
+        _ => scopes.any(|s| s == pass.name()),
+    }
+}
+
+/// `passes` as skipped passes, each for `reason`.
+pub(crate) fn skipped(passes: &[PassId], reason: &str) -> Vec<SkippedPass> {
+    passes
         .iter()
-        .map(|name| SkippedPass {
-            name: (*name).to_string(),
+        .map(|pass| SkippedPass {
+            name: pass.name().to_string(),
             reason: reason.to_string(),
         })
         .collect()
@@ -695,7 +709,8 @@ impl Renderer {
                 None
             };
         let shadow_maps = ShadowMapPass::new(gpu)?;
-        let eye_gbuffer = EyeGBufferPass::new(gpu, "eye_gbuffer", &gpu_scene, &[&frame_uniforms])?;
+        let eye_gbuffer =
+            EyeGBufferPass::new(gpu, PassId::EyeGbuffer, &gpu_scene, &[&frame_uniforms])?;
         let direct = DirectPass::new(
             gpu,
             &DirectInputs {
@@ -1067,7 +1082,11 @@ impl Renderer {
         let emits = !reuse && self.photons.as_ref().is_some_and(PhotonFrame::emits);
         let readback_done = match &self.photons {
             Some(photons) if emits => {
-                let rec = gpu.record(QueueRole::Transfer, "readback", Some(timestamps.clone()))?;
+                let rec = gpu.record(
+                    QueueRole::Transfer,
+                    PassId::Readback.name(),
+                    Some(timestamps.clone()),
+                )?;
                 photons.record_readback(&rec.cmd());
                 Some(self.submit(rec, &[after(a_done)])?)
             }
@@ -1119,7 +1138,11 @@ impl Renderer {
             // The photon map's CPU→GPU copy (transfer queue), after the previous frame's
             // photon volumes stopped reading the photon buffer and box A handed it over.
             if photons.has_photons() {
-                let rec = gpu.record(QueueRole::Transfer, "upload", Some(timestamps.clone()))?;
+                let rec = gpu.record(
+                    QueueRole::Transfer,
+                    PassId::Upload.name(),
+                    Some(timestamps.clone()),
+                )?;
                 photons.record_upload(&rec.cmd());
                 let waits: Vec<Wait> = self
                     .last_frame_done
@@ -1241,21 +1264,28 @@ impl Renderer {
     /// The passes `stats`' frame did not run, in frame order: the photon-map reuse's (already
     /// in `stats`), then the plan's (those that really did not run).
     fn skipped_passes(&self, stats: &FrameStats) -> Vec<SkippedPass> {
-        let ran = |name: &str| match name {
-            "cpu_trace" => stats.cpu_trace_ms > 0.0,
-            _ => stats.passes_run.iter().any(|p| p == name),
+        let ran = |pass| {
+            pass_ran(
+                pass,
+                stats.passes_run.iter().map(String::as_str),
+                stats.cpu_trace_ms,
+            )
         };
         self.plan
             .passes()
             .into_iter()
             .filter_map(|p| {
-                if let Some(reused) = stats.passes_skipped.iter().find(|s| s.name == p.name) {
+                if let Some(reused) = stats
+                    .passes_skipped
+                    .iter()
+                    .find(|s| s.name == p.name.name())
+                {
                     return Some(reused.clone());
                 }
-                if p.run && p.name == "denoise" && !ran(p.name) {
+                if p.run && p.name == PassId::Denoise && !ran(p.name) {
                     // Planned, but an accumulation this long gets no levels (passes/denoise.rs).
                     return Some(SkippedPass {
-                        name: p.name.to_string(),
+                        name: p.name.name().to_string(),
                         reason: format!(
                             "--denoise {}: {} frames accumulated, the filter has stopped",
                             self.settings.denoise, stats.accumulated_frames
@@ -1263,7 +1293,7 @@ impl Renderer {
                     });
                 }
                 (!p.run && !ran(p.name)).then(|| SkippedPass {
-                    name: p.name.to_string(),
+                    name: p.name.name().to_string(),
                     reason: p.reason,
                 })
             })

@@ -11,6 +11,7 @@
 //!   needs; no Vulkan.
 //! - [`metrics`]: relMSE, FLIP and the error–time Pareto front; no Vulkan.
 //! - [`sweep`]: `ispm sweep`, accuracy against time over a grid of settings.
+//! - [`pass_id`]: [`pass_id::PassId`], every stage of the frame by one name.
 //! - [`timing`]: CPU and GPU spans on one host clock, Chrome trace JSON.
 //! - [`camera_control`]: the viewer's fly camera and scripted camera path; no window.
 //! - [`viewer`], [`overlay`]: `ispm view`'s window, keys and egui overlay (drawn by
@@ -27,6 +28,7 @@ pub mod lighting;
 pub mod metrics;
 pub mod output;
 pub mod overlay;
+pub mod pass_id;
 pub mod passes;
 pub mod photon;
 pub mod photon_frame;

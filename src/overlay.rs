@@ -330,12 +330,13 @@ impl Overlay {
                 let stats = input.last.map(|(_, s)| s);
                 let spans = input.last.map(|(s, _)| s.as_slice()).unwrap_or_default();
                 for p in input.plan.passes() {
-                    let ran = match p.name {
-                        "cpu_trace" => stats.is_some_and(|s| s.cpu_trace_ms > 0.0),
-                        name => spans.iter().any(|s| s.name == name),
-                    };
-                    let reused =
-                        stats.and_then(|s| s.passes_skipped.iter().find(|k| k.name == p.name));
+                    let ran = crate::frame::pass_ran(
+                        p.name,
+                        spans.iter().map(|s| s.name.as_str()),
+                        stats.map_or(0.0, |s| s.cpu_trace_ms),
+                    );
+                    let reused = stats
+                        .and_then(|s| s.passes_skipped.iter().find(|k| k.name == p.name.name()));
                     let (mark, colour, reason) = match (ran, reused) {
                         (true, _) => ("✔", Color32::LIGHT_GREEN, p.reason.clone()),
                         (false, Some(skip)) => ("×", Color32::GRAY, skip.reason.clone()),

@@ -31,6 +31,7 @@ use crate::frame::{FrameStats, RenderSettings};
 use crate::gpu::{vk, Access, Buffer, Cmd, Gpu, Image, MemoryLocation, QueueRole, ViewKind};
 use crate::gpu_scene::GpuScene;
 use crate::ispm::{BouncePlan, Capacity};
+use crate::pass_id::PassId;
 use crate::passes::bounce_map::{BounceMapIo, BounceMapPass, ViewBatch};
 use crate::passes::composite::CompositePass;
 use crate::passes::denoise::DenoisePass;
@@ -631,7 +632,7 @@ impl PhotonFrame {
             })
             .collect();
         {
-            let _scope = cmd.scope("light_gbuffers");
+            let _scope = cmd.scope(PassId::LightGbuffers.name());
             self.light_pass
                 .record(cmd, scene, &draws, &extents, &mut self.light_gbuffer);
         }
@@ -655,7 +656,7 @@ impl PhotonFrame {
         if self.batches.is_empty() {
             return;
         }
-        let _scope = cmd.scope("readback");
+        let _scope = cmd.scope(PassId::Readback.name());
         let record = size_of::<BounceMapPhoton>() as u64;
         let split = self.bounce_map.split;
         for buffer in &self.bounce_map.device {
@@ -767,7 +768,7 @@ impl PhotonFrame {
         if self.count() == 0 {
             return;
         }
-        let _scope = cmd.scope("upload");
+        let _scope = cmd.scope(PassId::Upload.name());
         for (staging, photons) in self.buffers.used() {
             cmd.acquire_buffer(photons, QueueRole::Graphics, Access::TransferDst);
             cmd.copy_buffer(staging, photons);

@@ -29,6 +29,7 @@ mod tests;
 
 pub use enclosure::{Enclosures, Probe, StaticEnclosures};
 
+use crate::pass_id::PassId;
 use emitters::{emitters_decision, has_area_samples};
 
 use crate::frame::{Method, RenderSettings, SkippedPass};
@@ -96,10 +97,10 @@ impl LightPlan {
     }
 }
 
-/// One pass of the frame (named as its GPU timestamp scope, `stats::STAGES`), run or skipped.
+/// One pass of the frame, run or skipped.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct PassPlan {
-    pub name: &'static str,
+    pub name: PassId,
     pub run: bool,
     pub reason: String,
 }
@@ -725,30 +726,38 @@ impl EffectsPlan {
         let photon = |name| pass(name, indirect.needed, &indirect.reason);
         let shadows = match self.lights.iter().find(|l| l.direct) {
             Some(l) => pass(
-                "shadow_maps",
+                PassId::ShadowMaps,
                 true,
                 &format!("light '{}' lights the view", l.name),
             ),
-            None if self.lights.is_empty() => pass("shadow_maps", false, "no lights"),
-            None => pass("shadow_maps", false, "no light reaches anything in view"),
+            None if self.lights.is_empty() => pass(PassId::ShadowMaps, false, "no lights"),
+            None => pass(
+                PassId::ShadowMaps,
+                false,
+                "no light reaches anything in view",
+            ),
         };
         let upsample = if !indirect.needed {
-            photon("upsample")
+            photon(PassId::Upsample)
         } else if self.subsample > 1 {
-            pass("upsample", true, &format!("--subsample {}", self.subsample))
+            pass(
+                PassId::Upsample,
+                true,
+                &format!("--subsample {}", self.subsample),
+            )
         } else {
             pass(
-                "upsample",
+                PassId::Upsample,
                 false,
                 "--subsample 1: a full-resolution estimate",
             )
         };
         // The boundary normalisation of the global photons (`passes/support.rs`).
         let support = if !indirect.needed {
-            photon("support")
+            photon(PassId::Support)
         } else if self.subsample > 1 {
             pass(
-                "support",
+                PassId::Support,
                 true,
                 &format!(
                     "the photon volumes' kernels at surface boundaries (the 1/{} estimate)",
@@ -757,16 +766,16 @@ impl EffectsPlan {
             )
         } else {
             pass(
-                "support",
+                PassId::Support,
                 true,
                 "the photon volumes' kernels at surface boundaries",
             )
         };
         let denoise = if !indirect.needed {
-            photon("denoise")
+            photon(PassId::Denoise)
         } else if self.denoise > 0 {
             pass(
-                "denoise",
+                PassId::Denoise,
                 true,
                 &format!(
                     "--denoise {}: the indirect light's blotches, fewer levels as frames \
@@ -775,56 +784,60 @@ impl EffectsPlan {
                 ),
             )
         } else {
-            pass("denoise", false, "--denoise 0")
+            pass(PassId::Denoise, false, "--denoise 0")
         };
         let translucent = |name| pass(name, self.translucent.needed, &self.translucent.reason);
         // The density estimator that runs, and the one that does not (`--density`).
         use crate::frame::Density;
         let (tiles, volumes) = match self.density {
             Density::Tiled => (
-                photon("photon_tiles"),
+                photon(PassId::PhotonTiles),
                 pass(
-                    "photon_volumes",
+                    PassId::PhotonVolumes,
                     false,
                     "--density tiled: the tiled gather makes the estimate",
                 ),
             ),
             Density::Volumes => (
                 pass(
-                    "photon_tiles",
+                    PassId::PhotonTiles,
                     false,
                     "--density volumes: the photon volumes make the estimate",
                 ),
-                photon("photon_volumes"),
+                photon(PassId::PhotonVolumes),
             ),
             Density::Auto => (
                 pass(
-                    "photon_tiles",
+                    PassId::PhotonTiles,
                     false,
                     "--density auto: the tiled gather where the device has its subgroup operations",
                 ),
-                photon("photon_volumes"),
+                photon(PassId::PhotonVolumes),
             ),
         };
         vec![
-            photon("light_gbuffers"),
-            photon("bounce_map"),
-            photon("readback"),
-            photon("cpu_trace"),
-            photon("upload"),
+            photon(PassId::LightGbuffers),
+            photon(PassId::BounceMap),
+            photon(PassId::Readback),
+            photon(PassId::CpuTrace),
+            photon(PassId::Upload),
             shadows,
-            pass("eye_gbuffer", true, "every frame: the camera's view"),
-            pass("direct", true, "every frame: direct light and emission"),
+            pass(PassId::EyeGbuffer, true, "every frame: the camera's view"),
+            pass(
+                PassId::Direct,
+                true,
+                "every frame: direct light and emission",
+            ),
             volumes,
             tiles,
             support,
             denoise,
             upsample,
-            photon("composite"),
-            translucent("environment"),
-            translucent("translucent"),
+            photon(PassId::Composite),
+            translucent(PassId::Environment),
+            translucent(PassId::Translucent),
             self.accumulate_pass(),
-            pass("tonemap", true, "every frame: the display image"),
+            pass(PassId::Tonemap, true, "every frame: the display image"),
         ]
     }
 }
@@ -834,7 +847,7 @@ impl EffectsPlan {
     fn accumulate_pass(&self) -> PassPlan {
         if self.accumulate && !self.indirect.needed {
             PassPlan {
-                name: "accumulate",
+                name: PassId::Accumulate,
                 run: true,
                 reason: "progressive: still frames are averaged, each with new points on the \
                          emissive surfaces (reset when anything moves)"
@@ -842,7 +855,7 @@ impl EffectsPlan {
             }
         } else if self.accumulate {
             PassPlan {
-                name: "accumulate",
+                name: PassId::Accumulate,
                 run: true,
                 reason: "progressive: still frames are averaged, each with new photons and \
                          smaller kernels (reset when anything moves)"
@@ -850,13 +863,13 @@ impl EffectsPlan {
             }
         } else if !self.indirect.needed && !self.emitters.needed {
             PassPlan {
-                name: "accumulate",
+                name: PassId::Accumulate,
                 run: false,
                 reason: "no indirect light: every frame is the same".to_string(),
             }
         } else {
             PassPlan {
-                name: "accumulate",
+                name: PassId::Accumulate,
                 run: false,
                 reason: "not accumulating: each frame stands alone (real-time frames, bench)"
                     .to_string(),

@@ -5,32 +5,15 @@
 //! and `frame` its `frame` span (host time from the frame's start to the end of its GPU work).
 
 use crate::frame::FrameImage;
+use crate::pass_id::PassId;
 use crate::scene::Scene;
 use serde_json::{json, Map, Value};
 
-/// The stages the stats always report (0 when a stage did not run): DESIGN.md §7's, and the
-/// frame's other passes.
-pub const STAGES: &[&str] = &[
-    "shadow_maps",
-    "light_gbuffers",
-    "bounce_map",
-    "readback",
-    "cpu_trace",
-    "upload",
-    "eye_gbuffer",
-    "direct",
-    "photon_volumes",
-    "photon_tiles",
-    "support",
-    "denoise",
-    "upsample",
-    "composite",
-    "environment",
-    "translucent",
-    "accumulate",
-    "tonemap",
-    "frame",
-];
+/// The stages the stats always report (0 when a stage did not run), in frame order
+/// ([`PassId::in_stats`]); `ms.frame` follows them (the main thread's `frame` span).
+pub fn stages() -> impl Iterator<Item = PassId> {
+    PassId::ALL.into_iter().filter(|p| p.in_stats())
+}
 
 /// Builds the stats object of `frame`.
 pub fn frame_json(
@@ -41,16 +24,16 @@ pub fn frame_json(
     validation_messages: usize,
 ) -> Value {
     let mut ms = Map::new();
-    for stage in STAGES {
-        let value = match *stage {
-            // Host-side spans (timing::span guards) of the frame.
-            "cpu_trace" => frame.stats.cpu_trace_ms,
-            "frame" => frame.stats.frame_ms,
+    for stage in stages() {
+        let value = match stage {
+            // A host-side span (timing::span guard) of the frame.
+            PassId::CpuTrace => frame.stats.cpu_trace_ms,
             // GPU timestamp scopes.
             _ => frame.gpu_ms(stage),
         };
-        ms.insert((*stage).to_string(), json!(value));
+        ms.insert(stage.name().to_string(), json!(value));
     }
+    ms.insert("frame".to_string(), json!(frame.stats.frame_ms));
     let s = &frame.stats;
     json!({
         "triangles": triangles,

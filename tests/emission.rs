@@ -309,7 +309,10 @@ fn the_effects_plan_treats_an_emitter_as_a_light() {
     );
     assert!(plan.accumulate);
     assert!(text.contains("emissive surfaces as lights: yes"), "{text}");
-    let shadows = plan.passes().into_iter().find(|p| p.name == "shadow_maps");
+    let shadows = plan
+        .passes()
+        .into_iter()
+        .find(|p| p.name == ispm::pass_id::PassId::ShadowMaps);
     assert!(shadows.is_some_and(|p| p.run));
     // Direct light alone accumulates too: its shadows are sampled anew every frame.
     let direct = EffectsPlan::analyse(

@@ -18,6 +18,7 @@
 use super::device::{Gpu, QueueRole, TimelinePoint};
 use super::error::vk_err;
 use super::Cmd;
+use crate::pass_id::PassId;
 use ash::vk;
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -151,7 +152,7 @@ impl OverlayPass {
                 self.gpu.wait(oldest)?;
             }
         }
-        let _scope = cmd.scope("overlay");
+        let _scope = cmd.scope(PassId::Overlay.name());
         let range = vk::ImageSubresourceRange {
             aspect_mask: vk::ImageAspectFlags::COLOR,
             base_mip_level: 0,

@@ -21,6 +21,7 @@ use super::error::{vk_err, GpuError, GpuResult};
 use super::overlay::{OverlayFrame, OverlayPass};
 use super::resources::Image;
 use super::Access;
+use crate::pass_id::PassId;
 use ash::vk;
 use raw_window_handle::{HasDisplayHandle, HasWindowHandle};
 use std::sync::Arc;
@@ -276,10 +277,12 @@ impl Swapchain {
             Err(e) => return Err(vk_err("vkAcquireNextImageKHR")(e).into()),
         };
         let target = self.images[index as usize];
-        let rec = self.gpu.record(QueueRole::Graphics, "present", None)?;
+        let rec = self
+            .gpu
+            .record(QueueRole::Graphics, PassId::Present.name(), None)?;
         {
             let cmd = rec.cmd();
-            let _scope = cmd.scope("present");
+            let _scope = cmd.scope(PassId::Present.name());
             cmd.transition(image, Access::BlitSrc);
             cmd.blit_to_swapchain(image, target, self.extent, overlay.is_none());
             if let Some((pass, frame)) = &mut overlay {

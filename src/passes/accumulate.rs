@@ -16,6 +16,7 @@
 
 use super::ComputeKernel;
 use crate::gpu::{vk, Access, BindingKind, Cmd, Gpu, Image, ImageDesc, ViewKind, Write};
+use crate::pass_id::PassId;
 use std::sync::Arc;
 
 #[repr(C)]
@@ -50,7 +51,7 @@ impl AccumulatePass {
         )?;
         let kernel = ComputeKernel::new(
             gpu,
-            "accumulate",
+            PassId::Accumulate.name(),
             &crate::gpu::shader_table::ACCUMULATE_COMP,
             &[BindingKind::StorageImage, BindingKind::StorageImage],
             size_of::<Push>() as u32,
@@ -68,7 +69,7 @@ impl AccumulatePass {
 
     /// Adds `radiance` to the mean of the `frames` frames before it and writes the mean back.
     pub fn record(&mut self, cmd: &Cmd, radiance: &mut Image, frames: u32) {
-        let _scope = cmd.scope("accumulate");
+        let _scope = cmd.scope(PassId::Accumulate.name());
         cmd.transition(radiance, Access::ComputeStorageWrite);
         cmd.transition(&self.accumulation, Access::ComputeStorageWrite);
         let push = Push {

@@ -20,6 +20,7 @@
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
 use crate::gpu::{Access, BindingKind, Buffer, Cmd, Filter, Gpu, Sampler, Write};
+use crate::pass_id::PassId;
 use crate::photon::bsdf::BsdfVariant;
 use crate::photon::types::BounceMapPhoton;
 use std::ops::Range;
@@ -229,7 +230,7 @@ impl BounceMapPass {
         let sets: Vec<&[Write]> = sets.iter().map(|s| s.as_slice()).collect();
         let kernel = ComputeKernel::with_sets(
             gpu,
-            "bounce_map",
+            PassId::BounceMap.name(),
             &crate::gpu::shader_table::BOUNCE_MAP_COMP,
             (&kinds, size_of::<Push>() as u32),
             &sets,
@@ -251,7 +252,7 @@ impl BounceMapPass {
         batches: &[ViewBatch],
         (seed, sample): (u32, u32),
     ) {
-        let _scope = cmd.scope("bounce_map");
+        let _scope = cmd.scope(PassId::BounceMap.name());
         let g = io.light_gbuffer;
         for image in [&g.position, &g.normal, &g.albedo, &g.material] {
             cmd.transition(image, Access::ComputeSampledRead);

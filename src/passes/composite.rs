@@ -3,6 +3,7 @@
 
 use super::ComputeKernel;
 use crate::gpu::{Access, BindingKind, Cmd, Filter, Gpu, Image, Sampler, Write};
+use crate::pass_id::PassId;
 use std::sync::Arc;
 
 #[repr(C)]
@@ -22,7 +23,7 @@ impl CompositePass {
         let sampler = Sampler::new(gpu, "composite.nearest", Filter::Nearest, false)?;
         let kernel = ComputeKernel::new(
             gpu,
-            "composite",
+            PassId::Composite.name(),
             &crate::gpu::shader_table::COMPOSITE_COMP,
             &[BindingKind::SampledImage, BindingKind::StorageImage],
             size_of::<Push>() as u32,
@@ -42,7 +43,7 @@ impl CompositePass {
     }
 
     pub fn record(&self, cmd: &Cmd, indirect: &Image, radiance: &mut Image) {
-        let _scope = cmd.scope("composite");
+        let _scope = cmd.scope(PassId::Composite.name());
         cmd.transition(indirect, Access::ComputeSampledRead);
         cmd.transition(radiance, Access::ComputeStorageWrite);
         let push = Push {

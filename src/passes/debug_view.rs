@@ -25,6 +25,7 @@ use super::ComputeKernel;
 use crate::gpu::{
     shader_table, vk, Access, BindingKind, Buffer, Cmd, Filter, Gpu, Image, Sampler, Write,
 };
+use crate::pass_id::PassId;
 use std::sync::Arc;
 
 /// The count at the top of the photon-overdraw view's scale.
@@ -181,7 +182,7 @@ impl DebugViewPass {
         use BindingKind::{SampledImage, StorageBuffer, StorageImage, UniformBuffer};
         let sampler = Sampler::new(gpu, "debug_view.nearest", Filter::Nearest, false)?;
         let s = &sampler;
-        let name = "debug_view";
+        let name = PassId::DebugView.name();
         let photons = inputs.photons.as_ref();
         let need = || photons.ok_or_else(|| missing(view));
         let image = |image| Write::Image { image, sampler: s };
@@ -317,7 +318,7 @@ impl DebugViewPass {
         if self.kernels.is_empty() {
             return; // direct only: the frame itself skipped the composite
         }
-        let _scope = cmd.scope("debug_view");
+        let _scope = cmd.scope(PassId::DebugView.name());
         let groups = super::image_groups(display.width, display.height);
         let sampled = |image: &Image| cmd.transition(image, Access::ComputeSampledRead);
         let photons = inputs.photons.as_ref();

@@ -39,6 +39,7 @@ use super::ComputeKernel;
 use crate::gpu::{
     vk, Access, BindingKind, Cmd, Filter, Gpu, Image, ImageDesc, Sampler, ViewKind, Write,
 };
+use crate::pass_id::PassId;
 use std::sync::Arc;
 
 /// Exponent of the normal-similarity weight.
@@ -160,7 +161,7 @@ impl DenoisePass {
         let from_scratch = set(&scratch, global);
         let kernel = ComputeKernel::with_sets(
             gpu,
-            "denoise",
+            PassId::Denoise.name(),
             &crate::gpu::shader_table::DENOISE_COMP,
             (&kinds, size_of::<Push>() as u32),
             &[&from_global, &from_scratch],
@@ -187,7 +188,7 @@ impl DenoisePass {
         if levels == 0 {
             return;
         }
-        let _scope = cmd.scope("denoise");
+        let _scope = cmd.scope(PassId::Denoise.name());
         for image in [&gbuffer.position, &gbuffer.normal, &gbuffer.albedo] {
             cmd.transition(image, Access::ComputeSampledRead);
         }

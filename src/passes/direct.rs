@@ -5,6 +5,7 @@
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
 use crate::gpu::{Access, BindingKind, Buffer, Cmd, Filter, Gpu, Image, Sampler, Write};
+use crate::pass_id::PassId;
 use crate::photon::bsdf::BsdfVariant;
 use std::sync::Arc;
 
@@ -76,7 +77,7 @@ impl DirectPass {
         ];
         let kernel = ComputeKernel::new(
             gpu,
-            "direct",
+            PassId::Direct.name(),
             &crate::gpu::shader_table::DIRECT_COMP,
             &kinds,
             0,
@@ -91,7 +92,7 @@ impl DirectPass {
     }
 
     pub fn record(&self, cmd: &Cmd, inputs: &DirectInputs, radiance: &mut Image) {
-        let _scope = cmd.scope("direct");
+        let _scope = cmd.scope(PassId::Direct.name());
         let g = inputs.gbuffer;
         for image in [
             &g.position,

@@ -25,6 +25,7 @@ use crate::gpu::{
 };
 use crate::gpu_scene::{Draw, GpuScene};
 use crate::layout::{DrawPush, FrameUniforms, Vertex};
+use crate::pass_id::PassId;
 use crate::photon::bsdf::BsdfVariant;
 use glam::{Mat4, Vec3, Vec4};
 use std::sync::Arc;
@@ -105,7 +106,8 @@ impl EnvironmentPass {
         ];
         let bindings = Binding::sequence(&kinds, graphics);
         let frame_layout = DescriptorLayout::new(gpu, "environment.frame", &bindings, 6)?;
-        let (texture_layout, material_sets) = material_texture_sets(gpu, "environment", scene)?;
+        let (texture_layout, material_sets) =
+            material_texture_sets(gpu, PassId::Environment.name(), scene)?;
         let shadow = Sampler::new(
             gpu,
             "environment.shadow_compare",
@@ -163,7 +165,7 @@ impl EnvironmentPass {
         let pipeline = Pipeline::graphics(
             gpu,
             &GraphicsDesc {
-                name: "environment",
+                name: PassId::Environment.name(),
                 vertex: &crate::gpu::shader_table::EYE_GBUFFER_VERT,
                 fragment: Some(&crate::gpu::shader_table::ENVIRONMENT_FRAG),
                 vertex_stride: size_of::<Vertex>() as u32,
@@ -232,7 +234,7 @@ impl EnvironmentPass {
         if !self.dirty {
             return;
         }
-        let _scope = cmd.scope("environment");
+        let _scope = cmd.scope(PassId::Environment.name());
         cmd.transition(shadow_atlas, Access::FragmentSampledRead);
         for (face, set) in self.face_sets.iter().enumerate() {
             cmd.begin_rendering(

@@ -17,6 +17,7 @@ use crate::gpu::{
 };
 use crate::gpu_scene::{Draw, GpuScene};
 use crate::layout::{DrawPush, Vertex};
+use crate::pass_id::PassId;
 use std::sync::Arc;
 
 pub const POSITION: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
@@ -89,7 +90,7 @@ pub struct View<'a> {
 
 /// Rasterises G-buffers: the eye's (one view) or the lights' (one view per layer).
 pub struct GBufferPass {
-    name: &'static str,
+    name: PassId,
     pipeline: Pipeline,
     _frame_layout: DescriptorLayout,
     _texture_layout: DescriptorLayout,
@@ -109,7 +110,7 @@ impl GBufferPass {
     /// test keeps the greater depth and the attachment is cleared to 0.
     pub fn new(
         gpu: &Arc<Gpu>,
-        name: &'static str,
+        name: PassId,
         scene: &GpuScene,
         frames: &[&Buffer],
     ) -> anyhow::Result<Self> {
@@ -131,7 +132,8 @@ impl GBufferPass {
             ],
             frames.len().max(1) as u32,
         )?;
-        let (texture_layout, material_sets) = material_texture_sets(gpu, "eye_gbuffer", scene)?;
+        let (texture_layout, material_sets) =
+            material_texture_sets(gpu, PassId::EyeGbuffer.name(), scene)?;
         let frame_sets = frames
             .iter()
             .map(|f| frame_layout.allocate(&[Write::Buffer(f), Write::Buffer(&scene.materials)]))
@@ -140,7 +142,7 @@ impl GBufferPass {
         let pipeline = Pipeline::graphics(
             gpu,
             &GraphicsDesc {
-                name,
+                name: name.name(),
                 vertex: &crate::gpu::shader_table::EYE_GBUFFER_VERT,
                 fragment: Some(&crate::gpu::shader_table::EYE_GBUFFER_FRAG),
                 vertex_stride: size_of::<Vertex>() as u32,
@@ -174,7 +176,7 @@ impl GBufferPass {
 
     /// Draws `view` into its layer of `gbuffer`.
     pub fn record(&self, cmd: &Cmd, scene: &GpuScene, view: &View, gbuffer: &mut GBuffer) {
-        let _scope = cmd.scope(self.name);
+        let _scope = cmd.scope(self.name.name());
         let clear = |image| Attachment {
             image,
             layer: view.layer,

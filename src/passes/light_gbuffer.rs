@@ -9,6 +9,7 @@ use super::eye_gbuffer::{GBuffer, GBufferPass, View};
 use crate::gpu::{vk, Buffer, Cmd, Gpu};
 use crate::gpu_scene::{Draw, GpuScene};
 use crate::layout::FrameUniforms;
+use crate::pass_id::PassId;
 use std::sync::Arc;
 
 pub struct LightGBufferPass {
@@ -31,7 +32,7 @@ impl LightGBufferPass {
             .collect::<Result<Vec<_>, _>>()?;
         let refs: Vec<&Buffer> = frames.iter().collect();
         // The light views reverse depth as the eye's does (`lighting.rs`).
-        let raster = GBufferPass::new(gpu, "light_gbuffer", scene, &refs)?;
+        let raster = GBufferPass::new(gpu, PassId::LightGbuffer, scene, &refs)?;
         Ok(Self { raster, frames })
     }
 

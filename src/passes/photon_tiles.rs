@@ -42,6 +42,7 @@ use crate::gpu::{
     vk, Access, Binding, BindingKind, Buffer, Cmd, ComputeDesc, DescriptorLayout, DescriptorSet,
     Filter, Gpu, Image, MemoryLocation, Pipeline, Sampler, SpecConstant, Write,
 };
+use crate::pass_id::PassId;
 use crate::photon::bsdf::BsdfVariant;
 use crate::photon::kernel::KernelSettings;
 use crate::photon_frame::tiles::TileLists;
@@ -132,7 +133,7 @@ impl PhotonTilesPass {
         let bindings = Binding::sequence(&kinds, vk::ShaderStageFlags::COMPUTE);
         let layout = DescriptorLayout::new(
             gpu,
-            "photon_tiles",
+            PassId::PhotonTiles.name(),
             &bindings,
             (MAX_PHOTON_BUFFERS * slots.max(1)) as u32,
         )?;
@@ -142,7 +143,7 @@ impl PhotonTilesPass {
         let pipeline = Pipeline::compute(
             gpu,
             &ComputeDesc {
-                name: "photon_tiles",
+                name: PassId::PhotonTiles.name(),
                 shader: &crate::gpu::shader_table::PHOTON_TILES_COMP,
                 set_layouts: &[&layout],
                 push_constant_size: size_of::<Push>() as u32,
@@ -261,7 +262,7 @@ impl PhotonTilesPass {
         s.indices.write(0, indices)?;
         s.spheres.write(0, spheres)?;
 
-        let _scope = cmd.scope("photon_tiles");
+        let _scope = cmd.scope(PassId::PhotonTiles.name());
         let g: &GBuffer = inputs.gbuffer;
         for image in [&g.position, &g.normal, &g.albedo, &g.material] {
             cmd.transition(image, Access::ComputeSampledRead);

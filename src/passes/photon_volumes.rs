@@ -40,6 +40,7 @@ use crate::gpu::{
     DescriptorSet, Filter, Gpu, GraphicsDesc, Image, ImageDesc, Load, Pipeline, Sampler,
     VertexAttribute, ViewKind, Write,
 };
+use crate::pass_id::PassId;
 use crate::photon::bsdf::BsdfVariant;
 use crate::photon::kernel::KernelSettings;
 use crate::shared_constants::{BILLBOARD_INSIDE, BILLBOARD_MARGIN};
@@ -211,8 +212,12 @@ impl PhotonVolumesPass {
             BindingKind::SampledImage,
         ];
         let bindings = Binding::sequence(&kinds, graphics);
-        let layout =
-            DescriptorLayout::new(gpu, "photon_volumes", &bindings, MAX_PHOTON_BUFFERS as u32)?;
+        let layout = DescriptorLayout::new(
+            gpu,
+            PassId::PhotonVolumes.name(),
+            &bindings,
+            MAX_PHOTON_BUFFERS as u32,
+        )?;
         let sampler = Sampler::new(gpu, "photon_volumes.nearest", Filter::Nearest, false)?;
         let sets = inputs
             .photons
@@ -256,7 +261,7 @@ impl PhotonVolumesPass {
         let pipeline = Pipeline::graphics(
             gpu,
             &GraphicsDesc {
-                name: "photon_volumes",
+                name: PassId::PhotonVolumes.name(),
                 vertex: &crate::gpu::shader_table::PHOTON_VOLUMES_VERT,
                 fragment: Some(fragment),
                 vertex_stride: 12,
@@ -334,7 +339,7 @@ impl PhotonVolumesPass {
         (counts, kernel, offset): (&[u32], &KernelSettings, glam::Vec3),
         targets: &[&Image],
     ) {
-        let _scope = cmd.scope("photon_volumes");
+        let _scope = cmd.scope(PassId::PhotonVolumes.name());
         let g = inputs.gbuffer;
         for image in [&g.position, &g.normal, &g.albedo, &g.material] {
             cmd.transition(image, Access::FragmentSampledRead);

@@ -7,6 +7,7 @@ use crate::gpu::{
 };
 use crate::gpu_scene::{Draw, GpuScene};
 use crate::layout::{DrawPush, Vertex};
+use crate::pass_id::PassId;
 use std::sync::Arc;
 
 pub const FORMAT: vk::Format = vk::Format::D32_SFLOAT;
@@ -65,7 +66,7 @@ impl ShadowMapPass {
 
     /// Renders `views[i]` (each instance's draw for view i) into layer i of `atlas`.
     pub fn record(&self, cmd: &Cmd, scene: &GpuScene, views: &[Vec<Draw>], atlas: &mut Image) {
-        let _scope = cmd.scope("shadow_maps");
+        let _scope = cmd.scope(PassId::ShadowMaps.name());
         for (layer, draws) in views.iter().enumerate() {
             cmd.begin_rendering(
                 &[],

@@ -61,6 +61,7 @@ use super::ComputeKernel;
 use crate::gpu::{
     Access, BindingKind, Buffer, Cmd, Filter, Gpu, Image, Sampler, SpecConstant, Write,
 };
+use crate::pass_id::PassId;
 use std::sync::Arc;
 
 #[repr(C)]
@@ -99,7 +100,7 @@ impl SupportPass {
         };
         let kernel = ComputeKernel::new(
             gpu,
-            "support",
+            PassId::Support.name(),
             &crate::gpu::shader_table::SUPPORT_COMP,
             &[
                 BindingKind::UniformBuffer,
@@ -138,7 +139,7 @@ impl SupportPass {
         support: &[Image; 2],
         subsample: u32,
     ) {
-        let _scope = cmd.scope("support");
+        let _scope = cmd.scope(PassId::Support.name());
         for image in [&gbuffer.position, &gbuffer.normal] {
             cmd.transition(image, Access::ComputeSampledRead);
         }

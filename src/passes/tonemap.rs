@@ -4,6 +4,7 @@ use super::ComputeKernel;
 use crate::gpu::{
     vk, Access, BindingKind, Cmd, Filter, Gpu, Image, ImageDesc, Sampler, ViewKind, Write,
 };
+use crate::pass_id::PassId;
 use crate::shared_constants::{TONEMAP_ACES, TONEMAP_LINEAR, TONEMAP_PBR_NEUTRAL};
 use std::sync::Arc;
 
@@ -67,7 +68,7 @@ impl TonemapPass {
         let sampler = Sampler::new(gpu, "tonemap.nearest", Filter::Nearest, false)?;
         let kernel = ComputeKernel::new(
             gpu,
-            "tonemap",
+            PassId::Tonemap.name(),
             &crate::gpu::shader_table::TONEMAP_COMP,
             &[BindingKind::SampledImage, BindingKind::StorageImage],
             size_of::<Push>() as u32,
@@ -94,7 +95,7 @@ impl TonemapPass {
         exposure_ev: f32,
         ldr: &mut Image,
     ) {
-        let _scope = cmd.scope("tonemap");
+        let _scope = cmd.scope(PassId::Tonemap.name());
         cmd.transition(hdr, Access::ComputeSampledRead);
         cmd.transition(ldr, Access::ComputeStorageWrite);
         let push = Push {

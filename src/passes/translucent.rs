@@ -14,6 +14,7 @@ use crate::gpu::{
 };
 use crate::gpu_scene::{Draw, GpuScene};
 use crate::layout::{DrawPush, Vertex};
+use crate::pass_id::PassId;
 use crate::photon::bsdf::BsdfVariant;
 use std::sync::Arc;
 
@@ -64,8 +65,9 @@ impl TranslucentPass {
             BindingKind::SampledImage,
         ];
         let bindings = Binding::sequence(&kinds, graphics);
-        let layout = DescriptorLayout::new(gpu, "translucent", &bindings, 1)?;
-        let (texture_layout, material_sets) = material_texture_sets(gpu, "translucent", scene)?;
+        let layout = DescriptorLayout::new(gpu, PassId::Translucent.name(), &bindings, 1)?;
+        let (texture_layout, material_sets) =
+            material_texture_sets(gpu, PassId::Translucent.name(), scene)?;
         let shadow = Sampler::new(
             gpu,
             "translucent.shadow_compare",
@@ -96,7 +98,7 @@ impl TranslucentPass {
         let pipeline = Pipeline::graphics(
             gpu,
             &GraphicsDesc {
-                name: "translucent",
+                name: PassId::Translucent.name(),
                 vertex: &crate::gpu::shader_table::EYE_GBUFFER_VERT,
                 fragment: Some(&crate::gpu::shader_table::TRANSLUCENT_FRAG),
                 vertex_stride: size_of::<Vertex>() as u32,
@@ -139,7 +141,7 @@ impl TranslucentPass {
         depth: &mut Image,
         radiance: &mut Image,
     ) {
-        let _scope = cmd.scope("translucent");
+        let _scope = cmd.scope(PassId::Translucent.name());
         cmd.transition(shadow_atlas, Access::FragmentSampledRead);
         cmd.transition(environment_map, Access::FragmentSampledRead);
         cmd.transition(environment_indirect, Access::FragmentSampledRead);

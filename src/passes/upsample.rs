@@ -38,6 +38,7 @@ use super::ComputeKernel;
 use crate::gpu::{
     vk, Access, BindingKind, Buffer, Cmd, Filter, Gpu, Image, ImageDesc, Sampler, ViewKind, Write,
 };
+use crate::pass_id::PassId;
 use crate::photon::bsdf::BsdfVariant;
 use std::sync::Arc;
 
@@ -148,7 +149,7 @@ impl UpsamplePass {
         };
         let kernel = ComputeKernel::new(
             gpu,
-            "upsample",
+            PassId::Upsample.name(),
             &crate::gpu::shader_table::UPSAMPLE_COMP,
             &kinds,
             size_of::<Push>() as u32,
@@ -173,7 +174,7 @@ impl UpsamplePass {
     }
 
     pub fn record(&self, cmd: &Cmd, inputs: &UpsampleInputs, indirect: &mut Image) {
-        let _scope = cmd.scope("upsample");
+        let _scope = cmd.scope(PassId::Upsample.name());
         let g = inputs.gbuffer;
         for image in [&g.position, &g.normal, &g.albedo, &g.material] {
             cmd.transition(image, Access::ComputeSampledRead);

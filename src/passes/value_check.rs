@@ -43,6 +43,7 @@ use crate::gpu::{
     vk, Access, BindingKind, Buffer, Cmd, Filter, Gpu, Image, MemoryLocation, Sampler, Write,
 };
 use crate::layout::ValueCounters;
+use crate::pass_id::PassId;
 use crate::passes::bounce_map::MAX_BOUNCE_BUFFERS;
 use crate::passes::photon_volumes::MAX_PHOTON_BUFFERS;
 use std::ops::Range;
@@ -258,7 +259,7 @@ impl ValueCheckPass {
     pub fn new(gpu: &Arc<Gpu>, frames: usize) -> anyhow::Result<Self> {
         let images = Kernel::new(
             gpu,
-            "value_check",
+            PassId::ValueCheck.name(),
             &crate::gpu::shader_table::VALUE_CHECK_COMP,
             (BindingKind::SampledImage, size_of::<ImagePush>()),
             (frames, |_| 1),
@@ -317,7 +318,7 @@ impl ValueCheckPass {
 
     /// Counts the bad values of the RGBA float `image`, named `which`.
     pub fn image(&mut self, cmd: &Cmd, which: Checked, image: &Image) -> anyhow::Result<()> {
-        let _scope = cmd.scope("value_check");
+        let _scope = cmd.scope(PassId::ValueCheck.name());
         for injection in self.take_injections(which, 0..u64::MAX) {
             let texel = injection.index / 4;
             let width = u64::from(image.width);
@@ -364,7 +365,7 @@ impl ValueCheckPass {
             // another queue), so injections wait for a frame that has some.
             return Ok(());
         }
-        let _scope = cmd.scope("value_check");
+        let _scope = cmd.scope(PassId::ValueCheck.name());
         let stride = u64::from(records.stride);
         let start = records.first * stride;
         let end = start + u64::from(records.count) * stride;

@@ -24,6 +24,7 @@
 
 use crate::frame::{skipped, FrameStats, ReusedLight, TRACE_PASSES};
 use crate::ispm::BouncePlan;
+use crate::pass_id::PassId;
 use crate::photon::bvh::SceneBvh;
 use crate::photon::trace::{trace_photon_groups, PhotonState, TraceSettings};
 use crate::photon::types::{BounceMapPhoton, Photon};
@@ -145,7 +146,7 @@ impl Traced {
     ) -> anyhow::Result<()> {
         let plan = frame.plan;
         let traces = frame.retrace.iter().any(|&r| r);
-        let trace_span = traces.then(|| timing::span("cpu_trace"));
+        let trace_span = traces.then(|| timing::span(PassId::CpuTrace.name()));
         // The kept lights' records stay where they are (the same places in both plans).
         let kept_records = self.bounce_map.len();
         self.bounce_map

@@ -2,6 +2,7 @@
 //! a rule could misfire, one built not to).
 
 use super::*;
+use crate::pass_id::PassId;
 use crate::photon::trace::MAX_BOUNCES;
 use crate::reference::scenes::{closed_box, cornell, grey_box};
 use crate::scene::Light;
@@ -77,7 +78,7 @@ fn box_with(wall0: Material) -> Scene {
     )
 }
 
-fn pass<'a>(passes: &'a [PassPlan], name: &str) -> &'a PassPlan {
+fn pass(passes: &[PassPlan], name: PassId) -> &PassPlan {
     passes
         .iter()
         .find(|p| p.name == name)
@@ -97,10 +98,15 @@ fn a_diffuse_scene_needs_no_translucent_pass_no_delta_and_no_glossy_code() {
         }
     );
     let passes = p.passes();
-    for name in ["environment", "translucent"] {
+    for name in [PassId::Environment, PassId::Translucent] {
         assert!(!pass(&passes, name).run, "{name} runs");
     }
-    for name in ["light_gbuffers", "bounce_map", "photon_volumes", "direct"] {
+    for name in [
+        PassId::LightGbuffers,
+        PassId::BounceMap,
+        PassId::PhotonVolumes,
+        PassId::Direct,
+    ] {
         assert!(pass(&passes, name).run, "{name} skipped");
     }
 }
@@ -123,7 +129,7 @@ fn a_refracting_material_turns_on_the_translucent_pass_and_delta_code_naming_it(
         "{}",
         p.translucent.reason
     );
-    assert!(pass(&p.passes(), "environment").run);
+    assert!(pass(&p.passes(), PassId::Environment).run);
     assert!(p.bsdf_variant().delta);
 }
 
@@ -385,15 +391,15 @@ fn no_indirect_light_without_the_settings_or_surfaces_for_it() {
         assert_eq!(p.max_bounces, 0);
         let passes = p.passes();
         for name in [
-            "light_gbuffers",
-            "bounce_map",
-            "readback",
-            "cpu_trace",
-            "upload",
+            PassId::LightGbuffers,
+            PassId::BounceMap,
+            PassId::Readback,
+            PassId::CpuTrace,
+            PassId::Upload,
         ] {
             assert!(!pass(&passes, name).run, "{why}: {name} runs");
         }
-        for name in ["photon_volumes", "upsample", "composite"] {
+        for name in [PassId::PhotonVolumes, PassId::Upsample, PassId::Composite] {
             assert!(!pass(&passes, name).run, "{why}: {name} runs");
         }
     }
@@ -433,13 +439,16 @@ fn no_indirect_light_when_no_light_emits_photons() {
     scene.lights[0].intensity = Vec3::ZERO;
     let p = plan(&scene);
     assert!(!p.indirect.needed, "{}", p.indirect.reason);
-    assert!(p.passes().iter().all(|q| q.name != "bounce_map" || !q.run));
+    assert!(p
+        .passes()
+        .iter()
+        .all(|q| q.name != PassId::BounceMap || !q.run));
     let p = plan(&Scene {
         lights: Vec::new(),
         ..cornell(1)
     });
     assert_eq!(p.indirect.reason, "the scene has no lights");
-    assert!(!pass(&p.passes(), "shadow_maps").run);
+    assert!(!pass(&p.passes(), PassId::ShadowMaps).run);
 }
 
 #[test]
@@ -495,9 +504,9 @@ fn effects_all_forces_every_variant_light_and_photon_pass_on() {
     assert_eq!(all.lights[0].photons + all.lights[1].photons, 10_000);
     assert_eq!(all.max_bounces, MAX_BOUNCES);
     let passes = all.passes();
-    assert!(pass(&passes, "bounce_map").run);
+    assert!(pass(&passes, PassId::BounceMap).run);
     // No instance is glass or a mirror: the translucent pass has nothing to draw either way.
-    assert!(!pass(&passes, "translucent").run);
+    assert!(!pass(&passes, PassId::Translucent).run);
     assert!(all.to_string().starts_with("effects: all\n"));
 }
 
@@ -513,10 +522,10 @@ fn the_pass_list_covers_every_stage_and_prints_one_line_per_decision() {
         &scene.camera,
     );
     let passes = p.passes();
-    for stage in crate::stats::STAGES.iter().filter(|s| **s != "frame") {
-        assert!(passes.iter().any(|q| q.name == *stage), "{stage} missing");
+    for stage in crate::stats::stages() {
+        assert!(passes.iter().any(|q| q.name == stage), "{stage} missing");
     }
-    assert!(pass(&passes, "upsample").run);
+    assert!(pass(&passes, PassId::Upsample).run);
     let text = p.to_string();
     let lines: Vec<&str> = text.lines().collect();
     // effects, 5 decisions (emitters the last), max bounces, motion, the lights, the passes.

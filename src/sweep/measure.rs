@@ -31,6 +31,7 @@ use crate::bench;
 use crate::frame::{Method, RenderSettings, Renderer, Schedule};
 use crate::gpu::Gpu;
 use crate::metrics::{difference, flip, rel_mse, rgba};
+use crate::pass_id::PassId;
 use crate::photon::kernel::KernelSettings;
 use crate::plan::Effects;
 use crate::scene::Scene;
@@ -185,7 +186,7 @@ impl Job<'_> {
             if s.is_gpu() {
                 s.depth == 0
             } else {
-                s.name == "cpu_trace"
+                s.name == PassId::CpuTrace.name()
             }
         })
         .into_iter()
@@ -194,7 +195,10 @@ impl Job<'_> {
         Ok(Rendered {
             frame_ms,
             gpu_ms: bench::quantile(&bench::gpu_per_frame(&spans), 0.5),
-            cpu_ms: stages.get("cpu.cpu_trace").copied().unwrap_or(0.0),
+            cpu_ms: stages
+                .get(&PassId::CpuTrace.stage_key())
+                .copied()
+                .unwrap_or(0.0),
             stages,
             total: frame.hdr,
             indirect,

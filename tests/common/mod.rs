@@ -27,7 +27,7 @@ pub const REUSED_PHOTON_MAP_SKIPS: &[&str] = &[
 /// The density estimator's pass (GPU scope, stats stage, plan entry) that the default
 /// `--density auto` runs on the test device: `photon_tiles` on lavapipe.
 pub fn estimator_pass() -> &'static str {
-    ispm::frame::Density::Auto.resolve_for(None).pass_name()
+    ispm::frame::Density::Auto.resolve_for(None).pass().name()
 }
 
 /// A device with the validation layer and synchronization validation on (always, in tests).
