@@ -71,222 +71,8 @@ const SHADOW_FACE_MARGIN: u32 = 3;
 /// Frames the host may issue before it waits for the oldest one to finish.
 pub const FRAMES_IN_FLIGHT: usize = 2;
 
-/// How the frame's steps are ordered in time.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Schedule {
-    /// [`Schedule::Overlapped`], except on a device that runs on the host's own cores (a CPU
-    /// implementation such as lavapipe), where box C's trace waits for box B
-    /// ([`Schedule::trace_beside_box_b`]); frames still overlap.
-    #[default]
-    Auto,
-    /// The paper's Figure 3: the CPU trace runs while the GPU draws the eye G-buffer and
-    /// direct light (box B), on every device; frames overlap.
-    Overlapped,
-    /// Every step waits for the one before: the baseline the overlap is measured against.
-    Serial,
-}
-
-impl Schedule {
-    /// Whether box C's trace runs while the device draws box B. `Auto` does not on a CPU
-    /// device: there the "GPU" passes run on the cores the trace would use, so running both
-    /// at once only makes each slower (lavapipe, cornell-box at 640×480: the trace took
-    /// 358 ms beside box B against 185 ms in the serial frame, the GPU passes 2285 against
-    /// 2113 ms;
-    /// docs/performance.md, "Overlap on a CPU device"). The host then waits for box B (the
-    /// trace's span `box B wait: CPU device` says why) and traces on idle cores.
-    pub fn trace_beside_box_b(self, device_type: vk::PhysicalDeviceType) -> bool {
-        match self {
-            Schedule::Auto => device_type != vk::PhysicalDeviceType::CPU,
-            Schedule::Overlapped => true,
-            Schedule::Serial => false,
-        }
-    }
-}
-
-/// How the radiance estimate is made from the photon map (`--density`). Both give the same
-/// sums (tests/tiled_density.rs); they differ in speed, by device.
-#[derive(
-    Clone,
-    Copy,
-    Debug,
-    Default,
-    PartialEq,
-    Eq,
-    clap::ValueEnum,
-    serde::Serialize,
-    serde::Deserialize,
-)]
-#[serde(rename_all = "kebab-case")]
-pub enum Density {
-    /// Photon volumes: each photon's kernel rasterised as a billboard and shaded per fragment
-    /// (the paper's §4, `passes/photon_volumes.rs`).
-    Volumes,
-    /// A tiled gather in compute: per screen tile, the photons that may reach it, tested by
-    /// each pixel (`passes/photon_tiles.rs`).
-    Tiled,
-    /// The faster, as measured (docs/performance.md, "Density estimators"): `tiled` wherever
-    /// the device has the compute subgroup operations it needs (its estimate took 2–5× less
-    /// time than the volumes' on lavapipe and 13–280× less on an NVIDIA H100), else `volumes`.
-    #[default]
-    Auto,
-}
-
-impl Density {
-    /// `Auto` made concrete for a device that has (`gather`) or lacks the compute subgroup
-    /// operations the tiled gather needs
-    /// ([`crate::gpu::DeviceProperties::compute_subgroup_gather`]).
-    pub fn resolve(self, gather: bool) -> Density {
-        match self {
-            Density::Auto if gather => Density::Tiled,
-            Density::Auto => Density::Volumes,
-            other => other,
-        }
-    }
-
-    /// [`Density::resolve`] for a device.
-    pub fn resolve_for_device(self, device: &crate::gpu::DeviceProperties) -> Density {
-        self.resolve(device.compute_subgroup_gather)
-    }
-
-    /// `Auto` made concrete for Vulkan device `device` (`--device`), or for the device the
-    /// renderer picks when none is named, without creating it; `Auto` when Vulkan lists no
-    /// such usable device.
-    pub fn resolve_for(self, device: Option<usize>) -> Density {
-        if self != Density::Auto {
-            return self;
-        }
-        let Ok(devices) = crate::gpu::list_devices() else {
-            return self;
-        };
-        let usable = devices.iter().filter(|(_, ok)| ok.is_ok());
-        let chosen = match device {
-            Some(i) => devices.get(i).filter(|(_, ok)| ok.is_ok()),
-            None => usable.min_by_key(|(p, _)| crate::gpu::device_type_rank(p.device_type)),
-        };
-        chosen.map_or(self, |(p, _)| self.resolve_for_device(p))
-    }
-
-    /// The estimator's pass (`Auto` unresolved: the photon volumes).
-    pub fn pass(self) -> PassId {
-        match self {
-            Density::Tiled => PassId::PhotonTiles,
-            Density::Volumes | Density::Auto => PassId::PhotonVolumes,
-        }
-    }
-}
-
-/// How the frame computes light.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Method {
-    /// Image Space Photon Mapping: direct light plus photon-mapped indirect light.
-    #[default]
-    Ispm,
-    /// Shadow-mapped deferred direct light only.
-    Direct,
-}
-
-/// What to render and how.
-#[derive(Clone, Debug)]
-pub struct RenderSettings {
-    pub method: Method,
-    /// Photons emitted from all lights together (split by power), per frame: exactly, to within
-    /// the binomial spread of the texels' keep test (src/ispm.rs, "Budget").
-    pub photons: usize,
-    /// Every light-view texel inside its light's cone sends its photon: the budget rounded up
-    /// to whole grids, instead of each texel kept with probability budget/texels. The bounce
-    /// map then carries exactly each light's flux in every frame, not only on average (the
-    /// tests of that sum use it). Default false.
-    pub whole_light_grids: bool,
-    /// Most scattering events a photon may take. Default [`MAX_BOUNCES`], a safety net:
-    /// Russian roulette ends the paths (`photon::trace`, "Bounces").
-    ///
-    /// [`MAX_BOUNCES`]: crate::photon::trace::MAX_BOUNCES
-    pub bounces: u32,
-    /// Largest kernel radius in metres (`None`: relative to the scene and photon count).
-    pub radius: Option<f32>,
-    /// Seed of every random choice (frame-coherent: same seed, same photons).
-    pub seed: u32,
-    pub width: u32,
-    pub height: u32,
-    /// Shadow-map resolution per light view (texels per side).
-    pub shadow_resolution: u32,
-    pub tonemap: Tonemap,
-    /// Exposure in stops: the radiance is multiplied by 2^EV before tonemapping.
-    pub exposure_ev: f32,
-    /// Photon volumes at 1/N resolution, upsampled (1: full resolution, no upsampling).
-    pub subsample: u32,
-    /// How a subsampled estimate is upsampled (joint bilateral, or plain bilinear).
-    pub upsample: crate::passes::upsample::Upsample,
-    /// Levels of the indirect light's edge-avoiding à-trous filter for a frame that starts an
-    /// accumulation or is not accumulated, fewer as frames accumulate (`--denoise`;
-    /// `passes/denoise.rs`). 0 (the default here; the command line's is
-    /// [`crate::passes::denoise::DEFAULT_LEVELS`]): the raw estimate.
-    pub denoise: u32,
-    pub schedule: Schedule,
-    /// `Auto`: the effects plan (`plan::EffectsPlan`) may skip what the scene does not need;
-    /// `All`: every pass and shader variant runs (`--effects all`, for comparison).
-    pub effects: Effects,
-    /// The über-BSDF lobes compiled into every shader that evaluates it (default: all).
-    /// `EffectsPlan::bsdf_variant` is the smallest one a scene renders exactly with.
-    pub bsdf_variant: BsdfVariant,
-    /// Smallest share of each light's photons spent on its caustic views, the windows around
-    /// the mirrors and glass it lights (`ispm::CAUSTIC_SHARE`; 0: no caustic views).
-    pub caustic_share: f32,
-    /// Most bytes one buffer of the bounce map or photon map is bound with (`None`: what one
-    /// storage-buffer descriptor reaches, the device's `maxStorageBufferRange`; a larger value
-    /// is lowered to it); a larger map is split over several buffers, written, read back and
-    /// drawn buffer by buffer. Tests lower it to exercise the splits at small sizes.
-    pub storage_buffer_range: Option<u64>,
-    /// Count the NaN, ±Inf and negative values of the frame's HDR buffers on the GPU
-    /// (`--check-values`, `FrameStats::value_check`; `passes/value_check.rs`). Off: the pass
-    /// is neither made nor recorded.
-    pub check_values: bool,
-    /// Progressive accumulation: while nothing moves, each frame traces an independent photon
-    /// map with smaller kernels and the displayed image is the mean of the frames since the
-    /// last change (`passes/accumulate.rs`; `ispm render --frames N` returns the mean of N).
-    /// Off: every frame stands alone and a still frame reuses the photon map (real-time
-    /// frames, `ispm bench`).
-    pub accumulate: bool,
-    /// Points sampled on the emissive surfaces per frame, each a light (`scene::emitters`):
-    /// new points every frame of an accumulation, the same ones in a frame that stands alone.
-    /// 0: emissive surfaces are seen but light nothing.
-    pub emitter_lights: u32,
-    /// The density estimator (`--density`; `Auto` is resolved for the device when the
-    /// renderer is made).
-    pub density: Density,
-}
-
-impl Default for RenderSettings {
-    fn default() -> Self {
-        Self {
-            method: Method::Ispm,
-            photons: 100_000,
-            whole_light_grids: false,
-            bounces: crate::photon::trace::MAX_BOUNCES,
-            radius: None,
-            seed: 0,
-            width: 640,
-            height: 480,
-            shadow_resolution: 1024,
-            tonemap: Tonemap::default(),
-            exposure_ev: 0.0,
-            subsample: 1,
-            upsample: Default::default(),
-            denoise: 0,
-            schedule: Schedule::Auto,
-            effects: Effects::Auto,
-            bsdf_variant: BsdfVariant::ALL,
-            caustic_share: crate::ispm::CAUSTIC_SHARE,
-            storage_buffer_range: None,
-            check_values: false,
-            accumulate: false,
-            emitter_lights: crate::scene::emitters::DEFAULT_EMITTER_LIGHTS,
-            density: Density::Auto,
-        }
-    }
-}
+pub use crate::passes::photon_tiles::TileStats;
+pub use crate::settings::{Density, Method, RenderSettings, Schedule, SkippedPass};
 
 /// A rendered frame read back to the host.
 #[derive(Clone, Debug)]
@@ -379,31 +165,11 @@ pub struct FrameStats {
     pub tiles: Option<TileStats>,
 }
 
-/// What the tiled estimator gathered (`passes/photon_tiles.rs`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
-pub struct TileStats {
-    /// Screen tiles (PHOTON_TILE² target pixels each).
-    pub tiles: usize,
-    /// List entries over all tiles: photons listed, each once per tile it may reach.
-    pub entries: usize,
-    /// The longest tile list.
-    pub longest: usize,
-    /// Dispatches of the gather (one per TILE_JOB entries of the longest list, per buffer).
-    pub dispatches: usize,
-}
-
 /// A light whose photons a frame kept, and why.
 #[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct ReusedLight {
     /// Its index in `scene.lights`.
     pub light: usize,
-    pub name: String,
-    pub reason: String,
-}
-
-/// A pass a frame did not run, and why.
-#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize)]
-pub struct SkippedPass {
     pub name: String,
     pub reason: String,
 }
@@ -1257,7 +1023,7 @@ impl Renderer {
         stats.passes_skipped = self.skipped_passes(&stats);
         stats.variants_skipped = self.plan.variants_skipped(self.settings.bsdf_variant);
         stats.light_plan = self.plan.lights.clone();
-        stats.subsample = crate::photon_frame::subsample_factor(&self.settings);
+        stats.subsample = self.settings.subsample_factor();
         Ok((spans, stats))
     }
 

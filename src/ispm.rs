@@ -101,9 +101,7 @@ mod coverage;
 /// Largest light-G-buffer resolution per view (texels per side).
 pub const MAX_RESOLUTION: u32 = 2048;
 
-/// The share of a light's photons that its caustic views get when its views see delta instances
-/// (the default of `--caustic-share`; module docs, "Budget").
-pub const CAUSTIC_SHARE: f32 = 0.5;
+pub use crate::settings::CAUSTIC_SHARE;
 
 /// The largest subdivision k of a caustic view (k² caustic texels per main texel).
 pub const MAX_CAUSTIC_SUBDIVISION: u32 = 16;

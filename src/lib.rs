@@ -11,6 +11,7 @@
 //!   needs; no Vulkan.
 //! - [`metrics`]: relMSE, FLIP and the error–time Pareto front; no Vulkan.
 //! - [`sweep`]: `ispm sweep`, accuracy against time over a grid of settings.
+//! - [`settings`]: [`settings::RenderSettings`] and its choices, below the frame and the plan.
 //! - [`pass_id`]: [`pass_id::PassId`], every stage of the frame by one name.
 //! - [`timing`]: CPU and GPU spans on one host clock, Chrome trace JSON.
 //! - [`camera_control`]: the viewer's fly camera and scripted camera path; no window.
@@ -36,6 +37,7 @@ pub mod plan;
 pub mod quality;
 pub mod reference;
 pub mod scene;
+pub mod settings;
 pub mod stats;
 pub mod sweep;
 pub mod timing;

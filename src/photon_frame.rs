@@ -58,7 +58,6 @@ mod buffers;
 pub mod environment;
 mod estimate;
 mod retrace;
-pub mod tiles;
 
 use buffers::{photons_per_buffer, storage_buffer_range, BounceBuffers, PhotonBuffers};
 
@@ -228,12 +227,6 @@ fn relative_scene(scene: &Scene, origin: glam::DVec3) -> Scene {
     relative
 }
 
-pub fn subsample_factor(settings: &RenderSettings) -> u32 {
-    settings
-        .subsample
-        .clamp(1, settings.width.max(settings.height).max(1))
-}
-
 impl PhotonFrame {
     /// The photon part of `settings`' frame of `scene`, emitting from the lights of
     /// `effects`' photon mask, tracing at most `effects.max_bounces` bounces.
@@ -324,7 +317,7 @@ impl PhotonFrame {
             settings.bsdf_variant,
         )?;
         let buffers = PhotonBuffers::new(gpu, 1, 1, photons_per_buffer(gpu, settings))?;
-        let subsample = subsample_factor(settings);
+        let subsample = settings.subsample_factor();
         let (indirect, subsampled) = if subsample == 1 {
             let indirect = photon_volumes::target(gpu, radiance.width, radiance.height)?;
             (indirect, None)

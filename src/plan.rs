@@ -32,28 +32,18 @@ pub use enclosure::{Enclosures, Probe, StaticEnclosures};
 use crate::pass_id::PassId;
 use emitters::{emitters_decision, has_area_samples};
 
-use crate::frame::{Method, RenderSettings, SkippedPass};
 use crate::photon::bsdf::{BsdfVariant, MaterialLobes};
 use crate::photon::emit::{photon_budget, photon_budget_among};
 use crate::scene::emitters::Emitters;
 use crate::scene::{Aabb, Camera, LightKind, Material, Scene};
+pub use crate::settings::Effects;
+use crate::settings::{Density, Method, RenderSettings, SkippedPass};
 use glam::Vec3;
 use std::fmt;
 
 /// Power, relative to the emitted power, that the photons beyond the suggested bounce depth
 /// may carry at most (in expectation, at the scene's brightest material's albedo).
 pub const BOUNCE_POWER_CUTOFF: f64 = 1e-3;
-
-/// `--effects`: plan the frame, or force everything on.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Effects {
-    /// Skip the passes, shader variants, lights and bounces the scene does not need.
-    #[default]
-    Auto,
-    /// Every pass, variant, light and bounce, as without a plan (for comparison).
-    All,
-}
 
 /// One decision and why it was taken.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -213,7 +203,7 @@ pub struct EffectsPlan {
     pub subsample: u32,
     /// The density estimator (`--density`; the renderer resolves `Auto` for its device before
     /// it plans).
-    pub density: crate::frame::Density,
+    pub density: Density,
     /// Levels of the indirect light's denoiser for a frame that starts an accumulation
     /// (`--denoise`, 0: off; `passes/denoise.rs`).
     pub denoise: u32,
@@ -340,7 +330,7 @@ impl SceneAnalysis {
     ) -> Self {
         let used = used_materials(scene);
         let bounds = scene.bounds();
-        let subsample = crate::photon_frame::subsample_factor(settings);
+        let subsample = settings.subsample_factor();
         let delta_instance = scene.instances.iter().find_map(|i| {
             let m = scene.materials.get(scene.meshes[i.mesh].material)?;
             m.has_delta_lobe()
@@ -788,7 +778,6 @@ impl EffectsPlan {
         };
         let translucent = |name| pass(name, self.translucent.needed, &self.translucent.reason);
         // The density estimator that runs, and the one that does not (`--density`).
-        use crate::frame::Density;
         let (tiles, volumes) = match self.density {
             Density::Tiled => (
                 photon(PassId::PhotonTiles),

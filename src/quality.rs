@@ -10,9 +10,9 @@
 //! The radius is a scale of the scene-relative kernel (`KernelSettings::scene_relative`), as
 //! the sweep's `radius` knob, so a preset means the same on a scene of any size.
 
-use crate::passes::upsample::Upsample;
 use crate::photon::kernel::KernelSettings;
 use crate::scene::Aabb;
+use crate::settings::Upsample;
 
 /// A point on the measured fronts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]

@@ -3,7 +3,7 @@
 //! method that won in Mara, McGuire & Luebke (I3D 2013).
 //!
 //! ```text
-//!   CPU (photon_frame/tiles.rs), per frame   GPU (photon_tiles.comp), one workgroup per tile
+//!   CPU (passes/photon_tiles/lists.rs), per frame   GPU (photon_tiles.comp), one workgroup per tile
 //!   each photon's bounding sphere            ┌────────────┐  each subgroup reads the list a
 //!   → the screen tiles it may cover          │ tile t     │  subgroup's width at a time, keeps
 //!   → per tile, a list of photons ─────────► │ 8×8 pixels │  the photons whose sphere reaches
@@ -37,7 +37,6 @@
 
 use super::eye_gbuffer::GBuffer;
 use super::photon_volumes::{PhotonVolumeInputs, MAX_PHOTON_BUFFERS};
-use crate::frame::TileStats;
 use crate::gpu::{
     vk, Access, Binding, BindingKind, Buffer, Cmd, ComputeDesc, DescriptorLayout, DescriptorSet,
     Filter, Gpu, Image, MemoryLocation, Pipeline, Sampler, SpecConstant, Write,
@@ -45,9 +44,25 @@ use crate::gpu::{
 use crate::pass_id::PassId;
 use crate::photon::bsdf::BsdfVariant;
 use crate::photon::kernel::KernelSettings;
-use crate::photon_frame::tiles::TileLists;
 use crate::shared_constants::TILE_JOB;
 use std::sync::Arc;
+
+pub mod lists;
+
+use lists::TileLists;
+
+/// What the tiled estimator gathered.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct TileStats {
+    /// Screen tiles (PHOTON_TILE² target pixels each).
+    pub tiles: usize,
+    /// List entries over all tiles: photons listed, each once per tile it may reach.
+    pub entries: usize,
+    /// The longest tile list.
+    pub longest: usize,
+    /// Dispatches of the gather (one per TILE_JOB entries of the longest list, per buffer).
+    pub dispatches: usize,
+}
 
 /// The push constants (`Push` in `photon_tiles.comp`).
 #[repr(C)]

@@ -5,33 +5,10 @@ use crate::gpu::{
     vk, Access, BindingKind, Cmd, Filter, Gpu, Image, ImageDesc, Sampler, ViewKind, Write,
 };
 use crate::pass_id::PassId;
-use crate::shared_constants::{TONEMAP_ACES, TONEMAP_LINEAR, TONEMAP_PBR_NEUTRAL};
+pub use crate::settings::Tonemap;
 use std::sync::Arc;
 
 pub const FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
-
-/// A display transform (`--tonemap`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Tonemap {
-    /// Clamp to [0, 1].
-    Linear,
-    /// Stephen Hill's fit of ACES (RRT + sRGB ODT).
-    Aces,
-    /// Khronos PBR Neutral: keeps base colours faithful up to the highlights.
-    #[default]
-    PbrNeutral,
-}
-
-impl Tonemap {
-    pub fn id(self) -> u32 {
-        match self {
-            Tonemap::Linear => TONEMAP_LINEAR,
-            Tonemap::Aces => TONEMAP_ACES,
-            Tonemap::PbrNeutral => TONEMAP_PBR_NEUTRAL,
-        }
-    }
-}
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]

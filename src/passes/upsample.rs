@@ -40,6 +40,7 @@ use crate::gpu::{
 };
 use crate::pass_id::PassId;
 use crate::photon::bsdf::BsdfVariant;
+pub use crate::settings::Upsample;
 use std::sync::Arc;
 
 /// Exponent of the normal-similarity weight.
@@ -47,27 +48,6 @@ pub const NORMAL_POWER: f32 = 8.0;
 /// Tangent-plane distance, relative to the distance from the camera, at which the depth
 /// weight falls to 1/e.
 pub const DEPTH_SIGMA: f32 = 0.02;
-
-/// How the low-resolution estimate is brought to full resolution (`--upsample`).
-#[derive(
-    Clone,
-    Copy,
-    Debug,
-    Default,
-    PartialEq,
-    Eq,
-    clap::ValueEnum,
-    serde::Serialize,
-    serde::Deserialize,
-)]
-#[serde(rename_all = "kebab-case")]
-pub enum Upsample {
-    /// Joint bilateral: bilinear × normal similarity × tangent-plane distance.
-    #[default]
-    Joint,
-    /// Plain bilinear of the (non-background) low-resolution samples.
-    Bilinear,
-}
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]

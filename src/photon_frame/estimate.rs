@@ -2,10 +2,11 @@
 //! eye (`set_view`: the eye-relative offset and the kernel's footprint floor), upsampled at
 //! `--subsample N > 1`, composited, and what the debug views read of it.
 
-use super::{drawn_photons, estimate_targets, tiles, Estimator, PhotonFrame};
+use super::{drawn_photons, estimate_targets, Estimator, PhotonFrame};
 use crate::gpu::{Access, Buffer, Cmd, Image, QueueRole};
 use crate::passes::debug_view::PhotonSources;
 use crate::passes::eye_gbuffer::GBuffer;
+use crate::passes::photon_tiles::lists as tiles;
 use crate::passes::photon_volumes::PhotonVolumeInputs;
 use crate::passes::upsample::UpsampleInputs;
 use crate::passes::value_check::{Checked, Records, ValueCheckPass};

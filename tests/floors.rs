@@ -1,0 +1,156 @@
+//! The floor plan (docs/architecture.md): which top-level modules of `src/` import which, and
+//! that no new import circle forms. A module's imports are its `crate::NAME` paths outside
+//! comments and tests; a circle is a strongly connected component of that graph with more than
+//! one module. The circles that remain are listed in [`KNOWN_CIRCLES`] with what keeps them:
+//! a new one fails here, and so does one of these when it is broken (so the list shrinks).
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+/// Circles not yet broken (issue #22), each sorted. The frame's three parts share their
+/// per-frame types (`FrameStats`, `FRAMES_IN_FLIGHT`, the reuse rules); `gpu` records into
+/// `timing`'s captures and `timing` reads `gpu`'s spans and clock.
+const KNOWN_CIRCLES: &[&[&str]] = &[
+    &["frame", "photon_frame", "translucent_frame"],
+    &["gpu", "timing"],
+];
+
+/// Every `.rs` file under `dir`.
+fn sources(dir: &Path, out: &mut Vec<PathBuf>) {
+    for entry in std::fs::read_dir(dir).expect("read src") {
+        let path = entry.expect("entry").path();
+        if path.is_dir() {
+            sources(&path, out);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            out.push(path);
+        }
+    }
+}
+
+/// `module → modules it imports` over `src/`'s top-level modules (files and folders; `lib.rs`
+/// and `main.rs` excluded: they sit above every floor).
+fn import_graph() -> BTreeMap<String, BTreeSet<String>> {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    sources(&src, &mut files);
+    let module_of = |path: &Path| -> Option<String> {
+        let first = path.strip_prefix(&src).ok()?.components().next()?;
+        let name = first.as_os_str().to_str()?;
+        let name = name.strip_suffix(".rs").unwrap_or(name);
+        (name != "lib" && name != "main").then(|| name.to_string())
+    };
+    let modules: BTreeSet<String> = files.iter().filter_map(|f| module_of(f)).collect();
+    let mut graph: BTreeMap<String, BTreeSet<String>> = modules
+        .iter()
+        .map(|m| (m.clone(), BTreeSet::new()))
+        .collect();
+    for file in &files {
+        let Some(module) = module_of(file) else {
+            continue;
+        };
+        if file.file_name().is_some_and(|n| n == "tests.rs") {
+            continue;
+        }
+        let text = std::fs::read_to_string(file).expect("read source");
+        let code = text.split("#[cfg(test)]").next().unwrap_or_default();
+        for line in code.lines() {
+            let line = line.trim_start();
+            if line.starts_with("//") {
+                continue;
+            }
+            for (i, _) in line.match_indices("crate::") {
+                let rest = &line[i + "crate::".len()..];
+                let name: String = rest
+                    .chars()
+                    .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+                    .collect();
+                if name != module && modules.contains(&name) {
+                    graph.get_mut(&module).expect("module").insert(name);
+                }
+            }
+        }
+    }
+    graph
+}
+
+/// The strongly connected components of `graph` with more than one module, each sorted.
+fn circles(graph: &BTreeMap<String, BTreeSet<String>>) -> BTreeSet<Vec<String>> {
+    // Two modules share a component when each reaches the other.
+    let reach = |from: &str| -> BTreeSet<String> {
+        let mut seen = BTreeSet::new();
+        let mut stack = vec![from.to_string()];
+        while let Some(m) = stack.pop() {
+            for next in &graph[&m] {
+                if seen.insert(next.clone()) {
+                    stack.push(next.clone());
+                }
+            }
+        }
+        seen
+    };
+    let reaches: BTreeMap<&String, BTreeSet<String>> =
+        graph.keys().map(|m| (m, reach(m))).collect();
+    graph
+        .keys()
+        .map(|a| {
+            let mut component: Vec<String> = graph
+                .keys()
+                .filter(|b| *b == a || (reaches[a].contains(*b) && reaches[*b].contains(a)))
+                .cloned()
+                .collect();
+            component.sort();
+            component
+        })
+        .filter(|c| c.len() > 1)
+        .collect()
+}
+
+#[test]
+fn no_import_circle_forms_between_the_top_level_modules_beyond_the_known_ones() {
+    let graph = import_graph();
+    assert!(graph.contains_key("frame") && graph.contains_key("plan"));
+    let found = circles(&graph);
+    let known: BTreeSet<Vec<String>> = KNOWN_CIRCLES
+        .iter()
+        .map(|c| c.iter().map(|m| m.to_string()).collect())
+        .collect();
+    let edges = |c: &Vec<String>| {
+        c.iter()
+            .map(|m| {
+                let inside: Vec<&String> = graph[m].iter().filter(|n| c.contains(n)).collect();
+                format!("  {m} → {inside:?}")
+            })
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    if let Some(c) = found.difference(&known).next() {
+        panic!(
+            "a new import circle {c:?} (docs/architecture.md, \"Floors\"):\n{}",
+            edges(c)
+        );
+    }
+    if let Some(c) = known.difference(&found).next() {
+        panic!("the circle {c:?} is broken: take it off KNOWN_CIRCLES");
+    }
+}
+
+#[test]
+fn the_plan_the_passes_and_the_settings_import_nothing_of_the_frame() {
+    let graph = import_graph();
+    for low in ["settings", "pass_id", "plan", "passes"] {
+        for high in [
+            "frame",
+            "photon_frame",
+            "translucent_frame",
+            "stats",
+            "bench",
+        ] {
+            assert!(
+                !graph[low].contains(high),
+                "{low} imports {high}: {:?}",
+                graph[low]
+            );
+        }
+    }
+    assert!(graph["pass_id"].is_empty(), "{:?}", graph["pass_id"]);
+}
