@@ -139,12 +139,14 @@ pub struct BenchReport {
 
 /// The radiance estimate at two subsample factors, measured in the same alternating chunks
 /// (`--compare-subsample`). The estimate is the density pass (`gpu.photon_tiles` or
-/// `gpu.photon_volumes`) plus, when subsampled, `gpu.upsample`; the host's tile lists
+/// `gpu.photon_volumes`) plus, when subsampled, `gpu.upsample`; the boundary normalisation
+/// (`gpu.support`, small at every factor) is left out, and the host's tile lists
 /// (`cpu.photon tiles`) are given apart, as they do not run on the GPU.
 #[derive(Clone, Debug, Serialize)]
 pub struct SubsampleSpeedup {
-    /// The overlapped frame's factor (`--subsample`) and the compared one.
+    /// The overlapped frame's factor (`--subsample`).
     pub base_factor: u32,
+    /// The compared factor (`--compare-subsample`).
     pub factor: u32,
     /// Median ms per frame of the estimate (density pass + upsample) at each factor.
     pub base_estimate_ms: f64,
@@ -180,7 +182,8 @@ impl SubsampleSpeedup {
     fn new(base: &ConfigResult, base_factor: u32, other: &ConfigResult, factor: u32) -> Self {
         let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { 0.0 };
         let ((base_pass, base_up), (pass, up)) = (estimate_ms(base), estimate_ms(other));
-        let binning = |c: &ConfigResult| c.stages.get("cpu.photon tiles").map_or(0.0, |t| t.median);
+        let key = format!("cpu.{}", crate::passes::photon_tiles::lists::SPAN);
+        let binning = |c: &ConfigResult| c.stages.get(&key).map_or(0.0, |t| t.median);
         Self {
             base_factor,
             factor,
@@ -403,8 +406,13 @@ pub fn run(
         configs.push(make_with(name, frame, other, settings.render.subsample)?);
     }
     if let Some(factor) = settings.compare_subsample {
+        if factor == settings.render.subsample_factor() {
+            progress(&format!(
+                "--compare-subsample {factor}: the same factor as the overlapped frame's"
+            ));
+        }
         let frame = (Method::Ispm, overlapped, Effects::All);
-        configs.push(make_with("subsampled", frame, density, factor.max(1))?);
+        configs.push(make_with("subsampled", frame, density, factor)?);
     }
     for c in &mut configs {
         progress(&format!("warm-up: {}", c.name));

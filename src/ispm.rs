@@ -847,7 +847,7 @@ impl BouncePlan {
     /// The plan with every texel kept ([`RenderSettings::whole_light_grids`]): its lights emit
     /// their slots, the budget rounded up to whole grids.
     ///
-    /// [`RenderSettings::whole_light_grids`]: crate::frame::RenderSettings::whole_light_grids
+    /// [`RenderSettings::whole_light_grids`]: crate::settings::RenderSettings::whole_light_grids
     pub fn whole_grids(mut self) -> Self {
         for view in &mut self.views {
             view.params.y = 1.0;

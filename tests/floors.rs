@@ -15,16 +15,65 @@ const KNOWN_CIRCLES: &[&[&str]] = &[
     &["gpu", "timing"],
 ];
 
-/// Every `.rs` file under `dir`.
+/// Every `.rs` file under `dir` (not editors' hidden files).
 fn sources(dir: &Path, out: &mut Vec<PathBuf>) {
     for entry in std::fs::read_dir(dir).expect("read src") {
         let path = entry.expect("entry").path();
+        let hidden = path
+            .file_name()
+            .and_then(|n| n.to_str())
+            .is_none_or(|n| n.starts_with('.'));
+        if hidden {
+            continue;
+        }
         if path.is_dir() {
             sources(&path, out);
         } else if path.extension().is_some_and(|e| e == "rs") {
             out.push(path);
         }
     }
+}
+
+/// The lines of `text` that are code outside tests, and the files of the test modules it
+/// declares (`#[cfg(test)] mod NAME;`, as paths relative to `file`). An inline
+/// `#[cfg(test)] mod NAME {` ends the code (test modules come last); any other item marked
+/// `#[cfg(test)]` drops its first line. Comment lines are dropped.
+fn code_lines(file: &Path, text: &str) -> (Vec<String>, Vec<PathBuf>) {
+    // Where `mod x;` of this file lives: beside a mod.rs/lib.rs, in a folder named after
+    // any other file.
+    let stem = file
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or_default();
+    let dir = file.parent().expect("in src");
+    let children = if stem == "mod" || stem == "lib" || stem == "main" {
+        dir.to_path_buf()
+    } else {
+        dir.join(stem)
+    };
+    let (mut code, mut test_files) = (Vec::new(), Vec::new());
+    let mut lines = text.lines().map(str::trim);
+    while let Some(line) = lines.next() {
+        if line.starts_with("//") {
+            continue;
+        }
+        if line.starts_with("#[cfg(test)]") {
+            let next = lines
+                .by_ref()
+                .find(|l| !l.is_empty() && !l.starts_with("//"));
+            let Some(item) = next else { break };
+            let item = item.strip_prefix("pub ").unwrap_or(item);
+            if let Some(name) = item.strip_prefix("mod ") {
+                match name.strip_suffix(';') {
+                    Some(name) => test_files.push(children.join(format!("{name}.rs"))),
+                    None => break,
+                }
+            }
+            continue;
+        }
+        code.push(line.to_string());
+    }
+    (code, test_files)
 }
 
 /// `module → modules it imports` over `src/`'s top-level modules (files and folders; `lib.rs`
@@ -44,20 +93,22 @@ fn import_graph() -> BTreeMap<String, BTreeSet<String>> {
         .iter()
         .map(|m| (m.clone(), BTreeSet::new()))
         .collect();
+    let mut code = Vec::new();
+    let mut test_files = BTreeSet::new();
     for file in &files {
+        let text = std::fs::read_to_string(file).expect("read source");
+        let (lines, tests) = code_lines(file, &text);
+        test_files.extend(tests);
+        code.push((file, lines));
+    }
+    for (file, lines) in code {
         let Some(module) = module_of(file) else {
             continue;
         };
-        if file.file_name().is_some_and(|n| n == "tests.rs") {
+        if test_files.contains(file.as_path()) {
             continue;
         }
-        let text = std::fs::read_to_string(file).expect("read source");
-        let code = text.split("#[cfg(test)]").next().unwrap_or_default();
-        for line in code.lines() {
-            let line = line.trim_start();
-            if line.starts_with("//") {
-                continue;
-            }
+        for line in lines {
             for (i, _) in line.match_indices("crate::") {
                 let rest = &line[i + "crate::".len()..];
                 let name: String = rest
@@ -153,4 +204,9 @@ fn the_plan_the_passes_and_the_settings_import_nothing_of_the_frame() {
         }
     }
     assert!(graph["pass_id"].is_empty(), "{:?}", graph["pass_id"]);
+    // The reader sees past `#[cfg(test)] mod tests;` at the top of a file: the plan's own
+    // imports are found (a reader that stopped there would pass anything).
+    for low in ["settings", "photon", "scene"] {
+        assert!(graph["plan"].contains(low), "plan: {:?}", graph["plan"]);
+    }
 }

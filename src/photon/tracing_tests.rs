@@ -301,6 +301,60 @@ fn bvh_closest_hit_and_occlusion_agree_with_brute_force() {
     assert!(hits > 1000, "too few hits ({hits}) to mean anything");
 }
 
+/// The position, shading normal and uv of `hit` made as the hit record made them before the
+/// BVH kept a leaf-order record per triangle: from the mesh's index, position, normal and uv
+/// arrays, by `hit.instance` and `hit.primitive`.
+fn attributes_from_the_mesh(scene: &Scene, hit: &Hit) -> (Vec3, Vec3, glam::Vec2) {
+    let inst = &scene.instances[hit.instance as usize];
+    let mesh = &scene.meshes[inst.mesh];
+    let idx = mesh.triangles[hit.primitive as usize].map(|v| v as usize);
+    let (b1, b2) = (hit.barycentrics.x, hit.barycentrics.y);
+    let b0 = 1.0 - b1 - b2;
+    let p = idx.map(|v| inst.transform.transform_point3(mesh.positions[v]));
+    let position = b0 * p[0] + b1 * p[1] + b2 * p[2];
+    let normal_matrix = glam::Mat3::from_mat4(inst.transform).inverse().transpose();
+    let n = normal_matrix
+        * (b0 * mesh.normals[idx[0]] + b1 * mesh.normals[idx[1]] + b2 * mesh.normals[idx[2]]);
+    let uv = b0 * mesh.uvs[idx[0]] + b1 * mesh.uvs[idx[1]] + b2 * mesh.uvs[idx[2]];
+    (position, n.normalize(), uv)
+}
+
+#[test]
+fn hit_records_carry_the_mesh_attributes_of_the_triangle_hit_static_and_moving() {
+    let scene = test_scene();
+    for moving in [&[][..], &[1, 2][..]] {
+        let bvh = SceneBvh::with_moving_instances(&scene, moving);
+        let mut rng = Pcg(11);
+        let mut hits = 0;
+        for _ in 0..2000 {
+            let ray = random_ray(&mut rng);
+            let Some(hit) = bvh.intersect(&ray) else {
+                continue;
+            };
+            // The triangle named is the one hit, and its attributes are its own (a neighbouring
+            // triangle's normals differ by its facet angle, > 1e-2 here).
+            let (position, n, uv) = attributes_from_the_mesh(&scene, &hit);
+            assert!(
+                (position - hit.position).length() < 1e-4,
+                "{ray:?}: {position} against {}",
+                hit.position
+            );
+            assert!(
+                (n - hit.shading_normal).length() < 1e-4,
+                "{ray:?}: {n} against {}",
+                hit.shading_normal
+            );
+            assert!(
+                (uv - hit.uv).length() < 1e-4,
+                "{ray:?}: {uv} against {}",
+                hit.uv
+            );
+            hits += 1;
+        }
+        assert!(hits > 500, "{hits}");
+    }
+}
+
 #[test]
 fn moving_an_instance_then_updating_matches_a_fresh_build() {
     let scene = test_scene();

@@ -95,7 +95,7 @@ impl PhotonFrame {
                     size,
                     subsample,
                 };
-                let lists = timing::timed("photon tiles", || {
+                let lists = timing::timed(tiles::SPAN, || {
                     tiles::bin(
                         drawn_photons(traced, radii, glam::Vec3::ZERO),
                         &self.buffers.counts,

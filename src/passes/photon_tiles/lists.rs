@@ -28,6 +28,10 @@ use crate::photon::types::{unpack_normal, Photon};
 use crate::shared_constants::PHOTON_TILE;
 use glam::{Mat4, Vec3, Vec4};
 
+/// The host span (`timing::timed`) of binning the lists: `cpu.photon tiles` among `ispm
+/// bench`'s stage times.
+pub const SPAN: &str = "photon tiles";
+
 /// Bounding spheres are binned this much larger than the shader's radius, against the
 /// rounding between the CPU's and the GPU's arithmetic.
 const RADIUS_MARGIN: f32 = 1.001;
