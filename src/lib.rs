@@ -1,6 +1,7 @@
 //! ispm: real-time global illumination by Image Space Photon Mapping on raw Vulkan.
 //!
-//! Module map (see `docs/overview.md`):
+//! Module map (see `docs/overview.md`; which may import which: `docs/architecture.md`, checked
+//! by `tests/floors.rs`):
 //! - [`scene`]: glTF → [`scene::Scene`]; no Vulkan.
 //! - [`photon`]: über-BSDF, photon types, RNG, BVH and watertight tracing, CPU photon tracer;
 //!   no Vulkan.
@@ -12,6 +13,8 @@
 //! - [`metrics`]: relMSE, FLIP and the error–time Pareto front; no Vulkan.
 //! - [`sweep`]: `ispm sweep`, accuracy against time over a grid of settings.
 //! - [`settings`]: [`settings::RenderSettings`] and its choices, below the frame and the plan.
+//! - [`stats`]: what a frame reports ([`stats::FrameImage`], [`stats::FrameStats`], the stats
+//!   JSON), below the renderer ([`frame`]) and its parts.
 //! - [`pass_id`]: [`pass_id::PassId`], every stage of the frame by one name.
 //! - [`timing`]: CPU and GPU spans on one host clock, Chrome trace JSON.
 //! - [`camera_control`]: the viewer's fly camera and scripted camera path; no window.

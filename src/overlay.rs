@@ -330,7 +330,7 @@ impl Overlay {
                 let stats = input.last.map(|(_, s)| s);
                 let spans = input.last.map(|(s, _)| s.as_slice()).unwrap_or_default();
                 for p in input.plan.passes() {
-                    let ran = crate::frame::pass_ran(
+                    let ran = crate::stats::pass_ran(
                         p.name,
                         spans.iter().map(|s| s.name.as_str()),
                         stats.map_or(0.0, |s| s.cpu_trace_ms),

@@ -26,8 +26,6 @@
 //! So the kept photons stay exactly what a trace makes (the reuse's bit-for-bit invariant is
 //! about them), and the radii cannot go stale inside them.
 
-use crate::frame::Density;
-use crate::frame::{FrameStats, RenderSettings};
 use crate::gpu::{vk, Access, Buffer, Cmd, Gpu, Image, MemoryLocation, QueueRole, ViewKind};
 use crate::gpu_scene::GpuScene;
 use crate::ispm::{BouncePlan, Capacity};
@@ -48,6 +46,8 @@ use crate::photon::trace::{StoreOn, TraceSettings};
 use crate::photon::types::{pack_normal, BounceMapPhoton, Photon};
 use crate::plan::{Effects, EffectsPlan};
 use crate::scene::Scene;
+use crate::settings::{Density, RenderSettings, FRAMES_IN_FLIGHT};
+use crate::stats::FrameStats;
 use crate::timing;
 use anyhow::Context;
 use retrace::Traced;
@@ -155,7 +155,7 @@ pub struct PhotonFrame {
     /// estimate, the screen the tiled estimator bins for.
     screen_size: ((u32, u32), u32),
     /// The tiled estimator's lists of the last recorded estimate.
-    tile_stats: Option<crate::frame::TileStats>,
+    tile_stats: Option<crate::passes::photon_tiles::TileStats>,
 }
 
 /// The density estimator of the frame (`--density`, resolved for the device).
@@ -372,7 +372,7 @@ impl PhotonFrame {
                     &inputs,
                     subsample,
                     settings.bsdf_variant,
-                    (crate::frame::FRAMES_IN_FLIGHT, &targets),
+                    (FRAMES_IN_FLIGHT, &targets),
                 )?)
             }
             Density::Volumes | Density::Auto => Estimator::Volumes(Box::new(

@@ -13,6 +13,9 @@ use crate::shared_constants::{TONEMAP_ACES, TONEMAP_LINEAR, TONEMAP_PBR_NEUTRAL}
 /// (the default of `--caustic-share`; `ispm` module docs, "Budget").
 pub const CAUSTIC_SHARE: f32 = 0.5;
 
+/// Frames the host may issue before it waits for the oldest one to finish.
+pub const FRAMES_IN_FLIGHT: usize = 2;
+
 /// How the frame's steps are ordered in time.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]

@@ -61,25 +61,7 @@ pub enum QueueMode {
     SplitTransfer,
 }
 
-/// What a queue is used for.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum QueueRole {
-    Graphics,
-    Compute,
-    Transfer,
-}
-
-impl QueueRole {
-    pub const ALL: [QueueRole; 3] = [QueueRole::Graphics, QueueRole::Compute, QueueRole::Transfer];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            QueueRole::Graphics => "graphics",
-            QueueRole::Compute => "compute",
-            QueueRole::Transfer => "transfer",
-        }
-    }
-}
+pub use crate::timing::QueueRole;
 
 /// A device queue with its own timeline semaphore.
 pub struct Queue {

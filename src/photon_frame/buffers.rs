@@ -5,11 +5,11 @@
 //! each buffer of its map with a dispatch of its own (`passes/bounce_map.rs`), and the photon
 //! volumes draw each photon buffer in turn (`passes/photon_volumes.rs`).
 
-use crate::frame::RenderSettings;
 use crate::gpu::{vk, Buffer, Gpu, MemoryLocation};
 use crate::passes::bounce_map::{Split, MAX_BOUNCE_BUFFERS};
 use crate::passes::photon_volumes;
 use crate::photon::types::{BounceMapPhoton, Photon};
+use crate::settings::RenderSettings;
 use std::sync::Arc;
 
 /// The bounce map on the GPU: `split.records` records over buffers of `split.per_buffer`.

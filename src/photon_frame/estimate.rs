@@ -232,7 +232,7 @@ impl PhotonFrame {
 
     /// The tiled estimator's lists of the last recorded estimate (`None` with the photon
     /// volumes).
-    pub fn tile_stats(&self) -> Option<crate::frame::TileStats> {
+    pub fn tile_stats(&self) -> Option<crate::passes::photon_tiles::TileStats> {
         self.tile_stats
     }
 

@@ -22,13 +22,13 @@
 //! photons' kernel radii, which depend on every light's photons, are measured again over the
 //! whole map each time it is traced (`photon_frame.rs`, "Kernel radii").
 
-use crate::frame::{skipped, FrameStats, ReusedLight, TRACE_PASSES};
 use crate::ispm::BouncePlan;
 use crate::pass_id::PassId;
 use crate::photon::bvh::SceneBvh;
 use crate::photon::trace::{trace_photon_groups, PhotonState, TraceSettings};
 use crate::photon::types::{BounceMapPhoton, Photon};
 use crate::scene::Scene;
+use crate::stats::{skipped, FrameStats, ReusedLight, TRACE_PASSES};
 use crate::timing;
 use std::ops::Range;
 

@@ -151,7 +151,7 @@ fn host_clock_name() -> &'static str {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gpu::QueueRole;
+    use crate::timing::QueueRole;
 
     fn span(name: &str, track: Track, depth: u32, begin_ns: u64, end_ns: u64) -> Span {
         Span {

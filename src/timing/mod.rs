@@ -31,12 +31,32 @@ pub use clock::now_ns;
 #[cfg(any(target_os = "linux", target_os = "android"))]
 pub use clock::raw_now_ns;
 
-use crate::gpu::QueueRole;
 use std::cell::{Cell, OnceCell};
 use std::collections::BTreeMap;
 use std::marker::PhantomData;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
+
+/// What a GPU queue is used for: a GPU track's role (`gpu` re-exports it, its home floor
+/// being this one, which `gpu` records into).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum QueueRole {
+    Graphics,
+    Compute,
+    Transfer,
+}
+
+impl QueueRole {
+    pub const ALL: [QueueRole; 3] = [QueueRole::Graphics, QueueRole::Compute, QueueRole::Transfer];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            QueueRole::Graphics => "graphics",
+            QueueRole::Compute => "compute",
+            QueueRole::Transfer => "transfer",
+        }
+    }
+}
 
 /// Where a span ran.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
