@@ -1141,14 +1141,11 @@ fn info(device: Option<usize>) -> anyhow::Result<()> {
     let gpu = gpu(device)?;
     let p = &gpu.properties;
     println!("Using: {} ({})", p.name, p.driver_name);
-    for (role, name) in [
-        (ispm::gpu::QueueRole::Graphics, "graphics"),
-        (ispm::gpu::QueueRole::Compute, "compute"),
-        (ispm::gpu::QueueRole::Transfer, "transfer"),
-    ] {
+    for role in ispm::gpu::QueueRole::ALL {
         let q = gpu.queue(role);
         println!(
-            "  {name:>8}: queue family {} (queue {} of the renderer's {})",
+            "  {:>8}: queue family {} (queue {} of the renderer's {})",
+            role.name(),
             q.family,
             gpu.queue_index(role),
             gpu.queue_list().len()
