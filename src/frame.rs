@@ -651,9 +651,12 @@ impl Renderer {
             !self.broken,
             "the renderer stopped after an error in an earlier frame"
         );
-        // Set until the frame is fully issued: an error half way leaves submissions, tracked
-        // resource states and a timestamp pool in use that the next frame cannot reason about,
-        // so the renderer refuses further frames (the GPU is drained on drop).
+        // Set until the frame is fully issued. The resources' tracked states stay consistent
+        // after an error half way (a recording hands its states back only when submitted,
+        // `gpu/tracker.rs`), but a buffer released to another queue family whose acquiring
+        // submission never came (the bounce map, on a GPU with a transfer family) and the
+        // slot's timestamp pool in use are not something the next frame can resume from, so
+        // the renderer refuses further frames (the GPU is drained on drop).
         self.broken = true;
         let gpu = self.gpu.clone();
         let slot = (self.frame_index % FRAMES_IN_FLIGHT as u64) as usize;
@@ -1080,11 +1083,16 @@ impl Renderer {
             )?;
         }
         if let Some(translucent) = &mut self.translucent {
+            let resources = TranslucentResources {
+                frame: &self.frame_uniforms,
+                lights: &self.light_buffer,
+                shadow_views: &self.view_buffer,
+                shadow_atlas: &self.shadow_atlas,
+            };
             translucent.record(
                 cmd,
-                &self.scene,
-                (&frame.eye_draws, &frame.delta_draws),
-                &self.shadow_atlas,
+                (&self.scene, &frame.eye_draws, &frame.delta_draws),
+                &resources,
                 &mut self.gbuffer.depth,
                 &mut self.radiance,
             );

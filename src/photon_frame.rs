@@ -116,9 +116,6 @@ pub struct PhotonFrame {
     /// the photons in each ([`PhotonBuffers`]).
     buffers: PhotonBuffers,
     rebind: bool,
-    /// The photon buffer was last used by the graphics queue (the photon volumes), which must
-    /// hand it to the transfer queue before the next upload.
-    photons_on_graphics: bool,
     /// The density estimator: photon volumes or the tiled gather (`--density`).
     estimator: Estimator,
     /// `--subsample N > 1`: the low-resolution targets and the pass that upsamples them.
@@ -434,7 +431,6 @@ impl PhotonFrame {
             bounce_pass,
             buffers,
             rebind: false,
-            photons_on_graphics: false,
             estimator,
             subsampled,
             indirect,
@@ -576,11 +572,10 @@ impl PhotonFrame {
             self.buffers.counts.fill(0);
             return;
         }
-        if self.photons_on_graphics {
-            for (_, photons) in self.buffers.used() {
-                cmd.release_buffer(photons, QueueRole::Transfer);
-            }
-            self.photons_on_graphics = false;
+        // Nothing when the photon buffer is not the graphics queue's (already handed over, or
+        // a single queue family): the tracker knows who holds it.
+        for (_, photons) in self.buffers.used() {
+            cmd.release_buffer(photons, QueueRole::Transfer);
         }
         // The re-traced lights' views, consecutive ones in one batch, cut where the bounce map's
         // buffers end (`passes/bounce_map.rs`).
@@ -653,7 +648,8 @@ impl PhotonFrame {
         let record = size_of::<BounceMapPhoton>() as u64;
         let split = self.bounce_map.split;
         for buffer in &self.bounce_map.device {
-            cmd.acquire_buffer(buffer, QueueRole::Graphics, Access::TransferSrc);
+            // Every buffer, also one without new records: each is handed back below.
+            cmd.transition_buffer(buffer, Access::TransferSrc);
         }
         // Each buffer's new records to their places in the one readback buffer.
         for (b, buffer) in self.bounce_map.device.iter().enumerate() {
@@ -763,7 +759,6 @@ impl PhotonFrame {
         }
         let _scope = cmd.scope(PassId::Upload.name());
         for (staging, photons) in self.buffers.used() {
-            cmd.acquire_buffer(photons, QueueRole::Graphics, Access::TransferDst);
             cmd.copy_buffer(staging, photons);
             cmd.release_buffer(photons, QueueRole::Graphics);
         }

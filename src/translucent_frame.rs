@@ -152,28 +152,38 @@ impl TranslucentFrame {
     }
 
     /// The environment cube map (if dirty) from the `opaque` draws, then the `delta` draws over
-    /// `radiance`, depth-tested against the eye G-buffer's `depth`.
+    /// `radiance`, depth-tested against the eye G-buffer's `depth`. `resources` are the ones
+    /// the frame was made with.
     pub fn record(
         &mut self,
         cmd: &crate::gpu::Cmd,
-        scene: &GpuScene,
-        (opaque, delta): (&[Draw], &[Draw]),
-        shadow_atlas: &Image,
+        (scene, opaque, delta): (&GpuScene, &[Draw], &[Draw]),
+        resources: &TranslucentResources,
         depth: &mut Image,
         radiance: &mut Image,
     ) {
-        self.environment.record(cmd, scene, opaque, shadow_atlas);
+        let environment = EnvironmentInputs {
+            materials: &scene.materials,
+            lights: resources.lights,
+            shadow_views: resources.shadow_views,
+            shadow_atlas: resources.shadow_atlas,
+        };
+        self.environment.record(cmd, scene, opaque, &environment);
         if std::mem::take(&mut self.indirect_pending) {
             cmd.copy_buffer_to_image(&self.indirect_staging, &self.indirect);
         }
-        self.pass.record(
-            cmd,
-            scene,
-            delta,
-            (shadow_atlas, &self.environment.cube, &self.indirect),
-            depth,
-            radiance,
-        );
+        let inputs = TranslucentInputs {
+            frame: resources.frame,
+            materials: &scene.materials,
+            lights: resources.lights,
+            shadow_views: resources.shadow_views,
+            shadow_atlas: resources.shadow_atlas,
+            environment: &self.uniforms,
+            environment_map: &self.environment.cube,
+            environment_indirect: &self.indirect,
+        };
+        self.pass
+            .record(cmd, (scene, delta), &inputs, depth, radiance);
     }
 
     /// World-space centre of the cube maps.

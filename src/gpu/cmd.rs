@@ -11,10 +11,11 @@ use super::error::{vk_err, GpuResult};
 use super::pipeline::{DescriptorSet, Pipeline};
 use super::resources::{aspect_of, Buffer, Image};
 use super::timestamps::Timestamps;
+use super::tracker::{Barrier, Tracker};
 use ash::vk;
 use std::ops::Range;
 use std::sync::atomic::{AtomicU32, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 /// A command buffer being recorded for one queue role.
 pub struct Recording {
@@ -25,6 +26,8 @@ pub struct Recording {
     timestamps: Option<Arc<Timestamps>>,
     /// Scopes open in this command buffer.
     depth: AtomicU32,
+    /// The states of the resources this recording touched; handed back on submission.
+    tracker: Mutex<Tracker>,
 }
 
 /// How a colour attachment starts.
@@ -92,6 +95,7 @@ impl Gpu {
             role,
             timestamps,
             depth: AtomicU32::new(0),
+            tracker: Mutex::new(Tracker::default()),
         })
     }
 
@@ -161,6 +165,11 @@ impl Gpu {
         let pool = std::mem::replace(&mut rec.pool, vk::CommandPool::null());
         self.retire(Retired::CommandPool(pool));
         result.map_err(vk_err("vkQueueSubmit2"))?;
+        // Submitted: the states this recording leaves are the resources' states at rest.
+        rec.tracker
+            .get_mut()
+            .unwrap_or_else(|e| e.into_inner())
+            .commit();
         Ok(TimelinePoint {
             queue: queue_index,
             value,
@@ -216,6 +225,7 @@ impl Recording {
             timestamps: self.timestamps.as_deref(),
             family: self.gpu.queue(self.role).family,
             depth: &self.depth,
+            tracker: &self.tracker,
         }
     }
 }
@@ -230,6 +240,24 @@ pub struct Cmd<'a> {
     /// The queue family the command buffer is recorded for.
     family: u32,
     depth: &'a AtomicU32,
+    tracker: &'a Mutex<Tracker>,
+}
+
+/// A buffer or an image, as one entry of a batch of barriers ([`Cmd::barriers`]).
+#[derive(Clone, Copy)]
+pub enum Resource<'a> {
+    Buffer(&'a Buffer),
+    Image(&'a Image),
+}
+
+impl Resource<'_> {
+    fn same(&self, other: &Resource) -> bool {
+        match (self, other) {
+            (Resource::Buffer(a), Resource::Buffer(b)) => a.raw == b.raw,
+            (Resource::Image(a), Resource::Image(b)) => a.raw == b.raw,
+            _ => false,
+        }
+    }
 }
 
 /// An open debug label / timestamp scope; closes when dropped.
@@ -281,67 +309,64 @@ impl<'a> Cmd<'a> {
         Scope { cmd: self, index }
     }
 
-    /// Makes the next `to` access of `image` wait for its last access, changing its layout.
-    pub fn transition(&self, image: &Image, to: Access) {
-        let mut last = image.access.lock().unwrap_or_else(|e| e.into_inner());
-        let from = *last;
-        if from == to && !to.writes() {
+    /// Makes the next use of each resource in `uses` wait for what came before it (and
+    /// changes image layouts, and acquires buffers handed over by another queue family): one
+    /// `vkCmdPipelineBarrier2` for the whole batch, none when no use needs one. The "from"
+    /// state is this recording's (`tracker.rs`).
+    pub fn barriers(&self, uses: &[(Resource, Access)]) {
+        let mut tracker = self.tracker.lock().unwrap_or_else(|e| e.into_inner());
+        let mut images = Vec::new();
+        let mut buffers = Vec::new();
+        for (i, &(resource, to)) in uses.iter().enumerate() {
+            // A resource bound twice (e.g. one image for two bindings) waits once.
+            if let Some(&(_, before)) = uses[..i].iter().find(|(r, _)| r.same(&resource)) {
+                debug_assert_eq!(before, to, "one resource used two ways in one batch");
+                continue;
+            }
+            match resource {
+                Resource::Image(image) => {
+                    if let Some(b) = tracker.state(&image.resting).next(to, self.family, true) {
+                        images.push(image_barrier(image, &b));
+                    }
+                }
+                Resource::Buffer(buffer) => {
+                    if let Some(b) = tracker.state(&buffer.resting).next(to, self.family, false) {
+                        buffers.push(buffer_barrier(buffer, &b));
+                    }
+                }
+            }
+        }
+        self.pipeline_barrier(&images, &buffers);
+    }
+
+    /// Records one `vkCmdPipelineBarrier2` of `images` and `buffers` (nothing when both are
+    /// empty).
+    fn pipeline_barrier(
+        &self,
+        images: &[vk::ImageMemoryBarrier2],
+        buffers: &[vk::BufferMemoryBarrier2],
+    ) {
+        if images.is_empty() && buffers.is_empty() {
             return;
         }
-        let (f, t) = (from.info(), to.info());
-        let barrier = vk::ImageMemoryBarrier2::default()
-            .src_stage_mask(f.stage)
-            .src_access_mask(f.access)
-            .dst_stage_mask(t.stage)
-            .dst_access_mask(t.access)
-            .old_layout(f.layout)
-            .new_layout(t.layout)
-            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-            .image(image.raw)
-            .subresource_range(vk::ImageSubresourceRange {
-                aspect_mask: image.aspect(),
-                base_mip_level: 0,
-                level_count: 1,
-                base_array_layer: 0,
-                layer_count: image.layers,
-            });
-        let barriers = [barrier];
-        let dep = vk::DependencyInfo::default().image_memory_barriers(&barriers);
-        // SAFETY: recording state; the image is live; synchronization2 is enabled.
+        let dep = vk::DependencyInfo::default()
+            .image_memory_barriers(images)
+            .buffer_memory_barriers(buffers);
+        // SAFETY: recording state, outside a rendering scope; the resources are live (borrowed
+        // by the caller); synchronization2 is enabled; a barrier naming two queue families is
+        // one half of an ownership transfer, recorded on the family that holds the buffer (a
+        // release) or that it was released to (an acquire, after a semaphore wait on it).
         unsafe { self.device().cmd_pipeline_barrier2(self.raw, &dep) };
-        *last = to;
+    }
+
+    /// Makes the next `to` access of `image` wait for its last access, changing its layout.
+    pub fn transition(&self, image: &Image, to: Access) {
+        self.barriers(&[(Resource::Image(image), to)]);
     }
 
     /// Makes the next `to` access of `buffer` wait for its last access.
     pub fn transition_buffer(&self, buffer: &Buffer, to: Access) {
-        let mut last = buffer.access.lock().unwrap_or_else(|e| e.into_inner());
-        let from = *last;
-        debug_assert!(
-            from != Access::Released,
-            "{} is used on a queue it was not acquired by (Cmd::acquire_buffer)",
-            buffer.name
-        );
-        if (from == to && !to.writes()) || from == Access::Nothing {
-            *last = to;
-            return;
-        }
-        let (f, t) = (from.info(), to.info());
-        let barrier = vk::BufferMemoryBarrier2::default()
-            .src_stage_mask(f.stage)
-            .src_access_mask(f.access)
-            .dst_stage_mask(t.stage)
-            .dst_access_mask(t.access)
-            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-            .buffer(buffer.raw)
-            .offset(0)
-            .size(vk::WHOLE_SIZE);
-        let barriers = [barrier];
-        let dep = vk::DependencyInfo::default().buffer_memory_barriers(&barriers);
-        // SAFETY: recording state; the buffer is live; synchronization2 is enabled.
-        unsafe { self.device().cmd_pipeline_barrier2(self.raw, &dep) };
-        *last = to;
+        self.barriers(&[(Resource::Buffer(buffer), to)]);
     }
 
     /// Begins dynamic rendering into `colors` (+ `depth`), with viewport and scissor set to the
@@ -352,13 +377,13 @@ impl<'a> Cmd<'a> {
             .or(depth)
             .map(|a| a.image.extent())
             .unwrap_or_default();
-        for c in colors {
-            // Read-write: a blending pipeline reads the attachment even after a clear.
-            self.transition(c.image, Access::ColorAttachmentBlend);
-        }
-        if let Some(d) = depth {
-            self.transition(d.image, Access::DepthAttachmentWrite);
-        }
+        // Read-write: a blending pipeline reads the attachment even after a clear.
+        let uses: Vec<_> = colors
+            .iter()
+            .map(|c| (Resource::Image(c.image), Access::ColorAttachmentBlend))
+            .chain(depth.map(|d| (Resource::Image(d.image), Access::DepthAttachmentWrite)))
+            .collect();
+        self.barriers(&uses);
         let color_infos: Vec<_> = colors
             .iter()
             .map(|c| {
@@ -536,8 +561,10 @@ impl<'a> Cmd<'a> {
 
     /// Copies the first layer of `image` into `buffer` (tightly packed rows).
     pub fn copy_image_to_buffer(&self, image: &Image, buffer: &Buffer) {
-        self.transition(image, Access::TransferSrc);
-        self.transition_buffer(buffer, Access::TransferDst);
+        self.barriers(&[
+            (Resource::Image(image), Access::TransferSrc),
+            (Resource::Buffer(buffer), Access::TransferDst),
+        ]);
         let region = vk::BufferImageCopy::default()
             .image_subresource(vk::ImageSubresourceLayers {
                 aspect_mask: aspect_of(image.format),
@@ -621,8 +648,10 @@ impl<'a> Cmd<'a> {
 
     /// Transitions `buffer` and `image` and records the copy of `region` between them.
     fn copy_to_image(&self, buffer: &Buffer, image: &Image, region: vk::BufferImageCopy) {
-        self.transition(image, Access::TransferDst);
-        self.transition_buffer(buffer, Access::TransferSrc);
+        self.barriers(&[
+            (Resource::Image(image), Access::TransferDst),
+            (Resource::Buffer(buffer), Access::TransferSrc),
+        ]);
         // SAFETY: recording state; the image is in TRANSFER_DST_OPTIMAL (transitioned above);
         // the region lies inside the image and the buffer (the public callers' checks).
         unsafe {
@@ -638,8 +667,10 @@ impl<'a> Cmd<'a> {
 
     /// Copies all of `src` into the start of `dst`.
     pub fn copy_buffer(&self, src: &Buffer, dst: &Buffer) {
-        self.transition_buffer(src, Access::TransferSrc);
-        self.transition_buffer(dst, Access::TransferDst);
+        self.barriers(&[
+            (Resource::Buffer(src), Access::TransferSrc),
+            (Resource::Buffer(dst), Access::TransferDst),
+        ]);
         let region = vk::BufferCopy {
             src_offset: 0,
             dst_offset: 0,
@@ -677,8 +708,10 @@ impl<'a> Cmd<'a> {
         if regions.is_empty() {
             return;
         }
-        self.transition_buffer(src, Access::TransferSrc);
-        self.transition_buffer(dst, Access::TransferDst);
+        self.barriers(&[
+            (Resource::Buffer(src), Access::TransferSrc),
+            (Resource::Buffer(dst), Access::TransferDst),
+        ]);
         // SAFETY: recording state; both buffers are live and every region lies in both
         // (asserted above).
         unsafe {
@@ -729,46 +762,18 @@ impl<'a> Cmd<'a> {
         self.transition_buffer(buffer, Access::AnyShaderUniformRead);
     }
 
-    /// Ends this queue's use of `buffer` (last access: its tracked one) and hands it to the
-    /// queue of `to`: a queue-family release barrier when the families differ, nothing but the
-    /// tracked state otherwise (the timeline semaphore the other queue waits on orders and makes
-    /// visible everything before it). Pair with [`Cmd::acquire_buffer`] in a submission that
-    /// waits for this one.
+    /// Hands `buffer` over to the queue of `to`: a queue-family release barrier when this
+    /// queue's family holds it and `to`'s differs; nothing otherwise (one family: the timeline
+    /// semaphore the other queue waits on orders and makes visible everything before it). The
+    /// first use on the receiving family acquires it ([`Cmd::barriers`]), in a submission that
+    /// must wait for this one.
     pub fn release_buffer(&self, buffer: &Buffer, to: QueueRole) {
-        let mut last = buffer.access.lock().unwrap_or_else(|e| e.into_inner());
-        let (barrier, next) = super::access::release(*last, self.family, self.gpu.queue(to).family);
-        self.ownership_barrier(buffer, barrier);
-        *last = next;
-    }
-
-    /// Takes `buffer` over from the queue of `from` (see [`Cmd::release_buffer`], recorded in a
-    /// submission this one waits for) for the access `to`.
-    pub fn acquire_buffer(&self, buffer: &Buffer, from: QueueRole, to: Access) {
-        let mut last = buffer.access.lock().unwrap_or_else(|e| e.into_inner());
-        let (barrier, next) =
-            super::access::acquire(*last, self.gpu.queue(from).family, self.family, to);
-        self.ownership_barrier(buffer, barrier);
-        *last = next;
-    }
-
-    /// Records one half of a queue-family ownership transfer of all of `buffer`.
-    fn ownership_barrier(&self, buffer: &Buffer, barrier: Option<super::access::OwnershipBarrier>) {
-        let Some(b) = barrier else { return };
-        let barriers = [vk::BufferMemoryBarrier2::default()
-            .src_stage_mask(b.src_stage)
-            .src_access_mask(b.src_access)
-            .dst_stage_mask(b.dst_stage)
-            .dst_access_mask(b.dst_access)
-            .src_queue_family_index(b.src_family)
-            .dst_queue_family_index(b.dst_family)
-            .buffer(buffer.raw)
-            .offset(0)
-            .size(vk::WHOLE_SIZE)];
-        let dep = vk::DependencyInfo::default().buffer_memory_barriers(&barriers);
-        // SAFETY: recording state on this command buffer's queue, of the family that owns the
-        // buffer (a release) or that receives it after a semaphore wait on the matching release
-        // (an acquire); the buffer is live; synchronization2 is enabled.
-        unsafe { self.device().cmd_pipeline_barrier2(self.raw, &dep) };
+        let to = self.gpu.queue(to).family;
+        let mut tracker = self.tracker.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(b) = tracker.state(&buffer.resting).release(self.family, to) {
+            drop(tracker);
+            self.pipeline_barrier(&[], &[buffer_barrier(buffer, &b)]);
+        }
     }
 
     /// Blits all of `src` (in [`Access::BlitSrc`]) onto the swapchain image `dst` of `extent`,
@@ -861,4 +866,45 @@ impl<'a> Cmd<'a> {
         // SAFETY: recording state; the image was just written by the blit above.
         unsafe { self.device().cmd_pipeline_barrier2(self.raw, &dep) };
     }
+}
+
+/// The family indices of a barrier: the transfer's, or none.
+fn families(b: &Barrier) -> (u32, u32) {
+    b.families
+        .unwrap_or((vk::QUEUE_FAMILY_IGNORED, vk::QUEUE_FAMILY_IGNORED))
+}
+
+fn image_barrier(image: &Image, b: &Barrier) -> vk::ImageMemoryBarrier2<'static> {
+    let (src_family, dst_family) = families(b);
+    vk::ImageMemoryBarrier2::default()
+        .src_stage_mask(b.src_stage)
+        .src_access_mask(b.src_access)
+        .dst_stage_mask(b.dst_stage)
+        .dst_access_mask(b.dst_access)
+        .old_layout(b.old_layout)
+        .new_layout(b.new_layout)
+        .src_queue_family_index(src_family)
+        .dst_queue_family_index(dst_family)
+        .image(image.raw)
+        .subresource_range(vk::ImageSubresourceRange {
+            aspect_mask: image.aspect(),
+            base_mip_level: 0,
+            level_count: 1,
+            base_array_layer: 0,
+            layer_count: image.layers,
+        })
+}
+
+fn buffer_barrier(buffer: &Buffer, b: &Barrier) -> vk::BufferMemoryBarrier2<'static> {
+    let (src_family, dst_family) = families(b);
+    vk::BufferMemoryBarrier2::default()
+        .src_stage_mask(b.src_stage)
+        .src_access_mask(b.src_access)
+        .dst_stage_mask(b.dst_stage)
+        .dst_access_mask(b.dst_access)
+        .src_queue_family_index(src_family)
+        .dst_queue_family_index(dst_family)
+        .buffer(buffer.raw)
+        .offset(0)
+        .size(vk::WHOLE_SIZE)
 }

@@ -6,6 +6,8 @@
 //! | `device.rs` | [`Gpu`]: device choice, queues with one timeline each, allocator, graveyard |
 //! | `resources.rs` | RAII [`Buffer`], [`Image`], [`Sampler`] with debug names |
 //! | `access.rs` | the [`Access`] vocabulary and its table of sync2 stages/accesses/layouts |
+//! | `uses.rs` | a pass's declared [`Use`]s: its descriptor layout, writes and barriers from one list |
+//! | `tracker.rs` | per-recording resource states: the barrier (and queue hand-off) each use needs |
 //! | `cmd.rs` | [`Recording`] and [`Cmd`]: every `vkCmd*` the passes use; submission, waits |
 //! | `pipeline.rs` | descriptor layouts and sets, graphics and compute [`Pipeline`]s, specialisation constants |
 //! | `timestamps.rs` | GPU timestamp scopes per queue, read as host-clock spans |
@@ -30,13 +32,15 @@ mod resources;
 pub mod shaders;
 mod swapchain;
 mod timestamps;
+mod tracker;
 mod transfer;
+pub mod uses;
 
 pub use crate::timing::Span;
 pub use access::{Access, AccessInfo};
 pub use ash::vk;
 pub use clock::{tick_delta, Calibration, ClockSource};
-pub use cmd::{Attachment, Cmd, Load, Recording, Scope, Wait};
+pub use cmd::{Attachment, Cmd, Load, Recording, Resource, Scope, Wait};
 pub use device::{
     device_type_rank, list_devices, DeviceProperties, Gpu, GpuOptions, Queue, QueueMode, QueueRole,
     TimelinePoint,
@@ -53,3 +57,4 @@ pub use shaders::{table as shader_table, Shader, Stage};
 pub use swapchain::{Presented, Swapchain};
 pub use timestamps::Timestamps;
 pub use transfer::texel_size;
+pub use uses::{Shaders, Use};

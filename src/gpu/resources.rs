@@ -2,13 +2,13 @@
 //! [`Access`] made of it (so barriers are derived, not written by hand). Dropping one retires it
 //! to the graveyard of [`Gpu`]; it is destroyed once the GPU can no longer be using it.
 
-use super::access::Access;
 use super::device::{Gpu, Retired};
 use super::error::{vk_err, GpuError, GpuResult};
+use super::tracker::Resting;
 use ash::vk;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 pub use gpu_allocator::MemoryLocation;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 /// A buffer and its memory.
 pub struct Buffer {
@@ -17,7 +17,8 @@ pub struct Buffer {
     allocation: Option<Allocation>,
     pub size: u64,
     pub name: String,
-    pub(super) access: Mutex<Access>,
+    /// The state the last submitted recording left it in (`tracker.rs`).
+    pub(super) resting: Arc<Resting>,
 }
 
 impl Buffer {
@@ -72,7 +73,7 @@ impl Buffer {
             allocation: Some(allocation),
             size,
             name: name.into(),
-            access: Mutex::new(Access::Nothing),
+            resting: Resting::new(name),
         })
     }
 
@@ -193,8 +194,11 @@ pub struct Image {
     pub width: u32,
     pub height: u32,
     pub layers: u32,
+    /// What it was made for (sampled, storage, attachment, transfer).
+    pub usage: vk::ImageUsageFlags,
     pub name: String,
-    pub(super) access: Mutex<Access>,
+    /// The state the last submitted recording left it in (`tracker.rs`).
+    pub(super) resting: Arc<Resting>,
 }
 
 pub(super) fn aspect_of(format: vk::Format) -> vk::ImageAspectFlags {
@@ -272,8 +276,9 @@ impl Image {
             width: desc.width.max(1),
             height: desc.height.max(1),
             layers: desc.layers.max(1),
+            usage: desc.usage,
             name: desc.name.into(),
-            access: Mutex::new(Access::Nothing),
+            resting: Resting::new(desc.name),
         };
 
         let aspect = aspect_of(desc.format);

@@ -15,7 +15,7 @@
 //! "Progressive accumulation").
 
 use super::ComputeKernel;
-use crate::gpu::{vk, Access, BindingKind, Cmd, Gpu, Image, ImageDesc, ViewKind, Write};
+use crate::gpu::{vk, Cmd, Gpu, Image, ImageDesc, Shaders, Use, ViewKind};
 use crate::pass_id::PassId;
 use std::sync::Arc;
 
@@ -53,12 +53,8 @@ impl AccumulatePass {
             gpu,
             PassId::Accumulate.name(),
             &crate::gpu::shader_table::ACCUMULATE_COMP,
-            &[BindingKind::StorageImage, BindingKind::StorageImage],
+            &Self::uses(radiance, &accumulation),
             size_of::<Push>() as u32,
-            &[
-                Write::StorageImage(radiance),
-                Write::StorageImage(&accumulation),
-            ],
             &[],
         )?;
         Ok(Self {
@@ -67,11 +63,15 @@ impl AccumulatePass {
         })
     }
 
+    /// What the pass uses, in the shader's binding order.
+    fn uses<'a>(radiance: &'a Image, accumulation: &'a Image) -> [Use<'a>; 2] {
+        [Use::Storage(radiance), Use::Storage(accumulation)]
+    }
+
     /// Adds `radiance` to the mean of the `frames` frames before it and writes the mean back.
     pub fn record(&mut self, cmd: &Cmd, radiance: &mut Image, frames: u32) {
         let _scope = cmd.scope(PassId::Accumulate.name());
-        cmd.transition(radiance, Access::ComputeStorageWrite);
-        cmd.transition(&self.accumulation, Access::ComputeStorageWrite);
+        cmd.uses(Shaders::Compute, &Self::uses(radiance, &self.accumulation));
         let push = Push {
             width: radiance.width,
             height: radiance.height,

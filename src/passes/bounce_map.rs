@@ -19,7 +19,7 @@
 
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
-use crate::gpu::{Access, BindingKind, Buffer, Cmd, Filter, Gpu, Sampler, Write};
+use crate::gpu::{Buffer, Cmd, Filter, Gpu, Sampler, Shaders, Use};
 use crate::pass_id::PassId;
 use crate::photon::bsdf::BsdfVariant;
 use crate::photon::types::BounceMapPhoton;
@@ -180,7 +180,7 @@ impl ViewBatch {
 
 pub struct BounceMapPass {
     kernel: ComputeKernel,
-    _sampler: Sampler,
+    sampler: Sampler,
 }
 
 /// What the bounce map reads and writes.
@@ -196,50 +196,37 @@ pub struct BounceMapIo<'a> {
 impl BounceMapPass {
     /// The pass with the über-BSDF lobes of `variant` compiled in.
     pub fn new(gpu: &Arc<Gpu>, io: &BounceMapIo, variant: BsdfVariant) -> anyhow::Result<Self> {
-        let kinds = [
-            BindingKind::StorageBuffer,
-            BindingKind::StorageBuffer,
-            BindingKind::SampledImage,
-            BindingKind::SampledImage,
-            BindingKind::SampledImage,
-            BindingKind::SampledImage,
-            BindingKind::StorageBuffer,
-        ];
         let sampler = Sampler::new(gpu, "bounce_map.nearest", Filter::Nearest, false)?;
-        let g = io.light_gbuffer;
-        let image = |image| Write::Image {
-            image,
-            sampler: &sampler,
-        };
         // One set per buffer of the map, the same but for the last binding.
-        let sets: Vec<[Write; 7]> = io
-            .bounce_map
-            .iter()
-            .map(|buffer| {
-                [
-                    Write::Buffer(io.materials),
-                    Write::Buffer(io.views),
-                    image(&g.position),
-                    image(&g.normal),
-                    image(&g.albedo),
-                    image(&g.material),
-                    Write::Buffer(buffer),
-                ]
-            })
+        let sets: Vec<[Use; 7]> = (0..io.bounce_map.len())
+            .map(|b| Self::uses(io, b, &sampler))
             .collect();
-        let sets: Vec<&[Write]> = sets.iter().map(|s| s.as_slice()).collect();
+        let sets: Vec<&[Use]> = sets.iter().map(|s| s.as_slice()).collect();
         let kernel = ComputeKernel::with_sets(
             gpu,
             PassId::BounceMap.name(),
             &crate::gpu::shader_table::BOUNCE_MAP_COMP,
-            (&kinds, size_of::<Push>() as u32),
+            size_of::<Push>() as u32,
             &sets,
             &super::bsdf_constants(variant),
         )?;
-        Ok(Self {
-            kernel,
-            _sampler: sampler,
-        })
+        Ok(Self { kernel, sampler })
+    }
+
+    /// What a dispatch over buffer `buffer` of the map uses, in the shader's binding order.
+    fn uses<'a>(io: &BounceMapIo<'a>, buffer: usize, sampler: &'a Sampler) -> [Use<'a>; 7] {
+        let g = io.light_gbuffer;
+        [
+            Use::Read(io.materials),
+            Use::Read(io.views),
+            Use::Sampled(&g.position, sampler),
+            Use::Sampled(&g.normal, sampler),
+            Use::Sampled(&g.albedo, sampler),
+            Use::Sampled(&g.material, sampler),
+            // Each dispatch writes its own records only, but binds a whole buffer: the
+            // barrier orders the writes for synchronization validation.
+            Use::Write(&io.bounce_map[buffer]),
+        ]
     }
 
     /// Runs the first bounce over the views of `batches` (the others' records are left as
@@ -253,18 +240,12 @@ impl BounceMapPass {
         (seed, sample): (u32, u32),
     ) {
         let _scope = cmd.scope(PassId::BounceMap.name());
-        let g = io.light_gbuffer;
-        for image in [&g.position, &g.normal, &g.albedo, &g.material] {
-            cmd.transition(image, Access::ComputeSampledRead);
-        }
         for batch in batches
             .iter()
             .filter(|b| b.count > 0 && !b.records.is_empty())
         {
-            // Each dispatch writes its own records only, but binds a whole buffer: the barrier
-            // orders the writes for synchronization validation.
             let buffer = batch.records.start / io.split.per_buffer;
-            cmd.transition_buffer(&io.bounce_map[buffer], Access::ComputeStorageWrite);
+            cmd.uses(Shaders::Compute, &Self::uses(io, buffer, &self.sampler));
             let (w, h) = batch.extent;
             // Map indices fit in u32: the plan's views address records with u32 offsets.
             let push = Push {

@@ -2,7 +2,7 @@
 //! photon-mapped indirect light.
 
 use super::ComputeKernel;
-use crate::gpu::{Access, BindingKind, Cmd, Filter, Gpu, Image, Sampler, Write};
+use crate::gpu::{Cmd, Filter, Gpu, Image, Sampler, Shaders, Use};
 use crate::pass_id::PassId;
 use std::sync::Arc;
 
@@ -15,7 +15,7 @@ struct Push {
 
 pub struct CompositePass {
     kernel: ComputeKernel,
-    _sampler: Sampler,
+    sampler: Sampler,
 }
 
 impl CompositePass {
@@ -25,27 +25,24 @@ impl CompositePass {
             gpu,
             PassId::Composite.name(),
             &crate::gpu::shader_table::COMPOSITE_COMP,
-            &[BindingKind::SampledImage, BindingKind::StorageImage],
+            &Self::uses(indirect, radiance, &sampler),
             size_of::<Push>() as u32,
-            &[
-                Write::Image {
-                    image: indirect,
-                    sampler: &sampler,
-                },
-                Write::StorageImage(radiance),
-            ],
             &[],
         )?;
-        Ok(Self {
-            kernel,
-            _sampler: sampler,
-        })
+        Ok(Self { kernel, sampler })
+    }
+
+    /// What the pass uses, in the shader's binding order.
+    fn uses<'a>(indirect: &'a Image, radiance: &'a Image, sampler: &'a Sampler) -> [Use<'a>; 2] {
+        [Use::Sampled(indirect, sampler), Use::Storage(radiance)]
     }
 
     pub fn record(&self, cmd: &Cmd, indirect: &Image, radiance: &mut Image) {
         let _scope = cmd.scope(PassId::Composite.name());
-        cmd.transition(indirect, Access::ComputeSampledRead);
-        cmd.transition(radiance, Access::ComputeStorageWrite);
+        cmd.uses(
+            Shaders::Compute,
+            &Self::uses(indirect, radiance, &self.sampler),
+        );
         let push = Push {
             width: radiance.width,
             height: radiance.height,

@@ -22,9 +22,7 @@ use super::bounce_map::Split;
 use super::eye_gbuffer::GBuffer;
 use super::tonemap::Tonemap;
 use super::ComputeKernel;
-use crate::gpu::{
-    shader_table, vk, Access, BindingKind, Buffer, Cmd, Filter, Gpu, Image, Sampler, Write,
-};
+use crate::gpu::{shader_table, vk, Buffer, Cmd, Filter, Gpu, Image, Sampler, Shaders, Use};
 use crate::pass_id::PassId;
 use std::sync::Arc;
 
@@ -160,7 +158,7 @@ pub struct DebugViewPass {
     /// them).
     photons: Option<Vec<vk::Buffer>>,
     kernels: Vec<ComputeKernel>,
-    _sampler: Sampler,
+    sampler: Sampler,
 }
 
 fn missing(view: DebugView) -> anyhow::Error {
@@ -179,132 +177,59 @@ impl DebugViewPass {
         inputs: &DebugInputs,
         display: &Image,
     ) -> anyhow::Result<Self> {
-        use BindingKind::{SampledImage, StorageBuffer, StorageImage, UniformBuffer};
         let sampler = Sampler::new(gpu, "debug_view.nearest", Filter::Nearest, false)?;
-        let s = &sampler;
         let name = PassId::DebugView.name();
         let photons = inputs.photons.as_ref();
-        let need = || photons.ok_or_else(|| missing(view));
-        let image = |image| Write::Image { image, sampler: s };
-        let push = |size: usize| size as u32;
+        if view != DebugView::DirectOnly && view != DebugView::EyeNormals && photons.is_none() {
+            return Err(missing(view));
+        }
+        // Kernel `k` with one descriptor set per buffer it is dispatched over.
+        let kernel = |k: usize, shader, push: usize, sets: usize| {
+            let sets: Vec<Vec<Use>> = (0..sets)
+                .map(|set| uses(view, (k, set), inputs, display, &sampler))
+                .collect();
+            let sets: Vec<&[Use]> = sets.iter().map(Vec::as_slice).collect();
+            ComputeKernel::with_sets(gpu, name, shader, push as u32, &sets, &[])
+        };
+        let buffers = |of: fn(&PhotonSources) -> usize| photons.map_or(0, of);
         let kernels = match view {
             DebugView::DirectOnly => Vec::new(),
-            DebugView::EyeNormals => vec![ComputeKernel::new(
-                gpu,
-                name,
-                &shader_table::DEBUG_EYE_NORMALS_COMP,
-                &[StorageImage, SampledImage, SampledImage],
+            DebugView::EyeNormals => vec![kernel(0, &shader_table::DEBUG_EYE_NORMALS_COMP, 0, 1)?],
+            DebugView::LightGbuffer => vec![kernel(
                 0,
-                &[
-                    Write::StorageImage(display),
-                    image(&inputs.gbuffer.position),
-                    image(&inputs.gbuffer.normal),
-                ],
-                &[],
+                &shader_table::DEBUG_LIGHT_GBUFFER_COMP,
+                size_of::<ExtentPush>(),
+                1,
             )?],
-            DebugView::LightGbuffer => {
-                let p = need()?;
-                vec![ComputeKernel::new(
-                    gpu,
-                    name,
-                    &shader_table::DEBUG_LIGHT_GBUFFER_COMP,
-                    &[StorageImage, SampledImage, SampledImage],
-                    push(size_of::<ExtentPush>()),
-                    &[
-                        Write::StorageImage(display),
-                        image(&p.light_gbuffer.position),
-                        image(&p.light_gbuffer.normal),
-                    ],
-                    &[],
-                )?]
-            }
-            DebugView::BounceMap => {
-                let p = need()?;
-                let sets: Vec<[Write; 3]> = p
-                    .bounce_map
-                    .iter()
-                    .map(|buffer| {
-                        [
-                            Write::StorageImage(display),
-                            Write::Buffer(p.views),
-                            Write::Buffer(buffer),
-                        ]
-                    })
-                    .collect();
-                let sets: Vec<&[Write]> = sets.iter().map(|s| s.as_slice()).collect();
-                vec![ComputeKernel::with_sets(
-                    gpu,
-                    name,
-                    &shader_table::DEBUG_BOUNCE_MAP_COMP,
-                    (
-                        &[StorageImage, StorageBuffer, StorageBuffer],
-                        push(size_of::<PeakPush>()),
-                    ),
-                    &sets,
-                    &[],
-                )?]
-            }
-            DebugView::PhotonPositions => {
-                let p = need()?;
-                // One set per photon buffer, the same but for the photons.
-                let photon_sets: Vec<[Write; 4]> = p
-                    .photons
-                    .iter()
-                    .map(|buffer| {
-                        [
-                            Write::StorageImage(display),
-                            Write::Buffer(inputs.frame),
-                            Write::Buffer(buffer),
-                            image(&inputs.gbuffer.position),
-                        ]
-                    })
-                    .collect();
-                vec![
-                    ComputeKernel::new(
-                        gpu,
-                        "debug_view.dim",
-                        &shader_table::DEBUG_DIM_COMP,
-                        &[StorageImage],
-                        0,
-                        &[Write::StorageImage(display)],
-                        &[],
-                    )?,
-                    ComputeKernel::with_sets(
-                        gpu,
-                        name,
-                        &shader_table::DEBUG_PHOTON_POSITIONS_COMP,
-                        (
-                            &[StorageImage, UniformBuffer, StorageBuffer, SampledImage],
-                            push(size_of::<PhotonPush>()),
-                        ),
-                        &photon_sets.iter().map(|s| s.as_slice()).collect::<Vec<_>>(),
-                        &[],
-                    )?,
-                ]
-            }
+            DebugView::BounceMap => vec![kernel(
+                0,
+                &shader_table::DEBUG_BOUNCE_MAP_COMP,
+                size_of::<PeakPush>(),
+                buffers(|p| p.bounce_map.len()),
+            )?],
+            DebugView::PhotonPositions => vec![
+                kernel(0, &shader_table::DEBUG_DIM_COMP, 0, 1)?,
+                kernel(
+                    1,
+                    &shader_table::DEBUG_PHOTON_POSITIONS_COMP,
+                    size_of::<PhotonPush>(),
+                    buffers(|p| p.photons.len()),
+                )?,
+            ],
             DebugView::PhotonOverdraw | DebugView::IndirectOnly => {
-                let p = need()?;
                 let shader = if view == DebugView::PhotonOverdraw {
                     &shader_table::DEBUG_OVERDRAW_COMP
                 } else {
                     &shader_table::DEBUG_INDIRECT_COMP
                 };
-                vec![ComputeKernel::new(
-                    gpu,
-                    name,
-                    shader,
-                    &[StorageImage, SampledImage],
-                    push(size_of::<ScalePush>()),
-                    &[Write::StorageImage(display), image(p.indirect)],
-                    &[],
-                )?]
+                vec![kernel(0, shader, size_of::<ScalePush>(), 1)?]
             }
         };
         Ok(Self {
             view,
             photons: photons.map(|p| raw_buffers(p.photons)),
             kernels,
-            _sampler: sampler,
+            sampler,
         })
     }
 
@@ -320,19 +245,20 @@ impl DebugViewPass {
         }
         let _scope = cmd.scope(PassId::DebugView.name());
         let groups = super::image_groups(display.width, display.height);
-        let sampled = |image: &Image| cmd.transition(image, Access::ComputeSampledRead);
         let photons = inputs.photons.as_ref();
+        // The barriers before kernel `k`'s dispatch with set `set` (a write-after-write one on
+        // the display after the kernel before).
+        let uses = |k: usize, set: usize| {
+            let uses = uses(self.view, (k, set), inputs, display, &self.sampler);
+            cmd.uses(Shaders::Compute, &uses);
+        };
         match (self.view, photons) {
             (DebugView::EyeNormals, _) => {
-                sampled(&inputs.gbuffer.position);
-                sampled(&inputs.gbuffer.normal);
-                cmd.transition(display, Access::ComputeStorageWrite);
+                uses(0, 0);
                 self.kernels[0].dispatch(cmd, groups);
             }
             (DebugView::LightGbuffer, Some(p)) => {
-                sampled(&p.light_gbuffer.position);
-                sampled(&p.light_gbuffer.normal);
-                cmd.transition(display, Access::ComputeStorageWrite);
+                uses(0, 0);
                 let (w, h) = p.first_view_extent;
                 let push = ExtentPush {
                     extent: [w.max(1), h.max(1)],
@@ -342,13 +268,10 @@ impl DebugViewPass {
                 self.kernels[0].dispatch_with(cmd, &push, groups);
             }
             (DebugView::BounceMap, Some(p)) => {
-                cmd.transition_buffer(p.views, Access::ComputeStorageRead);
                 let split = p.bounce_split;
                 // Each buffer holding the first view's records shows its pixels of it.
                 for (b, records) in split.pieces(p.first_view_records.clone()) {
-                    cmd.transition_buffer(&p.bounce_map[b], Access::ComputeStorageRead);
-                    // After the previous buffer's pixels: a write-after-write barrier.
-                    cmd.transition(display, Access::ComputeStorageWrite);
+                    uses(0, b);
                     let push = PeakPush {
                         inv_peak: inverse(p.bounce_peak),
                         view: 0,
@@ -361,19 +284,14 @@ impl DebugViewPass {
                 }
             }
             (DebugView::PhotonPositions, Some(p)) => {
-                cmd.transition(display, Access::ComputeStorageWrite);
+                uses(0, 0);
                 self.kernels[0].dispatch(cmd, groups);
-                sampled(&inputs.gbuffer.position);
-                cmd.transition_buffer(inputs.frame, Access::AnyShaderUniformRead);
                 // Every buffer of the photon map with photons this frame, in turn.
-                for (i, (photons, &count)) in p.photons.iter().zip(p.counts).enumerate() {
+                for (i, &count) in p.counts.iter().enumerate().take(p.photons.len()) {
                     if count == 0 {
                         continue;
                     }
-                    cmd.transition_buffer(photons, Access::ComputeStorageRead);
-                    // After the backdrop or the previous buffer's photons: a write-after-write
-                    // barrier on the display.
-                    cmd.transition(display, Access::ComputeStorageWrite);
+                    uses(1, i);
                     let push = PhotonPush {
                         offset: p.offset.extend(0.0).to_array(),
                         count,
@@ -384,9 +302,8 @@ impl DebugViewPass {
                     self.kernels[1].dispatch_set_with(cmd, i, &push, groups);
                 }
             }
-            (DebugView::PhotonOverdraw | DebugView::IndirectOnly, Some(p)) => {
-                sampled(p.indirect);
-                cmd.transition(display, Access::ComputeStorageWrite);
+            (DebugView::PhotonOverdraw | DebugView::IndirectOnly, Some(_)) => {
+                uses(0, 0);
                 let push = if self.view == DebugView::PhotonOverdraw {
                     ScalePush {
                         value: OVERDRAW_SCALE_MAX,
@@ -407,6 +324,49 @@ impl DebugViewPass {
             // stays.
             (DebugView::DirectOnly, _) | (_, None) => {}
         }
+    }
+}
+
+/// What kernel `k` of `view` uses with its descriptor set `set` (one per buffer of a map
+/// split over several), in its shader's binding order. Empty for the views that need photon
+/// sources when `inputs` has none.
+fn uses<'a>(
+    view: DebugView,
+    (k, set): (usize, usize),
+    inputs: &DebugInputs<'a>,
+    display: &'a Image,
+    s: &'a Sampler,
+) -> Vec<Use<'a>> {
+    let g = inputs.gbuffer;
+    let out = Use::Storage(display);
+    let p = inputs.photons.as_ref();
+    match (view, p, k) {
+        (DebugView::EyeNormals, _, _) => {
+            vec![
+                out,
+                Use::Sampled(&g.position, s),
+                Use::Sampled(&g.normal, s),
+            ]
+        }
+        (DebugView::LightGbuffer, Some(p), _) => vec![
+            out,
+            Use::Sampled(&p.light_gbuffer.position, s),
+            Use::Sampled(&p.light_gbuffer.normal, s),
+        ],
+        (DebugView::BounceMap, Some(p), _) => {
+            vec![out, Use::Read(p.views), Use::Read(&p.bounce_map[set])]
+        }
+        (DebugView::PhotonPositions, Some(_), 0) => vec![out],
+        (DebugView::PhotonPositions, Some(p), _) => vec![
+            out,
+            Use::Uniform(inputs.frame),
+            Use::Read(&p.photons[set]),
+            Use::Sampled(&g.position, s),
+        ],
+        (DebugView::PhotonOverdraw | DebugView::IndirectOnly, Some(p), _) => {
+            vec![out, Use::Sampled(p.indirect, s)]
+        }
+        (DebugView::DirectOnly, _, _) | (_, None, _) => Vec::new(),
     }
 }
 

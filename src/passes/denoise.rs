@@ -36,9 +36,7 @@
 
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
-use crate::gpu::{
-    vk, Access, BindingKind, Cmd, Filter, Gpu, Image, ImageDesc, Sampler, ViewKind, Write,
-};
+use crate::gpu::{vk, Cmd, Filter, Gpu, Image, ImageDesc, Sampler, Shaders, Use, ViewKind};
 use crate::pass_id::PassId;
 use std::sync::Arc;
 
@@ -99,7 +97,7 @@ pub fn reach_for(accumulated: u32) -> f32 {
 
 pub struct DenoisePass {
     kernel: ComputeKernel,
-    _sampler: Sampler,
+    sampler: Sampler,
     /// The other half of the ping-pong, the size of the global share.
     scratch: Image,
     subsample: u32,
@@ -133,46 +131,42 @@ impl DenoisePass {
                 view: ViewKind::D2,
             },
         )?;
-        let kinds = [
-            BindingKind::SampledImage,
-            BindingKind::SampledImage,
-            BindingKind::SampledImage,
-            BindingKind::StorageImage,
-            BindingKind::StorageImage,
-            BindingKind::StorageImage,
-        ];
         let sampler = Sampler::new(gpu, "denoise.nearest", Filter::Nearest, false)?;
-        let image = |image| Write::Image {
-            image,
-            sampler: &sampler,
-        };
-        let g = gbuffer;
-        let set = |src, dst| {
-            [
-                image(&g.position),
-                image(&g.normal),
-                image(&g.albedo),
-                Write::StorageImage(src),
-                Write::StorageImage(dst),
-                Write::StorageImage(total),
-            ]
-        };
-        let from_global = set(global, &scratch);
-        let from_scratch = set(&scratch, global);
+        let from_global = Self::uses(gbuffer, total, (global, &scratch), &sampler);
+        let from_scratch = Self::uses(gbuffer, total, (&scratch, global), &sampler);
         let kernel = ComputeKernel::with_sets(
             gpu,
             PassId::Denoise.name(),
             &crate::gpu::shader_table::DENOISE_COMP,
-            (&kinds, size_of::<Push>() as u32),
+            size_of::<Push>() as u32,
             &[&from_global, &from_scratch],
             &[],
         )?;
         Ok(Self {
             kernel,
-            _sampler: sampler,
+            sampler,
             scratch,
             subsample: subsample.max(1),
         })
+    }
+
+    /// What one dispatch uses, in the shader's binding order: every dispatch binds all three
+    /// storage images (the shader declares `src` read, `dst` written, `total` read and
+    /// written), whichever the mode uses.
+    fn uses<'a>(
+        g: &'a GBuffer,
+        total: &'a Image,
+        (src, dst): (&'a Image, &'a Image),
+        sampler: &'a Sampler,
+    ) -> [Use<'a>; 6] {
+        [
+            Use::Sampled(&g.position, sampler),
+            Use::Sampled(&g.normal, sampler),
+            Use::Sampled(&g.albedo, sampler),
+            Use::StorageRead(src),
+            Use::Storage(dst),
+            Use::Storage(total),
+        ]
     }
 
     /// Filters the global share of `total` with `levels` levels (nothing at 0): takes it out,
@@ -189,9 +183,6 @@ impl DenoisePass {
             return;
         }
         let _scope = cmd.scope(PassId::Denoise.name());
-        for image in [&gbuffer.position, &gbuffer.normal, &gbuffer.albedo] {
-            cmd.transition(image, Access::ComputeSampledRead);
-        }
         let push = |mode: Mode, step: i32| Push {
             size: [global.width, global.height],
             g_size: [gbuffer.position.width, gbuffer.position.height],
@@ -205,9 +196,6 @@ impl DenoisePass {
             reach,
         };
         let groups = super::image_groups(global.width, global.height);
-        // Every dispatch binds all three storage images (the shader declares `src` read,
-        // `dst` written, `total` read and written), so each is made ready for that, whichever
-        // the mode uses.
         let (global, scratch) = (global, &self.scratch);
         let dispatch = |set: usize, mode: Mode, step: i32| {
             let (src, dst) = if set == FROM_GLOBAL {
@@ -215,9 +203,8 @@ impl DenoisePass {
             } else {
                 (scratch, global)
             };
-            cmd.transition(src, Access::ComputeStorageRead);
-            cmd.transition(dst, Access::ComputeStorageWrite);
-            cmd.transition(total, Access::ComputeStorageWrite);
+            let uses = Self::uses(gbuffer, total, (src, dst), &self.sampler);
+            cmd.uses(Shaders::Compute, &uses);
             self.kernel
                 .dispatch_set_with(cmd, set, &push(mode, step), groups);
         };

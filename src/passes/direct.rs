@@ -4,7 +4,7 @@
 
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
-use crate::gpu::{Access, BindingKind, Buffer, Cmd, Filter, Gpu, Image, Sampler, Write};
+use crate::gpu::{Buffer, Cmd, Filter, Gpu, Image, Sampler, Shaders, Use};
 use crate::pass_id::PassId;
 use crate::photon::bsdf::BsdfVariant;
 use std::sync::Arc;
@@ -21,8 +21,8 @@ pub struct DirectInputs<'a> {
 
 pub struct DirectPass {
     kernel: ComputeKernel,
-    _nearest: Sampler,
-    _shadow: Sampler,
+    nearest: Sampler,
+    shadow: Sampler,
 }
 
 impl DirectPass {
@@ -33,77 +33,48 @@ impl DirectPass {
         radiance: &Image,
         variant: BsdfVariant,
     ) -> anyhow::Result<Self> {
-        let kinds = [
-            BindingKind::UniformBuffer,
-            BindingKind::StorageBuffer,
-            BindingKind::StorageBuffer,
-            BindingKind::StorageBuffer,
-            BindingKind::SampledImage,
-            BindingKind::SampledImage,
-            BindingKind::SampledImage,
-            BindingKind::SampledImage,
-            BindingKind::SampledImage,
-            BindingKind::StorageImage,
-        ];
         let nearest = Sampler::new(gpu, "direct.nearest", Filter::Nearest, false)?;
         let shadow = Sampler::new(gpu, "direct.shadow_compare", Filter::LinearCompare, false)?;
-        let g = inputs.gbuffer;
-        let writes = [
-            Write::Buffer(inputs.frame),
-            Write::Buffer(inputs.materials),
-            Write::Buffer(inputs.lights),
-            Write::Buffer(inputs.shadow_views),
-            Write::Image {
-                image: &g.position,
-                sampler: &nearest,
-            },
-            Write::Image {
-                image: &g.normal,
-                sampler: &nearest,
-            },
-            Write::Image {
-                image: &g.albedo,
-                sampler: &nearest,
-            },
-            Write::Image {
-                image: &g.material,
-                sampler: &nearest,
-            },
-            Write::Image {
-                image: inputs.shadow_atlas,
-                sampler: &shadow,
-            },
-            Write::StorageImage(radiance),
-        ];
         let kernel = ComputeKernel::new(
             gpu,
             PassId::Direct.name(),
             &crate::gpu::shader_table::DIRECT_COMP,
-            &kinds,
+            &Self::uses(inputs, radiance, (&nearest, &shadow)),
             0,
-            &writes,
             &super::bsdf_constants(variant),
         )?;
         Ok(Self {
             kernel,
-            _nearest: nearest,
-            _shadow: shadow,
+            nearest,
+            shadow,
         })
+    }
+
+    /// What the pass uses, in the shader's binding order.
+    fn uses<'a>(
+        inputs: &DirectInputs<'a>,
+        radiance: &'a Image,
+        (nearest, shadow): (&'a Sampler, &'a Sampler),
+    ) -> [Use<'a>; 10] {
+        let g = inputs.gbuffer;
+        [
+            Use::Uniform(inputs.frame),
+            Use::Read(inputs.materials),
+            Use::Read(inputs.lights),
+            Use::Read(inputs.shadow_views),
+            Use::Sampled(&g.position, nearest),
+            Use::Sampled(&g.normal, nearest),
+            Use::Sampled(&g.albedo, nearest),
+            Use::Sampled(&g.material, nearest),
+            Use::Sampled(inputs.shadow_atlas, shadow),
+            Use::Storage(radiance),
+        ]
     }
 
     pub fn record(&self, cmd: &Cmd, inputs: &DirectInputs, radiance: &mut Image) {
         let _scope = cmd.scope(PassId::Direct.name());
-        let g = inputs.gbuffer;
-        for image in [
-            &g.position,
-            &g.normal,
-            &g.albedo,
-            &g.material,
-            inputs.shadow_atlas,
-        ] {
-            cmd.transition(image, Access::ComputeSampledRead);
-        }
-        cmd.transition(radiance, Access::ComputeStorageWrite);
+        let uses = Self::uses(inputs, radiance, (&self.nearest, &self.shadow));
+        cmd.uses(Shaders::Compute, &uses);
         self.kernel
             .dispatch(cmd, super::image_groups(radiance.width, radiance.height));
     }

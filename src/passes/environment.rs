@@ -19,9 +19,8 @@
 
 use super::eye_gbuffer::{draw_instances, material_texture_sets};
 use crate::gpu::{
-    vk, Access, Attachment, Binding, BindingKind, Blend, Buffer, Cmd, Depth, DescriptorLayout,
-    DescriptorSet, Filter, Gpu, GraphicsDesc, Image, ImageDesc, Load, Pipeline, Sampler, ViewKind,
-    Write,
+    uses, vk, Attachment, Binding, Blend, Buffer, Cmd, Depth, DescriptorLayout, DescriptorSet,
+    Filter, Gpu, GraphicsDesc, Image, ImageDesc, Load, Pipeline, Sampler, Shaders, Use, ViewKind,
 };
 use crate::gpu_scene::{Draw, GpuScene};
 use crate::layout::{DrawPush, FrameUniforms, Vertex};
@@ -51,7 +50,7 @@ pub struct EnvironmentPass {
     faces: Vec<Buffer>,
     face_sets: Vec<DescriptorSet>,
     material_sets: Vec<DescriptorSet>,
-    _shadow: Sampler,
+    shadow: Sampler,
     pub cube: Image,
     depth: Image,
     dirty: bool,
@@ -97,15 +96,6 @@ impl EnvironmentPass {
         variant: BsdfVariant,
     ) -> anyhow::Result<Self> {
         let graphics = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-        let kinds = [
-            BindingKind::UniformBuffer,
-            BindingKind::StorageBuffer,
-            BindingKind::StorageBuffer,
-            BindingKind::StorageBuffer,
-            BindingKind::SampledImage,
-        ];
-        let bindings = Binding::sequence(&kinds, graphics);
-        let frame_layout = DescriptorLayout::new(gpu, "environment.frame", &bindings, 6)?;
         let (texture_layout, material_sets) =
             material_texture_sets(gpu, PassId::Environment.name(), scene)?;
         let shadow = Sampler::new(
@@ -114,27 +104,23 @@ impl EnvironmentPass {
             Filter::LinearCompare,
             false,
         )?;
-        let mut faces = Vec::new();
-        let mut face_sets = Vec::new();
-        for face in 0..6 {
-            let buffer = Buffer::constants(
-                gpu,
-                &format!("environment.face[{face}]"),
-                size_of::<FrameUniforms>() as u64,
-                vk::BufferUsageFlags::UNIFORM_BUFFER,
-            )?;
-            face_sets.push(frame_layout.allocate(&[
-                Write::Buffer(&buffer),
-                Write::Buffer(inputs.materials),
-                Write::Buffer(inputs.lights),
-                Write::Buffer(inputs.shadow_views),
-                Write::Image {
-                    image: inputs.shadow_atlas,
-                    sampler: &shadow,
-                },
-            ])?);
-            faces.push(buffer);
-        }
+        let faces = (0..6)
+            .map(|face| {
+                Buffer::constants(
+                    gpu,
+                    &format!("environment.face[{face}]"),
+                    size_of::<FrameUniforms>() as u64,
+                    vk::BufferUsageFlags::UNIFORM_BUFFER,
+                )
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let kinds = uses::kinds(&Self::uses(&faces[0], inputs, &shadow));
+        let bindings = Binding::sequence(&kinds, graphics);
+        let frame_layout = DescriptorLayout::new(gpu, "environment.frame", &bindings, 6)?;
+        let face_sets = faces
+            .iter()
+            .map(|face| frame_layout.allocate(&uses::writes(&Self::uses(face, inputs, &shadow))))
+            .collect::<Result<Vec<_>, _>>()?;
         let image = |name, format, usage, view| {
             Image::new(
                 gpu,
@@ -192,11 +178,26 @@ impl EnvironmentPass {
             faces,
             face_sets,
             material_sets,
-            _shadow: shadow,
+            shadow,
             cube,
             depth,
             dirty: true,
         })
+    }
+
+    /// What drawing face `face` (its uniforms) uses, in the shaders' binding order.
+    fn uses<'a>(
+        face: &'a Buffer,
+        inputs: &EnvironmentInputs<'a>,
+        shadow: &'a Sampler,
+    ) -> [Use<'a>; 5] {
+        [
+            Use::Uniform(face),
+            Use::Read(inputs.materials),
+            Use::Read(inputs.lights),
+            Use::Read(inputs.shadow_views),
+            Use::Sampled(inputs.shadow_atlas, shadow),
+        ]
     }
 
     /// Whether the next [`EnvironmentPass::record`] renders the cube.
@@ -229,13 +230,23 @@ impl EnvironmentPass {
     }
 
     /// Renders the six faces from `draws` (camera-relative, opaque instances only) if dirty;
-    /// `shadow_atlas` is the one the pass was created with, already rendered this frame.
-    pub fn record(&mut self, cmd: &Cmd, scene: &GpuScene, draws: &[Draw], shadow_atlas: &Image) {
+    /// `inputs` are the ones the pass was created with (the shadow atlas already rendered
+    /// this frame).
+    pub fn record(
+        &mut self,
+        cmd: &Cmd,
+        scene: &GpuScene,
+        draws: &[Draw],
+        inputs: &EnvironmentInputs,
+    ) {
         if !self.dirty {
             return;
         }
         let _scope = cmd.scope(PassId::Environment.name());
-        cmd.transition(shadow_atlas, Access::FragmentSampledRead);
+        let uses: Vec<Use> = (self.faces.iter())
+            .flat_map(|face| Self::uses(face, inputs, &self.shadow))
+            .collect();
+        cmd.uses(Shaders::Graphics, &uses);
         for (face, set) in self.face_sets.iter().enumerate() {
             cmd.begin_rendering(
                 &[Attachment {
@@ -254,7 +265,7 @@ impl EnvironmentPass {
             draw_instances(cmd, &self.pipeline, scene, draws, &self.material_sets);
             cmd.end_rendering();
         }
-        cmd.transition(&self.cube, Access::FragmentSampledRead);
+        // The translucent pass's declared use of the cube makes it wait for these faces.
         self.dirty = false;
     }
 }

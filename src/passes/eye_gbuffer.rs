@@ -12,8 +12,8 @@
 //! ```
 
 use crate::gpu::{
-    vk, Attachment, Binding, BindingKind, Blend, Buffer, Cmd, Depth, DescriptorLayout,
-    DescriptorSet, Gpu, GraphicsDesc, Image, ImageDesc, Load, Pipeline, ViewKind, Write,
+    uses, vk, Attachment, Binding, Blend, Buffer, Cmd, Depth, DescriptorLayout, DescriptorSet, Gpu,
+    GraphicsDesc, Image, ImageDesc, Load, Pipeline, Use, ViewKind,
 };
 use crate::gpu_scene::{Draw, GpuScene};
 use crate::layout::{DrawPush, Vertex};
@@ -115,28 +115,20 @@ impl GBufferPass {
         frames: &[&Buffer],
     ) -> anyhow::Result<Self> {
         let graphics = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+        // What each view's set binds: its uniforms and the (static, set-up) materials.
+        let view_uses = |frame| [Use::Uniform(frame), Use::Read(&scene.materials)];
+        let kinds = uses::kinds(&view_uses(&scene.materials));
         let frame_layout = DescriptorLayout::new(
             gpu,
             "eye_gbuffer.frame",
-            &[
-                Binding {
-                    binding: 0,
-                    kind: BindingKind::UniformBuffer,
-                    stages: graphics,
-                },
-                Binding {
-                    binding: 1,
-                    kind: BindingKind::StorageBuffer,
-                    stages: graphics,
-                },
-            ],
+            &Binding::sequence(&kinds, graphics),
             frames.len().max(1) as u32,
         )?;
         let (texture_layout, material_sets) =
             material_texture_sets(gpu, PassId::EyeGbuffer.name(), scene)?;
         let frame_sets = frames
             .iter()
-            .map(|f| frame_layout.allocate(&[Write::Buffer(f), Write::Buffer(&scene.materials)]))
+            .map(|f| frame_layout.allocate(&uses::writes(&view_uses(f))))
             .collect::<Result<Vec<_>, _>>()?;
         let attributes = super::vertex_attributes();
         let pipeline = Pipeline::graphics(
@@ -211,29 +203,24 @@ pub(crate) fn material_texture_sets(
     name: &str,
     scene: &GpuScene,
 ) -> anyhow::Result<(DescriptorLayout, Vec<DescriptorSet>)> {
+    // Each material's texture (uploaded at set-up, so no barrier each frame), or white.
+    let texture = |image| [Use::Sampled(image, &scene.texture_sampler)];
     let layout = DescriptorLayout::new(
         gpu,
         &format!("{name}.texture"),
-        &[Binding {
-            binding: 0,
-            kind: BindingKind::SampledImage,
-            stages: vk::ShaderStageFlags::FRAGMENT,
-        }],
+        &Binding::sequence(
+            &uses::kinds(&texture(&scene.white)),
+            vk::ShaderStageFlags::FRAGMENT,
+        ),
         scene.material_textures.len().max(1) as u32,
     )?;
     let mut sets = Vec::new();
     for t in &scene.material_textures {
         let image = t.map_or(&scene.white, |i| &scene.textures[i]);
-        sets.push(layout.allocate(&[Write::Image {
-            image,
-            sampler: &scene.texture_sampler,
-        }])?);
+        sets.push(layout.allocate(&uses::writes(&texture(image)))?);
     }
     if sets.is_empty() {
-        sets.push(layout.allocate(&[Write::Image {
-            image: &scene.white,
-            sampler: &scene.texture_sampler,
-        }])?);
+        sets.push(layout.allocate(&uses::writes(&texture(&scene.white)))?);
     }
     Ok((layout, sets))
 }

@@ -38,6 +38,8 @@ pub mod translucent;
 pub mod upsample;
 pub mod value_check;
 
+use crate::gpu::Use;
+
 /// The specialisation constants that select `variant`'s lobes in every shader including
 /// `bsdf.glsl`.
 pub(crate) fn bsdf_constants(
@@ -71,9 +73,10 @@ pub(crate) fn vertex_attributes() -> [crate::gpu::VertexAttribute; 3] {
 }
 
 /// What every compute pass owns: its pipeline and its descriptor sets (one, or one per buffer
-/// of a map split over several: [`ComputeKernel::with_sets`]), whose bindings are 0, 1, 2… in
-/// the order of `kinds` (the order the shader declares them in), and the pipeline's
-/// specialisation constants. The pass keeps its samplers itself, since the writes borrow them.
+/// of a map split over several: [`ComputeKernel::with_sets`]), made from the pass's declared
+/// [`Use`]s (bindings 0, 1, 2… in the order the shader declares them; the same list gives the
+/// barriers before each dispatch, [`crate::gpu::Cmd::uses`]), and the pipeline's
+/// specialisation constants. The pass keeps its samplers itself, since the uses borrow them.
 pub(crate) struct ComputeKernel {
     pipeline: crate::gpu::Pipeline,
     layout: crate::gpu::DescriptorLayout,
@@ -85,22 +88,54 @@ impl ComputeKernel {
         gpu: &std::sync::Arc<crate::gpu::Gpu>,
         name: &str,
         shader: &crate::gpu::Shader,
-        kinds: &[crate::gpu::BindingKind],
+        uses: &[Use],
         push_constant_size: u32,
-        writes: &[crate::gpu::Write],
         specialization: &[crate::gpu::SpecConstant],
     ) -> anyhow::Result<Self> {
-        let shape = (kinds, push_constant_size);
-        Self::with_sets(gpu, name, shader, shape, &[writes], specialization)
+        let sets = [uses];
+        Self::with_sets(gpu, name, shader, push_constant_size, &sets, specialization)
     }
 
     /// The kernel with one descriptor set per entry of `sets` (e.g. one per buffer of a bounce
     /// map or photon map split over several), chosen at each dispatch
-    /// ([`ComputeKernel::dispatch_set_with`]).
+    /// ([`ComputeKernel::dispatch_set_with`]). Every set declares the same kinds of binding.
     pub(crate) fn with_sets(
         gpu: &std::sync::Arc<crate::gpu::Gpu>,
         name: &str,
         shader: &crate::gpu::Shader,
+        push_constant_size: u32,
+        sets: &[&[Use]],
+        specialization: &[crate::gpu::SpecConstant],
+    ) -> anyhow::Result<Self> {
+        use crate::gpu::uses;
+        let kinds = uses::kinds(sets.first().copied().unwrap_or_default());
+        assert!(
+            sets.iter().all(|s| uses::kinds(s) == kinds),
+            "{name}: every descriptor set declares the same bindings"
+        );
+        let writes: Vec<_> = sets.iter().map(|s| uses::writes(s)).collect();
+        let writes: Vec<_> = writes.iter().map(Vec::as_slice).collect();
+        let shape = (&kinds[..], push_constant_size);
+        Self::build(gpu, (name, shader), shape, &writes, specialization)
+    }
+
+    /// The kernel with `sets` descriptor sets of bindings `kinds`, written only when each is
+    /// dispatched ([`ComputeKernel::rewrite`]): for a pass whose inputs change from dispatch
+    /// to dispatch (the value check's).
+    pub(crate) fn unwritten(
+        gpu: &std::sync::Arc<crate::gpu::Gpu>,
+        (name, shader): (&str, &crate::gpu::Shader),
+        (kinds, push_constant_size): (&[crate::gpu::BindingKind], u32),
+        sets: usize,
+    ) -> anyhow::Result<Self> {
+        let unwritten: Vec<&[crate::gpu::Write]> = vec![&[]; sets];
+        let shape = (kinds, push_constant_size);
+        Self::build(gpu, (name, shader), shape, &unwritten, &[])
+    }
+
+    fn build(
+        gpu: &std::sync::Arc<crate::gpu::Gpu>,
+        (name, shader): (&str, &crate::gpu::Shader),
         (kinds, push_constant_size): (&[crate::gpu::BindingKind], u32),
         sets: &[&[crate::gpu::Write]],
         specialization: &[crate::gpu::SpecConstant],
@@ -129,10 +164,11 @@ impl ComputeKernel {
         })
     }
 
-    /// Points descriptor set `set` at `writes` (bindings 0, 1, 2… in order). No command buffer
-    /// that bound the set may be recording or pending.
-    pub(crate) fn rewrite(&self, set: usize, writes: &[crate::gpu::Write]) {
-        self.layout.update(self.sets[set], writes);
+    /// Points descriptor set `set` at `uses` (the kinds declared when it was made). No command
+    /// buffer that bound the set may be recording or pending.
+    pub(crate) fn rewrite(&self, set: usize, uses: &[Use]) {
+        self.layout
+            .update(self.sets[set], &crate::gpu::uses::writes(uses));
     }
 
     /// Binds the kernel and dispatches `groups` workgroups.

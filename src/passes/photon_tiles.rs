@@ -35,11 +35,10 @@
 //! buffers when they grow, and are rewritten for new photon buffers only when that slot comes
 //! round again (its last frame has finished by then).
 
-use super::eye_gbuffer::GBuffer;
 use super::photon_volumes::{PhotonVolumeInputs, MAX_PHOTON_BUFFERS};
 use crate::gpu::{
-    vk, Access, Binding, BindingKind, Buffer, Cmd, ComputeDesc, DescriptorLayout, DescriptorSet,
-    Filter, Gpu, Image, MemoryLocation, Pipeline, Sampler, SpecConstant, Write,
+    uses, vk, Binding, Buffer, Cmd, ComputeDesc, DescriptorLayout, DescriptorSet, Filter, Gpu,
+    Image, MemoryLocation, Pipeline, Sampler, Shaders, SpecConstant, Use,
 };
 use crate::pass_id::PassId;
 use crate::photon::bsdf::BsdfVariant;
@@ -132,19 +131,16 @@ impl PhotonTilesPass {
         variant: BsdfVariant,
         (slots, targets): (usize, &[&Image]),
     ) -> anyhow::Result<Self> {
-        let mut kinds = vec![
-            BindingKind::UniformBuffer,
-            BindingKind::StorageBuffer,
-            BindingKind::StorageBuffer,
-            BindingKind::SampledImage,
-            BindingKind::SampledImage,
-            BindingKind::SampledImage,
-            BindingKind::SampledImage,
-            BindingKind::StorageBuffer,
-            BindingKind::StorageBuffer,
-        ];
-        kinds.extend([BindingKind::StorageImage; 4]);
-        kinds.push(BindingKind::StorageBuffer);
+        let sampler = Sampler::new(gpu, "photon_tiles.nearest", Filter::Nearest, false)?;
+        // The kinds are every photon buffer's and slot's (any buffer stands in).
+        let any = inputs.materials;
+        let kinds = uses::kinds(&gather_uses(
+            inputs,
+            (any, true),
+            (any, any, any),
+            targets,
+            &sampler,
+        ));
         let bindings = Binding::sequence(&kinds, vk::ShaderStageFlags::COMPUTE);
         let layout = DescriptorLayout::new(
             gpu,
@@ -152,7 +148,6 @@ impl PhotonTilesPass {
             &bindings,
             (MAX_PHOTON_BUFFERS * slots.max(1)) as u32,
         )?;
-        let sampler = Sampler::new(gpu, "photon_tiles.nearest", Filter::Nearest, false)?;
         let subsample = subsample.max(1);
         let [a, b] = super::bsdf_constants(variant);
         let pipeline = Pipeline::compute(
@@ -203,13 +198,14 @@ impl PhotonTilesPass {
         );
         let s = &mut self.slots[slot];
         for (i, photons) in inputs.photons.iter().enumerate() {
-            let writes = writes(
+            let lists = (&s.offsets, &s.indices, &s.spheres);
+            let writes = uses::writes(&gather_uses(
                 inputs,
-                photons,
-                (&s.offsets, &s.indices, &s.spheres),
+                (photons, true),
+                lists,
                 targets,
                 &self.sampler,
-            );
+            ));
             match s.sets.get(i) {
                 Some(&set) => self.layout.update(set, &writes),
                 None => s.sets.push(self.layout.allocate(&writes)?),
@@ -278,13 +274,6 @@ impl PhotonTilesPass {
         s.spheres.write(0, spheres)?;
 
         let _scope = cmd.scope(PassId::PhotonTiles.name());
-        let g: &GBuffer = inputs.gbuffer;
-        for image in [&g.position, &g.normal, &g.albedo, &g.material] {
-            cmd.transition(image, Access::ComputeSampledRead);
-        }
-        for buffer in [&s.offsets, &s.indices, &s.spheres] {
-            cmd.transition_buffer(buffer, Access::ComputeStorageRead);
-        }
         let (width, height) = (targets[0].width, targets[0].height);
         let mut first_dispatch = true;
         let mut dispatches = 0;
@@ -296,16 +285,20 @@ impl PhotonTilesPass {
             if count == 0 && b > 0 {
                 continue;
             }
-            if count > 0 {
-                // Only when read: an unread photon buffer may belong to the transfer queue.
-                cmd.transition_buffer(photons, Access::ComputeStorageRead);
-            }
+            // Only when read: an unread photon buffer may belong to the transfer queue.
+            let lists_of_slot = (&s.offsets, &s.indices, &s.spheres);
+            let uses = gather_uses(
+                inputs,
+                (photons, count > 0),
+                lists_of_slot,
+                targets,
+                &self.sampler,
+            );
             // TILE_JOB entries of every tile's list per dispatch (`photon_tiles.comp`).
             let jobs = lists.longest(b).div_ceil(TILE_JOB as usize).max(1);
             for job in 0..jobs {
-                for &image in targets {
-                    cmd.transition(image, Access::ComputeStorageWrite);
-                }
+                // The targets wait for the dispatch before (each continues its sums).
+                cmd.uses(Shaders::Compute, &uses);
                 cmd.bind_pipeline(&self.pipeline);
                 cmd.bind_sets(&self.pipeline, 0, &[s.sets[b]]);
                 cmd.push_constants(
@@ -346,31 +339,36 @@ impl PhotonTilesPass {
     }
 }
 
-/// The descriptor writes for photon buffer `photons`: bindings 0–13 of `photon_tiles.comp`
-/// (the fourth target, unused at full resolution, is the third again).
-fn writes<'a>(
-    inputs: &'a PhotonVolumeInputs,
-    photons: &'a Buffer,
+/// What a dispatch over photon buffer `photons` uses: bindings 0–13 of `photon_tiles.comp`
+/// (the fourth target, unused at full resolution, is the third again). `read`: whether the
+/// dispatch reads the buffer's photons (buffer 0 is dispatched without any, to clear the
+/// targets, and may then belong to another queue).
+fn gather_uses<'a>(
+    inputs: &PhotonVolumeInputs<'a>,
+    (photons, read): (&'a Buffer, bool),
     (offsets, indices, spheres): (&'a Buffer, &'a Buffer, &'a Buffer),
     targets: &[&'a Image],
     sampler: &'a Sampler,
-) -> Vec<Write<'a>> {
+) -> Vec<Use<'a>> {
     let g = inputs.gbuffer;
-    let image = |image| Write::Image { image, sampler };
-    let mut writes = vec![
-        Write::Buffer(inputs.frame),
-        Write::Buffer(photons),
-        Write::Buffer(inputs.materials),
-        image(&g.position),
-        image(&g.normal),
-        image(&g.albedo),
-        image(&g.material),
-        Write::Buffer(offsets),
-        Write::Buffer(indices),
+    let mut uses = vec![
+        Use::Uniform(inputs.frame),
+        if read {
+            Use::Read(photons)
+        } else {
+            Use::Bound(photons)
+        },
+        Use::Read(inputs.materials),
+        Use::Sampled(&g.position, sampler),
+        Use::Sampled(&g.normal, sampler),
+        Use::Sampled(&g.albedo, sampler),
+        Use::Sampled(&g.material, sampler),
+        Use::Read(offsets),
+        Use::Read(indices),
     ];
     for i in 0..4 {
-        writes.push(Write::StorageImage(targets[i.min(targets.len() - 1)]));
+        uses.push(Use::Storage(targets[i.min(targets.len() - 1)]));
     }
-    writes.push(Write::Buffer(spheres));
-    writes
+    uses.push(Use::Read(spheres));
+    uses
 }

@@ -36,9 +36,9 @@
 
 use super::eye_gbuffer::{GBuffer, DEPTH};
 use crate::gpu::{
-    vk, Access, Attachment, Binding, BindingKind, Blend, Buffer, Cmd, Depth, DescriptorLayout,
-    DescriptorSet, Filter, Gpu, GraphicsDesc, Image, ImageDesc, Load, Pipeline, Sampler,
-    VertexAttribute, ViewKind, Write,
+    uses, vk, Access, Attachment, Binding, Blend, Buffer, Cmd, Depth, DescriptorLayout,
+    DescriptorSet, Filter, Gpu, GraphicsDesc, Image, ImageDesc, Load, Pipeline, Sampler, Shaders,
+    Use, VertexAttribute, ViewKind,
 };
 use crate::pass_id::PassId;
 use crate::photon::bsdf::BsdfVariant;
@@ -202,15 +202,10 @@ impl PhotonVolumesPass {
         variant: BsdfVariant,
     ) -> anyhow::Result<Self> {
         let graphics = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-        let kinds = [
-            BindingKind::UniformBuffer,
-            BindingKind::StorageBuffer,
-            BindingKind::StorageBuffer,
-            BindingKind::SampledImage,
-            BindingKind::SampledImage,
-            BindingKind::SampledImage,
-            BindingKind::SampledImage,
-        ];
+        let sampler = Sampler::new(gpu, "photon_volumes.nearest", Filter::Nearest, false)?;
+        let uses = |photons| Self::uses(inputs, photons, &sampler);
+        // The kinds are every buffer's (any buffer stands in before the first photons).
+        let kinds = uses::kinds(&uses(inputs.photons.first().unwrap_or(inputs.materials)));
         let bindings = Binding::sequence(&kinds, graphics);
         let layout = DescriptorLayout::new(
             gpu,
@@ -218,11 +213,10 @@ impl PhotonVolumesPass {
             &bindings,
             MAX_PHOTON_BUFFERS as u32,
         )?;
-        let sampler = Sampler::new(gpu, "photon_volumes.nearest", Filter::Nearest, false)?;
         let sets = inputs
             .photons
             .iter()
-            .map(|photons| layout.allocate(&Self::writes(inputs, photons, &sampler)))
+            .map(|photons| layout.allocate(&uses::writes(&uses(photons))))
             .collect::<Result<Vec<_>, _>>()?;
         let (vertices, indices) = billboard();
         let vertices = gpu.upload_buffer(
@@ -290,21 +284,21 @@ impl PhotonVolumesPass {
         })
     }
 
-    fn writes<'a>(
-        inputs: &'a PhotonVolumeInputs,
+    /// What drawing from `photons` uses, in the shaders' binding order.
+    fn uses<'a>(
+        inputs: &PhotonVolumeInputs<'a>,
         photons: &'a Buffer,
         sampler: &'a Sampler,
-    ) -> [Write<'a>; 7] {
+    ) -> [Use<'a>; 7] {
         let g = inputs.gbuffer;
-        let image = |image| Write::Image { image, sampler };
         [
-            Write::Buffer(inputs.frame),
-            Write::Buffer(photons),
-            Write::Buffer(inputs.materials),
-            image(&g.position),
-            image(&g.normal),
-            image(&g.albedo),
-            image(&g.material),
+            Use::Uniform(inputs.frame),
+            Use::Read(photons),
+            Use::Read(inputs.materials),
+            Use::Sampled(&g.position, sampler),
+            Use::Sampled(&g.normal, sampler),
+            Use::Sampled(&g.albedo, sampler),
+            Use::Sampled(&g.material, sampler),
         ]
     }
 
@@ -318,7 +312,7 @@ impl PhotonVolumesPass {
             inputs.photons.len()
         );
         for (i, photons) in inputs.photons.iter().enumerate() {
-            let writes = Self::writes(inputs, photons, &self.sampler);
+            let writes = uses::writes(&Self::uses(inputs, photons, &self.sampler));
             match self.sets.get(i) {
                 Some(&set) => self.layout.update(set, &writes),
                 None => self.sets.push(self.layout.allocate(&writes)?),
@@ -340,17 +334,13 @@ impl PhotonVolumesPass {
         targets: &[&Image],
     ) {
         let _scope = cmd.scope(PassId::PhotonVolumes.name());
-        let g = inputs.gbuffer;
-        for image in [&g.position, &g.normal, &g.albedo, &g.material] {
-            cmd.transition(image, Access::FragmentSampledRead);
-        }
         let drawn = || inputs.photons.iter().zip(&self.sets).zip(counts);
-        for ((photons, _), &count) in drawn() {
-            if count > 0 {
-                // Only when drawn: an undrawn photon buffer may belong to the transfer queue.
-                cmd.transition_buffer(photons, Access::GraphicsStorageRead);
-            }
-        }
+        // Only the drawn buffers: an undrawn photon buffer may belong to the transfer queue.
+        let uses: Vec<Use> = drawn()
+            .filter(|(_, &count)| count > 0)
+            .flat_map(|((photons, _), _)| Self::uses(inputs, photons, &self.sampler))
+            .collect();
+        cmd.uses(Shaders::Graphics, &uses);
         let colors: Vec<Attachment> = targets
             .iter()
             .map(|&image| Attachment {
@@ -360,7 +350,7 @@ impl PhotonVolumesPass {
             })
             .collect();
         let depth = Attachment {
-            image: &g.depth,
+            image: &inputs.gbuffer.depth,
             layer: 0,
             load: Load::Keep,
         };

@@ -58,9 +58,7 @@
 
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
-use crate::gpu::{
-    Access, BindingKind, Buffer, Cmd, Filter, Gpu, Image, Sampler, SpecConstant, Write,
-};
+use crate::gpu::{Buffer, Cmd, Filter, Gpu, Image, Sampler, Shaders, SpecConstant, Use};
 use crate::pass_id::PassId;
 use std::sync::Arc;
 
@@ -79,7 +77,7 @@ struct Push {
 
 pub struct SupportPass {
     kernel: ComputeKernel,
-    _sampler: Sampler,
+    sampler: Sampler,
 }
 
 impl SupportPass {
@@ -94,39 +92,34 @@ impl SupportPass {
         support: &[Image; 2],
     ) -> anyhow::Result<Self> {
         let sampler = Sampler::new(gpu, "support.nearest", Filter::Nearest, false)?;
-        let image = |image| Write::Image {
-            image,
-            sampler: &sampler,
-        };
         let kernel = ComputeKernel::new(
             gpu,
             PassId::Support.name(),
             &crate::gpu::shader_table::SUPPORT_COMP,
-            &[
-                BindingKind::UniformBuffer,
-                BindingKind::SampledImage,
-                BindingKind::SampledImage,
-                BindingKind::StorageImage,
-                BindingKind::StorageImage,
-                BindingKind::StorageImage,
-                BindingKind::StorageImage,
-            ],
+            &Self::uses((frame, gbuffer), (total, glossy), support, &sampler),
             size_of::<Push>() as u32,
-            &[
-                Write::Buffer(frame),
-                image(&gbuffer.position),
-                image(&gbuffer.normal),
-                Write::StorageImage(total),
-                Write::StorageImage(&support[0]),
-                Write::StorageImage(&support[1]),
-                Write::StorageImage(glossy.unwrap_or(total)),
-            ],
             &[SpecConstant::bool(0, glossy.is_some())],
         )?;
-        Ok(Self {
-            kernel,
-            _sampler: sampler,
-        })
+        Ok(Self { kernel, sampler })
+    }
+
+    /// What the pass uses, in the shader's binding order (without `glossy`, `total` stands in
+    /// for it: the shader then leaves the binding alone).
+    fn uses<'a>(
+        (frame, gbuffer): (&'a Buffer, &'a GBuffer),
+        (total, glossy): (&'a Image, Option<&'a Image>),
+        support: &'a [Image; 2],
+        sampler: &'a Sampler,
+    ) -> [Use<'a>; 7] {
+        [
+            Use::Uniform(frame),
+            Use::Sampled(&gbuffer.position, sampler),
+            Use::Sampled(&gbuffer.normal, sampler),
+            Use::Storage(total),
+            Use::Storage(&support[0]),
+            Use::Storage(&support[1]),
+            Use::Storage(glossy.unwrap_or(total)),
+        ]
     }
 
     /// Normalises `total` (and at `--subsample N > 1` `glossy`, of the `subsample` the pass was
@@ -134,18 +127,14 @@ impl SupportPass {
     pub fn record(
         &self,
         cmd: &Cmd,
-        gbuffer: &GBuffer,
+        (frame, gbuffer): (&Buffer, &GBuffer),
         (total, glossy): (&Image, Option<&Image>),
         support: &[Image; 2],
         subsample: u32,
     ) {
         let _scope = cmd.scope(PassId::Support.name());
-        for image in [&gbuffer.position, &gbuffer.normal] {
-            cmd.transition(image, Access::ComputeSampledRead);
-        }
-        for image in [total].into_iter().chain(glossy).chain(support) {
-            cmd.transition(image, Access::ComputeStorageWrite);
-        }
+        let uses = Self::uses((frame, gbuffer), (total, glossy), support, &self.sampler);
+        cmd.uses(Shaders::Compute, &uses);
         let (width, height) = (total.width, total.height);
         let push = Push {
             width,

@@ -1,9 +1,7 @@
 //! Tonemapping (compute): HDR radiance × 2^EV → operator → sRGB, into an 8-bit image.
 
 use super::ComputeKernel;
-use crate::gpu::{
-    vk, Access, BindingKind, Cmd, Filter, Gpu, Image, ImageDesc, Sampler, ViewKind, Write,
-};
+use crate::gpu::{vk, Cmd, Filter, Gpu, Image, ImageDesc, Sampler, Shaders, Use, ViewKind};
 use crate::pass_id::PassId;
 pub use crate::settings::Tonemap;
 use std::sync::Arc;
@@ -21,7 +19,7 @@ struct Push {
 
 pub struct TonemapPass {
     kernel: ComputeKernel,
-    _sampler: Sampler,
+    sampler: Sampler,
 }
 
 /// The 8-bit output image.
@@ -47,21 +45,16 @@ impl TonemapPass {
             gpu,
             PassId::Tonemap.name(),
             &crate::gpu::shader_table::TONEMAP_COMP,
-            &[BindingKind::SampledImage, BindingKind::StorageImage],
+            &Self::uses(hdr, ldr, &sampler),
             size_of::<Push>() as u32,
-            &[
-                Write::Image {
-                    image: hdr,
-                    sampler: &sampler,
-                },
-                Write::StorageImage(ldr),
-            ],
             &[],
         )?;
-        Ok(Self {
-            kernel,
-            _sampler: sampler,
-        })
+        Ok(Self { kernel, sampler })
+    }
+
+    /// What the pass uses, in the shader's binding order.
+    fn uses<'a>(hdr: &'a Image, ldr: &'a Image, sampler: &'a Sampler) -> [Use<'a>; 2] {
+        [Use::Sampled(hdr, sampler), Use::Storage(ldr)]
     }
 
     pub fn record(
@@ -73,8 +66,7 @@ impl TonemapPass {
         ldr: &mut Image,
     ) {
         let _scope = cmd.scope(PassId::Tonemap.name());
-        cmd.transition(hdr, Access::ComputeSampledRead);
-        cmd.transition(ldr, Access::ComputeStorageWrite);
+        cmd.uses(Shaders::Compute, &Self::uses(hdr, ldr, &self.sampler));
         let push = Push {
             exposure: exposure_ev.exp2(),
             op: tonemap.id(),

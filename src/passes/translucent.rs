@@ -9,8 +9,8 @@
 
 use super::eye_gbuffer::{draw_instances, material_texture_sets};
 use crate::gpu::{
-    vk, Access, Attachment, Binding, BindingKind, Blend, Buffer, Cmd, Depth, DescriptorLayout,
-    DescriptorSet, Filter, Gpu, GraphicsDesc, Image, Load, Pipeline, Sampler, Write,
+    uses, vk, Attachment, Binding, Blend, Buffer, Cmd, Depth, DescriptorLayout, DescriptorSet,
+    Filter, Gpu, GraphicsDesc, Image, Load, Pipeline, Sampler, Shaders, Use,
 };
 use crate::gpu_scene::{Draw, GpuScene};
 use crate::layout::{DrawPush, Vertex};
@@ -38,8 +38,8 @@ pub struct TranslucentPass {
     _texture_layout: DescriptorLayout,
     set: DescriptorSet,
     material_sets: Vec<DescriptorSet>,
-    _shadow: Sampler,
-    _linear: Sampler,
+    shadow: Sampler,
+    linear: Sampler,
 }
 
 impl TranslucentPass {
@@ -54,18 +54,6 @@ impl TranslucentPass {
         variant: BsdfVariant,
     ) -> anyhow::Result<Self> {
         let graphics = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-        let kinds = [
-            BindingKind::UniformBuffer,
-            BindingKind::StorageBuffer,
-            BindingKind::StorageBuffer,
-            BindingKind::StorageBuffer,
-            BindingKind::SampledImage,
-            BindingKind::UniformBuffer,
-            BindingKind::SampledImage,
-            BindingKind::SampledImage,
-        ];
-        let bindings = Binding::sequence(&kinds, graphics);
-        let layout = DescriptorLayout::new(gpu, PassId::Translucent.name(), &bindings, 1)?;
         let (texture_layout, material_sets) =
             material_texture_sets(gpu, PassId::Translucent.name(), scene)?;
         let shadow = Sampler::new(
@@ -75,25 +63,10 @@ impl TranslucentPass {
             false,
         )?;
         let linear = Sampler::new(gpu, "translucent.environment", Filter::Linear, false)?;
-        let set = layout.allocate(&[
-            Write::Buffer(inputs.frame),
-            Write::Buffer(inputs.materials),
-            Write::Buffer(inputs.lights),
-            Write::Buffer(inputs.shadow_views),
-            Write::Image {
-                image: inputs.shadow_atlas,
-                sampler: &shadow,
-            },
-            Write::Buffer(inputs.environment),
-            Write::Image {
-                image: inputs.environment_map,
-                sampler: &linear,
-            },
-            Write::Image {
-                image: inputs.environment_indirect,
-                sampler: &linear,
-            },
-        ])?;
+        let uses = Self::uses(inputs, (&shadow, &linear));
+        let bindings = Binding::sequence(&uses::kinds(&uses), graphics);
+        let layout = DescriptorLayout::new(gpu, PassId::Translucent.name(), &bindings, 1)?;
+        let set = layout.allocate(&uses::writes(&uses))?;
         let attributes = super::vertex_attributes();
         let pipeline = Pipeline::graphics(
             gpu,
@@ -124,27 +97,42 @@ impl TranslucentPass {
             _texture_layout: texture_layout,
             set,
             material_sets,
-            _shadow: shadow,
-            _linear: linear,
+            shadow,
+            linear,
         })
     }
 
+    /// What the pass uses, in the shaders' binding order.
+    fn uses<'a>(
+        inputs: &TranslucentInputs<'a>,
+        (shadow, linear): (&'a Sampler, &'a Sampler),
+    ) -> [Use<'a>; 8] {
+        [
+            Use::Uniform(inputs.frame),
+            Use::Read(inputs.materials),
+            Use::Read(inputs.lights),
+            Use::Read(inputs.shadow_views),
+            Use::Sampled(inputs.shadow_atlas, shadow),
+            Use::Uniform(inputs.environment),
+            Use::Sampled(inputs.environment_map, linear),
+            Use::Sampled(inputs.environment_indirect, linear),
+        ]
+    }
+
     /// Draws `draws` (camera-relative, delta instances only) over `radiance`, depth-tested
-    /// against (and writing) the eye G-buffer's `depth`. `shadow_atlas` and the environment's
-    /// two cubes (direct, indirect) are the images the pass was created with.
+    /// against (and writing) the eye G-buffer's `depth`. `inputs` are the ones the pass was
+    /// created with.
     pub fn record(
         &self,
         cmd: &Cmd,
-        scene: &GpuScene,
-        draws: &[Draw],
-        (shadow_atlas, environment_map, environment_indirect): (&Image, &Image, &Image),
+        (scene, draws): (&GpuScene, &[Draw]),
+        inputs: &TranslucentInputs,
         depth: &mut Image,
         radiance: &mut Image,
     ) {
         let _scope = cmd.scope(PassId::Translucent.name());
-        cmd.transition(shadow_atlas, Access::FragmentSampledRead);
-        cmd.transition(environment_map, Access::FragmentSampledRead);
-        cmd.transition(environment_indirect, Access::FragmentSampledRead);
+        let uses = Self::uses(inputs, (&self.shadow, &self.linear));
+        cmd.uses(Shaders::Graphics, &uses);
         cmd.begin_rendering(
             &[Attachment {
                 image: radiance,

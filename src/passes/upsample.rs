@@ -35,9 +35,7 @@
 
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
-use crate::gpu::{
-    vk, Access, BindingKind, Buffer, Cmd, Filter, Gpu, Image, ImageDesc, Sampler, ViewKind, Write,
-};
+use crate::gpu::{vk, Buffer, Cmd, Filter, Gpu, Image, ImageDesc, Sampler, Shaders, Use, ViewKind};
 use crate::pass_id::PassId;
 use crate::photon::bsdf::BsdfVariant;
 pub use crate::settings::Upsample;
@@ -97,7 +95,7 @@ pub struct UpsampleInputs<'a> {
 
 pub struct UpsamplePass {
     kernel: ComputeKernel,
-    _sampler: Sampler,
+    sampler: Sampler,
     subsample: u32,
     mode: Upsample,
 }
@@ -111,58 +109,46 @@ impl UpsamplePass {
         mode: Upsample,
         variant: BsdfVariant,
     ) -> anyhow::Result<Self> {
-        let kinds = [
-            BindingKind::StorageBuffer,
-            BindingKind::SampledImage,
-            BindingKind::SampledImage,
-            BindingKind::SampledImage,
-            BindingKind::SampledImage,
-            BindingKind::SampledImage,
-            BindingKind::SampledImage,
-            BindingKind::StorageImage,
-        ];
         let sampler = Sampler::new(gpu, "upsample.nearest", Filter::Nearest, false)?;
-        let g = inputs.gbuffer;
-        let image = |image| Write::Image {
-            image,
-            sampler: &sampler,
-        };
         let kernel = ComputeKernel::new(
             gpu,
             PassId::Upsample.name(),
             &crate::gpu::shader_table::UPSAMPLE_COMP,
-            &kinds,
+            &Self::uses(inputs, indirect, &sampler),
             size_of::<Push>() as u32,
-            &[
-                Write::Buffer(inputs.materials),
-                image(&g.position),
-                image(&g.normal),
-                image(&g.albedo),
-                image(&g.material),
-                image(&inputs.low[0]),
-                image(&inputs.low[1]),
-                Write::StorageImage(indirect),
-            ],
             &super::bsdf_constants(variant),
         )?;
         Ok(Self {
             kernel,
-            _sampler: sampler,
+            sampler,
             subsample,
             mode,
         })
     }
 
+    /// What the pass uses, in the shader's binding order.
+    fn uses<'a>(
+        inputs: &UpsampleInputs<'a>,
+        indirect: &'a Image,
+        sampler: &'a Sampler,
+    ) -> [Use<'a>; 8] {
+        let g = inputs.gbuffer;
+        [
+            Use::Read(inputs.materials),
+            Use::Sampled(&g.position, sampler),
+            Use::Sampled(&g.normal, sampler),
+            Use::Sampled(&g.albedo, sampler),
+            Use::Sampled(&g.material, sampler),
+            Use::Sampled(&inputs.low[0], sampler),
+            Use::Sampled(&inputs.low[1], sampler),
+            Use::Storage(indirect),
+        ]
+    }
+
     pub fn record(&self, cmd: &Cmd, inputs: &UpsampleInputs, indirect: &mut Image) {
         let _scope = cmd.scope(PassId::Upsample.name());
-        let g = inputs.gbuffer;
-        for image in [&g.position, &g.normal, &g.albedo, &g.material] {
-            cmd.transition(image, Access::ComputeSampledRead);
-        }
-        for image in inputs.low {
-            cmd.transition(image, Access::ComputeSampledRead);
-        }
-        cmd.transition(indirect, Access::ComputeStorageWrite);
+        let uses = Self::uses(inputs, indirect, &self.sampler);
+        cmd.uses(Shaders::Compute, &uses);
         self.kernel.dispatch_with(
             cmd,
             &Push {

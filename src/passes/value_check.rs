@@ -40,7 +40,7 @@
 
 use super::ComputeKernel;
 use crate::gpu::{
-    vk, Access, BindingKind, Buffer, Cmd, Filter, Gpu, Image, MemoryLocation, Sampler, Write,
+    vk, Access, BindingKind, Buffer, Cmd, Filter, Gpu, Image, MemoryLocation, Sampler, Shaders, Use,
 };
 use crate::layout::ValueCounters;
 use crate::pass_id::PassId;
@@ -206,19 +206,18 @@ impl Kernel {
             })
             .collect();
         let kinds = [BindingKind::StorageBuffer, source];
-        let unwritten: Vec<&[Write]> = vec![&[]; next];
         let shape = (&kinds[..], push_size as u32);
-        let kernel = ComputeKernel::with_sets(gpu, name, shader, shape, &unwritten, &[])?;
+        let kernel = ComputeKernel::unwritten(gpu, (name, shader), shape, next)?;
         Ok(Self { kernel, sets })
     }
 
-    /// Points the set of (`frame`, `which`, `part`) at `writes` and dispatches `groups` with
-    /// `push`.
+    /// Points the set of (`frame`, `which`, `part`) at `uses` and dispatches `groups` with
+    /// `push` after their barriers.
     fn dispatch<T: bytemuck::Pod>(
         &self,
         cmd: &Cmd,
         (frame, which, part): (usize, Checked, usize),
-        writes: &[Write],
+        uses: &[Use],
         push: &T,
         groups: [u32; 3],
     ) -> anyhow::Result<()> {
@@ -231,7 +230,8 @@ impl Kernel {
                 sets.len()
             );
         };
-        self.kernel.rewrite(set, writes);
+        self.kernel.rewrite(set, uses);
+        cmd.uses(Shaders::Compute, uses);
         self.kernel.dispatch_set_with(cmd, set, push, groups);
         Ok(())
     }
@@ -330,24 +330,19 @@ impl ValueCheckPass {
             cmd.copy_buffer_to_texel(&self.poison, offset, image, at);
         }
         let part = self.note(which);
-        cmd.transition(image, Access::ComputeSampledRead);
-        cmd.transition_buffer(&self.counters, Access::ComputeStorageWrite);
         let push = ImagePush {
             width: image.width,
             height: image.height,
             counter: self.counter(which),
             unused: 0,
         };
-        let writes = [
-            Write::Buffer(&self.counters),
-            Write::Image {
-                image,
-                sampler: &self.sampler,
-            },
+        let uses = [
+            Use::Write(&self.counters),
+            Use::Sampled(image, &self.sampler),
         ];
         let groups = super::image_groups(image.width, image.height);
         self.images
-            .dispatch(cmd, (self.frame, which, part), &writes, &push, groups)
+            .dispatch(cmd, (self.frame, which, part), &uses, &push, groups)
     }
 
     /// Counts the bad values of the `records` in `buffer`, named `which`. The buffers of a map
@@ -373,23 +368,16 @@ impl ValueCheckPass {
             let at = (injection.index - start) * 4;
             cmd.update_buffer(buffer, at, &injection.value.to_le_bytes());
         }
-        cmd.transition_buffer(buffer, Access::ComputeStorageRead);
-        cmd.transition_buffer(&self.counters, Access::ComputeStorageWrite);
         let push = RecordPush {
             count: records.count,
             stride: records.stride,
             power_offset: records.power_offset,
             counter: self.counter(which),
         };
-        let writes = [Write::Buffer(&self.counters), Write::Buffer(buffer)];
+        let uses = [Use::Write(&self.counters), Use::Read(buffer)];
         let groups = records.count.div_ceil(RECORD_GROUP).min(MAX_RECORD_GROUPS);
-        self.records.dispatch(
-            cmd,
-            (self.frame, which, part),
-            &writes,
-            &push,
-            [groups, 1, 1],
-        )
+        self.records
+            .dispatch(cmd, (self.frame, which, part), &uses, &push, [groups, 1, 1])
     }
 
     /// Ends the frame's checks: its counters become readable by the host once it completes.

@@ -3,7 +3,7 @@
 //! `--subsample N > 1`, composited, and what the debug views read of it.
 
 use super::{drawn_photons, estimate_targets, Estimator, PhotonFrame};
-use crate::gpu::{Access, Buffer, Cmd, Image, QueueRole};
+use crate::gpu::{Access, Buffer, Cmd, Image, Resource};
 use crate::passes::debug_view::PhotonSources;
 use crate::passes::eye_gbuffer::GBuffer;
 use crate::passes::photon_tiles::lists as tiles;
@@ -51,18 +51,23 @@ impl PhotonFrame {
         (radiance, slot, view_proj): (&mut Image, usize, glam::Mat4),
         (composite, accumulated, mut check): (bool, u32, Option<&mut ValueCheckPass>),
     ) -> anyhow::Result<()> {
+        // The photon map from the upload and the bounce map back from the readback (for the
+        // next frame's bounce map): the first use on this queue acquires what the transfer
+        // queue handed over (`gpu/tracker.rs`).
+        let mut uses: Vec<_> = Vec::new();
         if self.count() > 0 {
-            for (_, photons) in self.buffers.used() {
-                cmd.acquire_buffer(photons, QueueRole::Transfer, Access::GraphicsStorageRead);
-            }
-            self.photons_on_graphics = true;
+            uses.extend(
+                (self.buffers.used())
+                    .map(|(_, p)| (Resource::Buffer(p), Access::GraphicsStorageRead)),
+            );
         }
         if !self.batches.is_empty() {
-            // Back from the readback, for the next frame's bounce map.
-            for buffer in &self.bounce_map.device {
-                cmd.acquire_buffer(buffer, QueueRole::Transfer, Access::ComputeStorageWrite);
-            }
+            uses.extend(
+                (self.bounce_map.device.iter())
+                    .map(|b| (Resource::Buffer(b), Access::ComputeStorageWrite)),
+            );
         }
+        cmd.barriers(&uses);
         if let Some(check) = check.as_deref_mut() {
             self.check_photon_records(cmd, check)?;
         }
@@ -122,7 +127,7 @@ impl PhotonFrame {
                     .support
                     .as_ref()
                     .expect("the support targets exist at subsample 1");
-                support.record(cmd, gbuffer, (&self.indirect, None), images, 1);
+                support.record(cmd, (frame, gbuffer), (&self.indirect, None), images, 1);
                 if let Some((pass, _)) = &self.denoise {
                     pass.record(cmd, gbuffer, (&self.indirect, &images[0]), denoise);
                 }
@@ -130,7 +135,7 @@ impl PhotonFrame {
             Some(sub) => {
                 let (images, support) = &sub.support;
                 let low = (&sub.low[0], Some(&sub.low[1]));
-                support.record(cmd, gbuffer, low, images, sub.subsample);
+                support.record(cmd, (frame, gbuffer), low, images, sub.subsample);
                 if let Some((pass, _)) = &self.denoise {
                     pass.record(cmd, gbuffer, (&sub.low[0], &images[0]), denoise);
                 }
