@@ -30,11 +30,11 @@
 //! `--compare-subsample N` the overlapped frame with the indirect light estimated at 1/N
 //! resolution ([`SubsampleSpeedup`]), each in the same alternation.
 
-use crate::frame::{Density, Method, RenderSettings, Renderer, ReusedLight, Schedule, SkippedPass};
+use crate::frame::{Renderer, ReusedLight, SkippedPass};
 use crate::gpu::Gpu;
 use crate::pass_id::PassId;
-use crate::plan::Effects;
 use crate::scene::{Scene, FRAME_STEP_SECONDS};
+use crate::settings::{Density, Effects, Knobs, Method, RenderSettings, Schedule};
 use crate::timing::{self, Span};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -43,7 +43,10 @@ use std::sync::Arc;
 /// What to measure.
 #[derive(Clone, Debug)]
 pub struct BenchSettings {
-    pub render: RenderSettings,
+    /// The knobs of the overlapped frame; every configuration is made of them
+    /// ([`RenderSettings::from_knobs`]) with its method, schedule, effects, density and
+    /// subsampling.
+    pub knobs: Knobs,
     /// Measured frames per configuration.
     pub frames: u32,
     /// Frames per configuration before measuring.
@@ -56,7 +59,7 @@ pub struct BenchSettings {
     /// Also measure the overlapped frame with the other density estimator (`--density`).
     pub compare_density: bool,
     /// Also measure the overlapped frame with the indirect light estimated at 1/N resolution
-    /// (`--compare-subsample N`), against the overlapped one at `render.subsample`.
+    /// (`--compare-subsample N`), against the overlapped one at the knobs' subsampling.
     pub compare_subsample: Option<u32>,
 }
 
@@ -344,21 +347,24 @@ pub fn run(
     settings: &BenchSettings,
     mut progress: impl FnMut(&str),
 ) -> anyhow::Result<BenchReport> {
-    let density = settings.render.density.resolve_for_device(&gpu.properties);
+    let bounds = scene.bounds();
+    let base = RenderSettings::from_knobs(&settings.knobs, &bounds)?;
+    let density = base.density.resolve_for_device(&gpu.properties);
     let make_with = |name: &'static str,
                      (method, schedule, effects): (Method, Schedule, Effects),
                      density: Density,
                      subsample: u32| {
-        let render = RenderSettings {
-            method,
-            schedule,
-            density,
-            subsample,
+        let knobs = Knobs {
+            method: Some(method),
+            schedule: Some(schedule),
+            density: Some(density),
+            subsample: Some(subsample),
             // `All`: every frame traces (a planned frame of a static scene reuses its photon
             // map) and runs every pass and variant.
-            effects,
-            ..settings.render.clone()
+            effects: Some(effects),
+            ..settings.knobs.clone()
         };
+        let render = RenderSettings::from_knobs(&knobs, &bounds)?;
         Ok::<_, anyhow::Error>(Config {
             name,
             renderer: Renderer::new(gpu, scene, render)?,
@@ -370,16 +376,11 @@ pub fn run(
         })
     };
     let make = |name: &'static str, method: Method, schedule: Schedule, effects: Effects| {
-        make_with(
-            name,
-            (method, schedule, effects),
-            density,
-            settings.render.subsample,
-        )
+        make_with(name, (method, schedule, effects), density, base.subsample)
     };
     // The frame measured against the serial one: the schedule asked for (`--schedule`: the
     // default `auto`, or `overlapped` to run the trace beside box B on a CPU device too).
-    let overlapped = match settings.render.schedule {
+    let overlapped = match base.schedule {
         Schedule::Serial => Schedule::Auto,
         other => other,
     };
@@ -403,10 +404,10 @@ pub fn run(
             _ => ("tiled", Density::Tiled),
         };
         let frame = (Method::Ispm, overlapped, Effects::All);
-        configs.push(make_with(name, frame, other, settings.render.subsample)?);
+        configs.push(make_with(name, frame, other, base.subsample)?);
     }
     if let Some(factor) = settings.compare_subsample {
-        if factor == settings.render.subsample_factor() {
+        if factor == base.subsample_factor() {
             progress(&format!(
                 "--compare-subsample {factor}: the same factor as the overlapped frame's"
             ));
@@ -451,9 +452,9 @@ pub fn run(
     Ok(BenchReport {
         scene: scene_name.to_string(),
         device: gpu.properties.name.clone(),
-        width: settings.render.width,
-        height: settings.render.height,
-        photons: settings.render.photons,
+        width: base.width,
+        height: base.height,
+        photons: base.photons,
         frames: settings.frames,
         overlap: if bound > 0.0 { o.frame_ms / bound } else { 0.0 },
         speedup: ratio(s.frame_ms, o.frame_ms),

@@ -239,6 +239,11 @@ impl Renderer {
             gpu.properties.name
         );
         anyhow::ensure!(
+            settings.method.is_gpu(),
+            "--method {} is a CPU reference (`reference::render`), not a GPU frame",
+            settings.method.name()
+        );
+        anyhow::ensure!(
             settings.width > 0 && settings.height > 0,
             "image size {}x{} is empty",
             settings.width,
@@ -536,7 +541,7 @@ impl Renderer {
             self.plan.indirect.reason
         );
         if let Some(photons) = &mut self.photons {
-            photons.set_lights(lights, &plan.photon_mask())?;
+            photons.set_lights(lights, &plan.photon_budget())?;
         }
         Ok(plan)
     }
@@ -586,7 +591,7 @@ impl Renderer {
             self.photon_map = None;
         } else if let Some(photons) = &mut self.photons {
             if plan.photon_mask() != self.plan.photon_mask() {
-                photons.set_lights(&self.lights, &plan.photon_mask())?;
+                photons.set_lights(&self.lights, &plan.photon_budget())?;
                 self.photon_map = None;
             }
         }

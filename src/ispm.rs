@@ -83,7 +83,7 @@ use crate::layout::{
 };
 use crate::lighting::LightSetup;
 use crate::photon::bvh::SceneBvh;
-use crate::photon::emit::{light_falloff, photon_budget_among, spot_falloff_integral};
+use crate::photon::emit::{light_falloff, photon_budget, spot_falloff_integral};
 use crate::photon::rng::hash2;
 use crate::photon::trace::PhotonState;
 use crate::photon::types::BounceMapPhoton;
@@ -347,7 +347,8 @@ fn caster_rect(m: &DMat4, casters: &[Caster], origin: DVec3) -> Option<(DVec2, D
 #[derive(Clone, Copy)]
 struct LightsToPlan<'a> {
     scene: &'a Scene,
-    active: &'a [bool],
+    /// Per light, its photons (`None`: no views; see [`BouncePlan::with_budget`]).
+    budget: &'a [Option<usize>],
     origin: DVec3,
     bounds: &'a Aabb,
 }
@@ -369,71 +370,59 @@ impl Window {
 }
 
 impl BouncePlan {
-    /// Plans `photons` photons over the lights of `scene`, relative to `origin`, with the
-    /// default caustic share.
+    /// Plans `photons` photons over every light of `scene`, split by power
+    /// (`photon::emit::photon_budget`), relative to `origin`, with the default caustic share: a
+    /// plan made without an effects plan (the tests). A frame's plan takes the effects plan's
+    /// split as it is ([`BouncePlan::with_budget`]).
     pub fn new(scene: &Scene, origin: DVec3, bounds: &Aabb, photons: usize) -> BouncePlan {
-        Self::active(
-            scene,
-            &vec![true; scene.lights.len()],
-            origin,
-            bounds,
-            photons,
-        )
+        let budget: Vec<Option<usize>> = photon_budget(scene, photons)
+            .into_iter()
+            .map(Some)
+            .collect();
+        Self::with_budget(scene, &budget, origin, bounds, CAUSTIC_SHARE)
     }
 
-    /// [`BouncePlan::new`] over the lights with `active[i]` only (the effects plan's photon
-    /// mask, `plan::EffectsPlan::photon_mask`): the others get no views, no light G-buffer
-    /// layer and no bounce-map texels, and the whole budget is split over the active ones by
-    /// power. A light missing from `active` is inactive.
-    pub fn active(
+    /// Plans light `i` of `scene` to emit `budget[i]` photons, the caustic views taking the
+    /// share `share` of them (module docs, "Budget"; 0: no caustic views). The budget is the
+    /// effects plan's split of the frame's photons (`plan::EffectsPlan::photon_budget`), taken
+    /// as it is, never split again here. A light whose budget is `None` (its photon mask off),
+    /// or missing from `budget`, gets no views, no light G-buffer layer and no bounce-map texels.
+    pub fn with_budget(
         scene: &Scene,
-        active: &[bool],
+        budget: &[Option<usize>],
         origin: DVec3,
         bounds: &Aabb,
-        photons: usize,
-    ) -> BouncePlan {
-        Self::with_caustic_share(scene, active, origin, bounds, photons, CAUSTIC_SHARE)
-    }
-
-    /// [`BouncePlan::active`] with the caustic views' share `share` of each light's photons
-    /// (module docs, "Budget"; 0: no caustic views).
-    pub fn with_caustic_share(
-        scene: &Scene,
-        active: &[bool],
-        origin: DVec3,
-        bounds: &Aabb,
-        photons: usize,
         share: f32,
     ) -> BouncePlan {
         let lights = LightsToPlan {
             scene,
-            active,
+            budget,
             origin,
             bounds,
         };
-        Self::plan(&lights, photons, share, MAX_CAUSTIC_SUBDIVISION)
+        Self::plan(&lights, share, MAX_CAUSTIC_SUBDIVISION)
     }
 
-    /// [`BouncePlan::with_caustic_share`] for buffers of `capacity` (a renderer's, for lights
-    /// that moved): if the plan does not fit, its caustic views are subdivided less (k lowered
-    /// for every light) until it does, or dropped (their photons given to the main views if
-    /// those still fit, else not emitted). Fails if even the main views do not fit.
+    /// [`BouncePlan::with_budget`] for buffers of `capacity` (a renderer's, for lights that
+    /// moved): if the plan does not fit, its caustic views are subdivided less (k lowered for
+    /// every light) until it does, or dropped (their photons given to the main views if those
+    /// still fit, else not emitted). Fails if even the main views do not fit.
     pub fn within(
         scene: &Scene,
-        active: &[bool],
+        budget: &[Option<usize>],
         origin: DVec3,
         bounds: &Aabb,
-        (photons, share): (usize, f32),
+        share: f32,
         capacity: &Capacity,
     ) -> anyhow::Result<BouncePlan> {
         let lights = LightsToPlan {
             scene,
-            active,
+            budget,
             origin,
             bounds,
         };
         for max_k in (2..=MAX_CAUSTIC_SUBDIVISION).rev() {
-            let plan = Self::plan(&lights, photons, share, max_k);
+            let plan = Self::plan(&lights, share, max_k);
             if capacity.holds(&plan) {
                 return Ok(plan);
             }
@@ -441,11 +430,11 @@ impl BouncePlan {
                 break;
             }
         }
-        let plan = Self::plan(&lights, photons, 0.0, MAX_CAUSTIC_SUBDIVISION);
+        let plan = Self::plan(&lights, 0.0, MAX_CAUSTIC_SUBDIVISION);
         if capacity.holds(&plan) {
             return Ok(plan);
         }
-        let plan = Self::plan(&lights, photons, share, 0);
+        let plan = Self::plan(&lights, share, 0);
         anyhow::ensure!(
             capacity.holds(&plan),
             "the lights need {} light views of up to {}×{} texels ({} in all), more than the {} \
@@ -471,17 +460,16 @@ impl BouncePlan {
         self.reserve
     }
 
-    fn plan(lights: &LightsToPlan, photons: usize, share: f32, max_k: u32) -> BouncePlan {
+    fn plan(lights: &LightsToPlan, share: f32, max_k: u32) -> BouncePlan {
         let LightsToPlan {
             scene,
-            active,
+            budget,
             origin,
             bounds,
         } = *lights;
         // Shadow views are the light G-buffer's views; with resolution 1 their texel parameter
         // is the full window: 2·tan(fov/2) (perspective) or 2·radius (orthographic).
         let setup = LightSetup::photon_views(&scene.lights, origin, bounds);
-        let budget = photon_budget_among(scene, photons, active);
         let share = if share.is_finite() {
             f64::from(share.clamp(0.0, 0.95))
         } else {
@@ -496,11 +484,11 @@ impl BouncePlan {
             origin,
             ..Default::default()
         };
-        let lights = scene.lights.iter().zip(&setup.lights).zip(&budget);
+        let lights = scene.lights.iter().zip(&setup.lights).zip(budget);
         for (index, ((light, gpu_light), &n)) in lights.enumerate() {
-            if active.get(index) != Some(&true) {
+            let Some(n) = n else {
                 continue;
-            }
+            };
             let first = gpu_light.shadow.y as usize;
             let count = gpu_light.shadow.z as usize;
             let kind = gpu_light.shadow.x;
@@ -895,8 +883,8 @@ impl BouncePlan {
 
     /// The views of light `light` (its index in `scene.lights`): its main views, then its
     /// caustic views, one contiguous range; empty for a light the plan emits no views for
-    /// (e.g. its photon mask off). An active light whose budget is zero still has views, of
-    /// extent (0, 0): an empty texel range.
+    /// (its budget `None`: its photon mask off). A light whose budget is `Some(0)` still has
+    /// views, of extent (0, 0): an empty texel range.
     pub fn light_views(&self, light: usize) -> Range<usize> {
         let Some(first) = self.view_lights.iter().position(|&l| l == light) else {
             return 0..0;

@@ -41,6 +41,7 @@ use crate::passes::support::SupportPass;
 use crate::passes::upsample::{self, UpsampleInputs, UpsamplePass};
 use crate::photon::bvh::SceneBvh;
 use crate::photon::density::{knn_radii, Neighbours};
+use crate::photon::emit::photon_budget;
 use crate::photon::kernel::KernelSettings;
 use crate::photon::trace::{StoreOn, TraceSettings};
 use crate::photon::types::{pack_normal, BounceMapPhoton, Photon};
@@ -89,9 +90,9 @@ pub struct PhotonFrame {
     plan: BouncePlan,
     /// The light views, texels and light-G-buffer layer size the buffers hold.
     capacity: Capacity,
-    /// Photons per frame, the caustic views' share of them and the scene's bounds: what the
-    /// plan is made from.
-    budget: (usize, f32),
+    /// The caustic views' share of each light's photons (`RenderSettings::caustic_share`):
+    /// with the effects plan's budget and the scene's bounds, what the plan is made from.
+    caustic_share: f32,
     /// `RenderSettings::whole_light_grids`: every texel sends its photon.
     whole_grids: bool,
     bounds: crate::scene::Aabb,
@@ -246,23 +247,31 @@ impl PhotonFrame {
         } else {
             gpu_scene.bounds.center().as_dvec3()
         };
-        let active = effects.photon_mask();
-        let budget = (settings.photons, settings.caustic_share);
-        let plan_for = |scene: &Scene, active: &[bool]| {
+        // The effects plan's split of the photons over its lights, taken as it is.
+        let budget = effects.photon_budget();
+        let caustic_share = settings.caustic_share;
+        let plan_for = |scene: &Scene, budget: &[Option<usize>]| {
             let bounds = &gpu_scene.bounds;
-            let plan =
-                BouncePlan::with_caustic_share(scene, active, origin, bounds, budget.0, budget.1);
+            let plan = BouncePlan::with_budget(scene, budget, origin, bounds, caustic_share);
             if settings.whole_light_grids {
                 plan.whole_grids()
             } else {
                 plan
             }
         };
-        let plan = timing::timed("bounce plan", || plan_for(scene, &active));
+        let plan = timing::timed("bounce plan", || plan_for(scene, &budget));
         // Room for every light too: `set_lights` may bring back a light the plan skips now,
-        // and move lights (caustic views change size: `BouncePlan::capacity`).
-        let every = vec![true; scene.lights.len()];
-        let mut capacity = plan.capacity().max(plan_for(scene, &every).capacity());
+        // and move lights (caustic views change size: `BouncePlan::capacity`). Not a frame's
+        // split but the buffers' size: the photons as if every light emitted, by power.
+        let every = |scene: &Scene| -> Vec<Option<usize>> {
+            photon_budget(scene, settings.photons)
+                .into_iter()
+                .map(Some)
+                .collect()
+        };
+        let mut capacity = plan
+            .capacity()
+            .max(plan_for(scene, &every(scene)).capacity());
         // And for every pose of an animated scene, so that its caustic views keep their
         // subdivision (`BouncePlan::within` lowers it only for what was not foreseen).
         if scene.is_animated() {
@@ -270,7 +279,7 @@ impl PhotonFrame {
             let mut posed = scene.clone();
             for k in 0..POSE_SAMPLES {
                 posed.set_pose(&scene.pose_at(period * k as f32 / POSE_SAMPLES as f32));
-                capacity = capacity.max(plan_for(&posed, &every).capacity());
+                capacity = capacity.max(plan_for(&posed, &every(&posed)).capacity());
             }
         }
         let (views, texels) = (capacity.views.max(1), capacity.texels.max(1));
@@ -420,7 +429,7 @@ impl PhotonFrame {
             kernel: kernel_clamp.for_view(scene.camera.yfov, estimate_height),
             plan,
             capacity,
-            budget,
+            caustic_share,
             whole_grids: settings.whole_light_grids,
             bounds: gpu_scene.bounds,
             light_gbuffer,
@@ -477,15 +486,16 @@ impl PhotonFrame {
         self.sample
     }
 
-    /// Moves the lights (same lights, new transforms or powers; `active`: the effects plan's
-    /// photon mask for them): the next frame's bounce map starts from them. Caustic views are
+    /// Moves the lights (same lights, new transforms or powers; `budget`: the effects plan's
+    /// photons for them, `EffectsPlan::photon_budget`): the next frame's bounce map starts from
+    /// them. Caustic views are
     /// subdivided less if they would not fit the buffers (`BouncePlan::within`); fails if the
     /// new lights' main views need more light views, texels or a larger light G-buffer than the
     /// renderer was created with.
     pub fn set_lights(
         &mut self,
         lights: &[crate::scene::Light],
-        active: &[bool],
+        budget: &[Option<usize>],
     ) -> anyhow::Result<()> {
         // In place (the scene's meshes are not copied), and back if the plan does not fit.
         let before = std::mem::replace(&mut self.scene.lights, lights.to_vec());
@@ -493,10 +503,10 @@ impl PhotonFrame {
         let plan = timing::timed("bounce plan", || {
             BouncePlan::within(
                 &self.scene,
-                active,
+                budget,
                 origin,
                 bounds,
-                self.budget,
+                self.caustic_share,
                 &self.capacity,
             )
         });
@@ -518,14 +528,14 @@ impl PhotonFrame {
 
     /// Moves instances (`moved`: index and new world-from-object transform) for the next
     /// frame's trace, and plans the light views again for `lights` and the effects plan's photon
-    /// mask `active` (caustic windows follow moving mirrors and glass), as
+    /// budget `budget` (caustic windows follow moving mirrors and glass), as
     /// [`Self::set_lights`] does. The BVH moves the instances by transform; only an instance
     /// that was static makes it rebuild its static part (once). On error nothing has moved.
     pub fn move_instances(
         &mut self,
         moved: &[(usize, glam::Mat4)],
         lights: &[crate::scene::Light],
-        active: &[bool],
+        budget: &[Option<usize>],
     ) -> anyhow::Result<()> {
         let before: Vec<glam::Mat4> = moved
             .iter()
@@ -534,7 +544,7 @@ impl PhotonFrame {
         for &(i, m) in moved {
             self.scene.instances[i].transform = m;
         }
-        if let Err(e) = self.set_lights(lights, active) {
+        if let Err(e) = self.set_lights(lights, budget) {
             for (&(i, _), m) in moved.iter().zip(before) {
                 self.scene.instances[i].transform = m;
             }

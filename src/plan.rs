@@ -700,9 +700,20 @@ impl EffectsPlan {
         self.lights.iter().map(|l| l.direct).collect()
     }
 
-    /// Per light: emits photons (`BouncePlan::active`).
+    /// Per light: emits photons.
     pub fn photon_mask(&self) -> Vec<bool> {
         self.lights.iter().map(|l| l.photons > 0).collect()
+    }
+
+    /// Per light: the photons it emits, `None` where it emits none ([`Self::photon_mask`]
+    /// off). The frame's one split of `--photons` over the lights, made in
+    /// [`SceneAnalysis::plan`] by power; the bounce plan takes it as it is
+    /// (`ispm::BouncePlan::with_budget`).
+    pub fn photon_budget(&self) -> Vec<Option<usize>> {
+        self.lights
+            .iter()
+            .map(|l| (l.photons > 0).then_some(l.photons))
+            .collect()
     }
 
     /// Every pass of the frame, in frame order, run or skipped, and why.

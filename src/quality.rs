@@ -5,14 +5,13 @@
 //! `--subsample`, `--upsample`) overrides the preset's value for that knob. Without
 //! `--quality`, `render --method ispm` starts from [`RENDER_DEFAULT`] and `view` from
 //! [`VIEW_DEFAULT`]; `bench`, `--method direct`, the CPU references and `--quality none` use
-//! the flags' own defaults.
+//! the flags' own defaults. A preset fills the knobs not given in
+//! `settings::RenderSettings::from_knobs`, the one place settings are made.
 //!
 //! The radius is a scale of the scene-relative kernel (`KernelSettings::scene_relative`), as
 //! the sweep's `radius` knob, so a preset means the same on a scene of any size.
 
-use crate::photon::kernel::KernelSettings;
-use crate::scene::Aabb;
-use crate::settings::Upsample;
+use crate::settings::{Preset, Upsample, DEFAULT_BOUNCES};
 
 /// A point on the measured fronts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
@@ -54,17 +53,6 @@ impl QualityFlag {
     }
 }
 
-/// The knobs a preset sets.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Preset {
-    pub photons: usize,
-    pub bounces: u32,
-    /// Multiple of the scene-relative kernel `r_max`.
-    pub radius_scale: f32,
-    pub subsample: u32,
-    pub upsample: Upsample,
-}
-
 impl Quality {
     /// The preset's knobs: points of the single-frame front of the four bundled scenes' sweeps
     /// taken together, picked by `docs/tools/presets.py` (docs/accuracy.md §5.3: geometric
@@ -95,27 +83,6 @@ impl Quality {
     }
 }
 
-/// The knobs as a command resolves them: explicit flags, else the preset, else the defaults.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Knobs {
-    pub photons: usize,
-    pub bounces: u32,
-    /// Kernel `r_max` in metres (`None`: scene-relative default).
-    pub radius: Option<f32>,
-    pub subsample: u32,
-    pub upsample: Upsample,
-}
-
-/// The flags a user may give (each `None` when not given).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Explicit {
-    pub photons: Option<usize>,
-    pub bounces: Option<u32>,
-    pub radius: Option<f32>,
-    pub subsample: Option<u32>,
-    pub upsample: Option<Upsample>,
-}
-
 /// The preset `ispm render --method ispm` uses when `--quality` is not given: its other flags
 /// override this preset's values as they would a named one's. On the default scene at the
 /// default size (cornell-box, 640×480, lavapipe, 2 cores, `--seconds 4`) it accumulated 4
@@ -130,52 +97,9 @@ pub const RENDER_DEFAULT: Quality = Quality::High;
 /// drew one frame in 5 s).
 pub const VIEW_DEFAULT: Quality = Quality::Interactive;
 
-/// The flags' own defaults (no `--quality` and no default preset: `bench`, and `render`'s
-/// other methods).
-pub const DEFAULT_PHOTONS: usize = 100_000;
-/// No bounce count: Russian roulette ends the paths, this is only the safety cap (issue #19: the
-/// old fixed 8 bounces cost an albedo-0.8 room 13 % of its light, `tests/physics_energy.rs`).
-pub const DEFAULT_BOUNCES: u32 = crate::photon::trace::MAX_BOUNCES;
-
-/// Resolves the knobs for a scene with `bounds` (module docs).
-pub fn resolve(quality: Option<Quality>, explicit: Explicit, bounds: &Aabb) -> Knobs {
-    let preset = quality.map(Quality::preset);
-    let photons = explicit
-        .photons
-        .or(preset.map(|p| p.photons))
-        .unwrap_or(DEFAULT_PHOTONS);
-    let radius = explicit.radius.or_else(|| {
-        preset.map(|p| p.radius_scale * KernelSettings::scene_relative(bounds, photons, None).r_max)
-    });
-    Knobs {
-        photons,
-        bounces: explicit
-            .bounces
-            .or(preset.map(|p| p.bounces))
-            .unwrap_or(DEFAULT_BOUNCES),
-        radius,
-        subsample: explicit
-            .subsample
-            .or(preset.map(|p| p.subsample))
-            .unwrap_or(1),
-        upsample: explicit
-            .upsample
-            .or(preset.map(|p| p.upsample))
-            .unwrap_or_default(),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::Vec3;
-
-    fn unit_box() -> Aabb {
-        Aabb {
-            min: Vec3::ZERO,
-            max: Vec3::ONE,
-        }
-    }
 
     #[test]
     fn presets_are_ordered_by_cost() {
@@ -192,49 +116,5 @@ mod tests {
             assert!(w[0].bounces <= w[1].bounces, "{w:?}");
             assert!(w[0] != w[1], "two presets are the same point: {w:?}");
         }
-    }
-
-    #[test]
-    fn explicit_flags_override_the_preset_and_the_rest_come_from_it() {
-        let bounds = unit_box();
-        let knobs = resolve(
-            Some(Quality::Draft),
-            Explicit {
-                photons: Some(1234),
-                subsample: Some(1),
-                ..Default::default()
-            },
-            &bounds,
-        );
-        let draft = Quality::Draft.preset();
-        assert_eq!(knobs.photons, 1234);
-        assert_eq!(knobs.subsample, 1);
-        assert_eq!(knobs.bounces, draft.bounces);
-        let r = KernelSettings::scene_relative(&bounds, 1234, None).r_max;
-        assert_eq!(knobs.radius, Some(draft.radius_scale * r));
-        let explicit_radius = resolve(
-            Some(Quality::Draft),
-            Explicit {
-                radius: Some(0.05),
-                ..Default::default()
-            },
-            &bounds,
-        );
-        assert_eq!(explicit_radius.radius, Some(0.05));
-    }
-
-    #[test]
-    fn no_quality_keeps_the_flags_defaults() {
-        let knobs = resolve(None, Explicit::default(), &unit_box());
-        assert_eq!(
-            knobs,
-            Knobs {
-                photons: DEFAULT_PHOTONS,
-                bounces: DEFAULT_BOUNCES,
-                radius: None,
-                subsample: 1,
-                upsample: Upsample::Joint,
-            }
-        );
     }
 }

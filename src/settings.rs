@@ -3,15 +3,25 @@
 //! [`Tonemap`], [`Upsample`]), and [`SkippedPass`], the plan's and the stats' record of a pass
 //! not run. The renderer (`frame`), the effects plan (`plan`), the passes and the command line
 //! all read them here; none of them is imported back (docs/architecture.md, "Floors").
+//!
+//! The settings' one home: the user's knobs ([`Knobs`]: flags, a `--quality` preset) become
+//! settings in one function, [`RenderSettings::from_knobs`], and every default is one named
+//! constant in [`knobs`], as pbrt-v4 reads each parameter once. `--photons` thus walks
+//! CLI → [`Knobs::photons`] → [`RenderSettings::photons`] → the effects plan's split over the
+//! lights (`plan::LightPlan::photons`), which the bounce plan (`ispm::BouncePlan`) takes as it is.
 
 use crate::gpu::vk;
 use crate::pass_id::PassId;
 use crate::photon::bsdf::BsdfVariant;
 use crate::shared_constants::{TONEMAP_ACES, TONEMAP_LINEAR, TONEMAP_PBR_NEUTRAL};
 
-/// The share of a light's photons that its caustic views get when its views see delta instances
-/// (the default of `--caustic-share`; `ispm` module docs, "Budget").
-pub const CAUSTIC_SHARE: f32 = 0.5;
+pub mod knobs;
+
+pub use knobs::{
+    Knobs, Preset, CAUSTIC_SHARE, DEFAULT_BOUNCES, DEFAULT_DENOISE, DEFAULT_EMITTER_LIGHTS,
+    DEFAULT_EXPOSURE_EV, DEFAULT_PHOTONS, DEFAULT_SEED, DEFAULT_SHADOW_RESOLUTION, DEFAULT_SIZE,
+    DEFAULT_SUBSAMPLE, MAX_EMITTER_LIGHTS, SHADOW_RESOLUTIONS,
+};
 
 /// Frames the host may issue before it waits for the oldest one to finish.
 pub const FRAMES_IN_FLIGHT: usize = 2;
@@ -121,19 +131,62 @@ impl Density {
     }
 }
 
-/// How the frame computes light.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+/// How a picture is made (`--method`): the GPU renderer's two frames, or one of the CPU
+/// references (`reference::render`). The one list of methods: `render --method` takes them all,
+/// `plan --method` the GPU ones ([`Method::GPU`]), `sweep`'s grid `ispm` and `photon-gather`,
+/// and [`RenderSettings::method`] a GPU one (`Renderer::new` refuses a CPU reference).
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    clap::ValueEnum,
+    serde::Serialize,
+    serde::Deserialize,
+)]
 #[serde(rename_all = "kebab-case")]
 pub enum Method {
-    /// Image Space Photon Mapping: direct light plus photon-mapped indirect light.
+    /// Image Space Photon Mapping on the GPU (direct + photon-mapped indirect light).
     #[default]
     Ispm,
-    /// Shadow-mapped deferred direct light only.
+    /// Shadow-mapped deferred direct light only (GPU).
     Direct,
+    /// CPU reference: traditional photon mapping with a k-d tree gather, same kernel as ISPM.
+    PhotonGather,
+    /// CPU reference: unidirectional path tracing with next-event estimation.
+    PathTrace,
+    /// CPU reference: progressive photon mapping (consistent, for caustics).
+    Progressive,
+}
+
+impl Method {
+    /// The methods the GPU renderer draws (`frame::Renderer`); the others are CPU references.
+    pub const GPU: [Method; 2] = [Method::Ispm, Method::Direct];
+
+    /// Whether the GPU renderer draws this method ([`Method::GPU`]).
+    pub fn is_gpu(self) -> bool {
+        Self::GPU.contains(&self)
+    }
+
+    /// The method's name on the command line and in the sweep's records (`photon-gather`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Ispm => "ispm",
+            Method::Direct => "direct",
+            Method::PhotonGather => "photon-gather",
+            Method::PathTrace => "path-trace",
+            Method::Progressive => "progressive",
+        }
+    }
 }
 
 /// What to render and how.
-#[derive(Clone, Debug)]
+/// Made from the user's [`Knobs`] by [`RenderSettings::from_knobs`] (every command does), or
+/// written out by a library caller (the tests) from [`RenderSettings::default`]; each default
+/// is a named constant of [`knobs`], written once.
+#[derive(Clone, Debug, PartialEq)]
 pub struct RenderSettings {
     pub method: Method,
     /// Photons emitted from all lights together (split by power), per frame: exactly, to within
@@ -144,10 +197,8 @@ pub struct RenderSettings {
     /// map then carries exactly each light's flux in every frame, not only on average (the
     /// tests of that sum use it). Default false.
     pub whole_light_grids: bool,
-    /// Most scattering events a photon may take. Default [`MAX_BOUNCES`], a safety net:
+    /// Most scattering events a photon may take. Default [`DEFAULT_BOUNCES`], a safety net:
     /// Russian roulette ends the paths (`photon::trace`, "Bounces").
-    ///
-    /// [`MAX_BOUNCES`]: crate::photon::trace::MAX_BOUNCES
     pub bounces: u32,
     /// Largest kernel radius in metres (`None`: relative to the scene and photon count).
     pub radius: Option<f32>,
@@ -166,8 +217,8 @@ pub struct RenderSettings {
     pub upsample: Upsample,
     /// Levels of the indirect light's edge-avoiding à-trous filter for a frame that starts an
     /// accumulation or is not accumulated, fewer as frames accumulate (`--denoise`;
-    /// `passes/denoise.rs`). 0 (the default here; the command line's is
-    /// [`crate::passes::denoise::DEFAULT_LEVELS`]): the raw estimate.
+    /// `passes/denoise.rs`). 0 ([`DEFAULT_DENOISE`], the library's default; the command
+    /// line's is [`crate::passes::denoise::DEFAULT_LEVELS`]): the raw estimate.
     pub denoise: u32,
     pub schedule: Schedule,
     /// `Auto`: the effects plan (`plan::EffectsPlan`) may skip what the scene does not need;
@@ -204,31 +255,33 @@ pub struct RenderSettings {
 }
 
 impl Default for RenderSettings {
+    /// The defaults, one named constant each ([`knobs`]): what [`RenderSettings::from_knobs`]
+    /// makes of no knobs (its tests check the two agree).
     fn default() -> Self {
         Self {
-            method: Method::Ispm,
-            photons: 100_000,
+            method: Method::default(),
+            photons: DEFAULT_PHOTONS,
             whole_light_grids: false,
-            bounces: crate::photon::trace::MAX_BOUNCES,
+            bounces: DEFAULT_BOUNCES,
             radius: None,
-            seed: 0,
-            width: 640,
-            height: 480,
-            shadow_resolution: 1024,
+            seed: DEFAULT_SEED,
+            width: DEFAULT_SIZE.0,
+            height: DEFAULT_SIZE.1,
+            shadow_resolution: DEFAULT_SHADOW_RESOLUTION,
             tonemap: Tonemap::default(),
-            exposure_ev: 0.0,
-            subsample: 1,
-            upsample: Default::default(),
-            denoise: 0,
-            schedule: Schedule::Auto,
-            effects: Effects::Auto,
+            exposure_ev: DEFAULT_EXPOSURE_EV,
+            subsample: DEFAULT_SUBSAMPLE,
+            upsample: Upsample::default(),
+            denoise: DEFAULT_DENOISE,
+            schedule: Schedule::default(),
+            effects: Effects::default(),
             bsdf_variant: BsdfVariant::ALL,
             caustic_share: CAUSTIC_SHARE,
             storage_buffer_range: None,
             check_values: false,
             accumulate: false,
-            emitter_lights: crate::scene::emitters::DEFAULT_EMITTER_LIGHTS,
-            density: Density::Auto,
+            emitter_lights: DEFAULT_EMITTER_LIGHTS,
+            density: Density::default(),
         }
     }
 }

@@ -587,12 +587,12 @@ fn a_dark_scene_traces_only_the_bounces_that_carry_power_and_renders_the_same_wi
     let all = render(&scene, settings(Effects::All));
     assert_eq!(planned.plan.max_bounces, 6, "{}", planned.plan);
     // Unplanned, only the safety cap limits the depth: Russian roulette ends the paths.
-    assert_eq!(all.plan.max_bounces, ispm::quality::DEFAULT_BOUNCES);
+    assert_eq!(all.plan.max_bounces, ispm::settings::DEFAULT_BOUNCES);
     // The trace's per-bounce buffers are sized for the plan's bounces.
     assert_eq!(planned.frame.stats.attrition.len(), 7);
     assert_eq!(
         all.frame.stats.attrition.len(),
-        ispm::quality::DEFAULT_BOUNCES as usize + 1
+        ispm::settings::DEFAULT_BOUNCES as usize + 1
     );
     // The photons the unplanned frame stores past bounce 6 are all the difference (closed
     // box, all diffuse: a photon alive after bounce k is stored at its next hit).

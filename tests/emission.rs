@@ -67,14 +67,8 @@ fn panel_room() -> Scene {
 /// The path tracer's image of `scene` at pixel centres, RGBA.
 fn path_traced(scene: &Scene, settings: RefSettings) -> Vec<f32> {
     let cancel = std::sync::atomic::AtomicBool::new(false);
-    let image = reference::render(
-        scene,
-        reference::Method::PathTrace,
-        &settings,
-        None,
-        &cancel,
-    )
-    .expect("path trace");
+    let image =
+        reference::render(scene, Method::PathTrace, &settings, None, &cancel).expect("path trace");
     image
         .pixels
         .iter()

@@ -275,7 +275,8 @@ fn cornell_box_bleeds_red_and_green_onto_the_floor() {
 /// the ball is 0.958).
 #[test]
 fn the_glass_sphere_shows_the_rooms_indirect_light_like_the_cpu_gather() {
-    use ispm::reference::{render as reference, Method as Reference, RefSettings};
+    use ispm::reference::{render as reference, RefSettings};
+    use ispm::settings::Method as Reference;
     let scene = bundled("cornell-box");
     let (w, h) = (64, 48);
     let gpu = common::gpu();

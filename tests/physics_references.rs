@@ -5,9 +5,10 @@ use glam::{Mat4, Vec2, Vec3};
 use ispm::reference::{
     render,
     scenes::{cornell, furnace_sphere, scaled},
-    HdrImage, Method, RefSettings,
+    HdrImage, RefSettings,
 };
 use ispm::scene::{Instance, Mesh};
+use ispm::settings::Method;
 use std::sync::atomic::AtomicBool;
 
 fn small(spp: u32, photons: usize) -> RefSettings {

@@ -6,9 +6,10 @@ mod common;
 
 use common::cli::ispm;
 use ispm::photon::kernel::KernelSettings;
+use ispm::settings::Method;
 use ispm::sweep::measure::measure;
 use ispm::sweep::reference::{method_for, references};
-use ispm::sweep::{Config, ReferenceSpec, SweepMethod};
+use ispm::sweep::{Config, ReferenceSpec};
 use std::path::Path;
 
 fn stderr(out: &std::process::Output) -> String {
@@ -182,7 +183,7 @@ fn more_photons_at_a_fixed_kernel_never_worsen_the_indirect_error() {
     for name in ispm::scene::bundled::BUNDLED {
         let scene = ispm::scene::bundled::resolve(Some(name)).expect("bundled scene");
         let spec = ReferenceSpec {
-            passes: if method_for(&scene) == ispm::reference::Method::PathTrace {
+            passes: if method_for(&scene) == Method::PathTrace {
                 64
             } else {
                 16
@@ -205,13 +206,13 @@ fn more_photons_at_a_fixed_kernel_never_worsen_the_indirect_error() {
             .iter()
             .map(|&photons| {
                 let config = Config {
-                    method: SweepMethod::Ispm,
+                    method: Method::Ispm,
                     photons,
                     bounces: 8,
                     radius_scale: r_fixed
                         / KernelSettings::scene_relative(&bounds, photons, None).r_max,
                     subsample: 1,
-                    caustic_share: ispm::ispm::CAUSTIC_SHARE,
+                    caustic_share: ispm::settings::CAUSTIC_SHARE,
                     upsample: Default::default(),
                     accumulate: 1,
                     density: ispm::frame::Density::Auto,

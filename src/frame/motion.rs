@@ -110,7 +110,7 @@ impl Renderer {
             self.plan.indirect.reason
         );
         if let Some(photons) = &mut self.photons {
-            photons.move_instances(moved, &self.lights, &plan.photon_mask())?;
+            photons.move_instances(moved, &self.lights, &plan.photon_budget())?;
         }
         Ok((analysis, plan))
     }

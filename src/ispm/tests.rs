@@ -158,7 +158,13 @@ fn inactive_lights_get_no_views_and_their_budget_goes_to_the_others() {
     let scene = point_and_spot();
     let camera = DVec3::new(0.0, 0.0, 5.0);
     let all = BouncePlan::new(&scene, camera, &scene.bounds(), 60_000);
-    let spot_only = BouncePlan::active(&scene, &[false, true], camera, &scene.bounds(), 60_000);
+    let spot_only = BouncePlan::with_budget(
+        &scene,
+        &[None, Some(60_000)],
+        camera,
+        &scene.bounds(),
+        CAUSTIC_SHARE,
+    );
     assert_eq!(spot_only.views.len(), 1);
     let res = spot_only.extents[0].0;
     assert!(res * res >= 60_000, "{res}² < the whole budget");
@@ -167,7 +173,7 @@ fn inactive_lights_get_no_views_and_their_budget_goes_to_the_others() {
     assert_eq!(spot_only.views[0].texels.w, all.views[6].texels.w);
     assert_eq!(spot_only.view_matrices[0], all.view_matrices[6]);
     assert_eq!(spot_only.texels, (res * res) as usize);
-    let none = BouncePlan::active(&scene, &[], camera, &scene.bounds(), 60_000);
+    let none = BouncePlan::with_budget(&scene, &[], camera, &scene.bounds(), CAUSTIC_SHARE);
     assert!(none.views.is_empty() && none.texels == 0);
 }
 
@@ -346,8 +352,7 @@ fn no_caustic_view_where_the_light_cannot_reach_the_mirror_or_the_share_is_zero(
     assert_eq!(plan.views.len(), 1);
     assert_eq!(plan.views[0].kind.y, BOUNCE_VIEW_WHOLE);
     let lit = floor_and_mirror_ball(Vec3::new(0.2, 0.1, 0.0), 0.1, vec![sun()]);
-    let all = [true];
-    let off = BouncePlan::with_caustic_share(&lit, &all, DVec3::ZERO, &lit.bounds(), 20_000, 0.0);
+    let off = BouncePlan::with_budget(&lit, &[Some(20_000)], DVec3::ZERO, &lit.bounds(), 0.0);
     assert_eq!(off.views.len(), 1);
     assert_eq!(off.views[0].kind.y, BOUNCE_VIEW_WHOLE);
     assert!(off.texels >= 20_000);
@@ -427,7 +432,7 @@ fn texels_are_kept_with_their_probability_over_texels_and_over_samples() {
 #[test]
 fn moved_lights_keep_their_caustic_views_within_the_capacity_reserved_for_them() {
     let scene = floor_and_mirror_ball(Vec3::new(0.3, 0.3, -0.2), 0.3, vec![sun()]);
-    let (camera, bounds, all) = (DVec3::ZERO, scene.bounds(), [true]);
+    let (camera, bounds, all) = (DVec3::ZERO, scene.bounds(), [Some(50_000)]);
     let plan = BouncePlan::new(&scene, camera, &bounds, 50_000);
     let capacity = plan.capacity();
     assert!(capacity.holds(&plan));
@@ -440,8 +445,8 @@ fn moved_lights_keep_their_caustic_views_within_the_capacity_reserved_for_them()
         let turn = glam::Quat::from_rotation_y(degrees.to_radians());
         moved.lights[0].direction = turn * moved.lights[0].direction;
         let free = BouncePlan::new(&moved, camera, &bounds, 50_000);
-        let within = BouncePlan::within(&moved, &all, camera, &bounds, (50_000, 0.5), &capacity)
-            .expect("fits");
+        let within =
+            BouncePlan::within(&moved, &all, camera, &bounds, 0.5, &capacity).expect("fits");
         assert!(capacity.holds(&free), "{degrees}°: {:?}", free.extents);
         assert_eq!(within.extents, free.extents, "{degrees}°");
     }
@@ -453,7 +458,7 @@ fn moved_lights_keep_their_caustic_views_within_the_capacity_reserved_for_them()
         texels: main + plan.caustic_texels / 4,
         ..capacity
     };
-    let fitted = BouncePlan::within(&scene, &all, camera, &bounds, (50_000, 0.5), &small)
+    let fitted = BouncePlan::within(&scene, &all, camera, &bounds, 0.5, &small)
         .expect("fits with a smaller k");
     assert!(small.holds(&fitted));
     assert!(fitted.caustic_texels > 0 && fitted.caustic_texels < plan.caustic_texels);
@@ -470,8 +475,8 @@ fn moved_lights_keep_their_caustic_views_within_the_capacity_reserved_for_them()
         texels: fitted_main,
         ..capacity
     };
-    let alone = BouncePlan::within(&scene, &all, camera, &bounds, (50_000, 0.5), &tiny)
-        .expect("the main view fits");
+    let alone =
+        BouncePlan::within(&scene, &all, camera, &bounds, 0.5, &tiny).expect("the main view fits");
     assert_eq!(alone.extents, vec![fitted.extents[0]]);
     assert_eq!(alone.views[0].kind.y, BOUNCE_VIEW_WHOLE);
     // No room for the main view: an error naming the sizes.
@@ -479,7 +484,7 @@ fn moved_lights_keep_their_caustic_views_within_the_capacity_reserved_for_them()
         texels: fitted_main - 1,
         ..capacity
     };
-    let err = BouncePlan::within(&scene, &all, camera, &bounds, (50_000, 0.5), &none)
+    let err = BouncePlan::within(&scene, &all, camera, &bounds, 0.5, &none)
         .expect_err("the main view needs more texels");
     assert!(err.to_string().contains("light views"), "{err}");
 }

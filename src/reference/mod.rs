@@ -31,19 +31,12 @@ use crate::photon::rng::{hash2, Rng};
 use crate::photon::trace::{bsdf_at, emitted, has_finite_lobe, MAX_BOUNCES};
 use crate::scene::emitters::Emitters;
 use crate::scene::{LightKind, Scene};
+use crate::settings::Method;
 use anyhow::{bail, Result};
 use glam::Vec3;
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
-
-/// Which reference to render (the CLI's `--method`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Method {
-    PhotonGather,
-    PathTrace,
-    Progressive,
-}
 
 /// Settings of the references.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -89,7 +82,8 @@ impl Default for RefSettings {
     }
 }
 
-/// Renders `scene` with `method`. Fails only when cancelled before the first pass completed.
+/// Renders `scene` with `method`, a CPU reference (`--method photon-gather`, `path-trace` or
+/// `progressive`). Fails for a GPU method, or when cancelled before the first pass completed.
 pub fn render(
     scene: &Scene,
     method: Method,
@@ -111,6 +105,10 @@ pub fn render(
         Method::PathTrace => path_trace::render(&ctx),
         Method::PhotonGather => gather::render_gather(&ctx),
         Method::Progressive => gather::render_progressive(&ctx),
+        Method::Ispm | Method::Direct => bail!(
+            "--method {} is drawn by the GPU renderer, not a CPU reference",
+            method.name()
+        ),
     }
 }
 

@@ -25,9 +25,6 @@ use std::f32::consts::PI;
 /// receives its light (the shadow views' near plane is at the same distance).
 pub const AREA_SAMPLE_OFFSET: f32 = 1e-4;
 
-/// The default number of area-sample lights per frame (`RenderSettings::emitter_lights`).
-pub const DEFAULT_EMITTER_LIGHTS: u32 = 4;
-
 /// The generators of the 3D Kronecker (R3) sequence: 1/g, 1/g², 1/g³ for g the real root of
 /// x⁴ = x + 1 (Roberts 2018), in f64 so that point `i` stays accurate for large `i`.
 const R3: [f64; 3] = [

@@ -28,34 +28,19 @@
 //! `volumes`, its kernel's sums). `auto` is resolved for the device ([`Grid::resolve_density`])
 //! before the configurations are made, so a record names the estimator that measured it.
 
-use crate::frame::Density;
-use crate::passes::upsample::Upsample;
+use crate::settings::{Density, Method, Upsample, CAUSTIC_SHARE, DEFAULT_BOUNCES};
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 
-/// How a configuration renders.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum SweepMethod {
-    /// The GPU renderer.
-    Ispm,
-    /// Traditional photon mapping on the CPU (k-d tree gather, ISPM's kernel): the baseline.
-    PhotonGather,
-}
-
-impl SweepMethod {
-    pub fn name(self) -> &'static str {
-        match self {
-            SweepMethod::Ispm => "ispm",
-            SweepMethod::PhotonGather => "photon-gather",
-        }
-    }
-}
+/// The methods a configuration may render with ([`Grid::method`]): the GPU renderer, and
+/// traditional photon mapping on the CPU (k-d tree gather, ISPM's kernel), the baseline.
+pub const SWEEP_METHODS: [Method; 2] = [Method::Ispm, Method::PhotonGather];
 
 /// One point of the grid.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Config {
-    pub method: SweepMethod,
+    /// One of [`SWEEP_METHODS`].
+    pub method: Method,
     pub photons: usize,
     pub bounces: u32,
     /// Multiple of the scene-relative kernel `r_max` (`KernelSettings::scene_relative`).
@@ -84,7 +69,7 @@ fn volumes() -> Density {
 impl Config {
     /// The configuration as the renderer sees it (module docs, normalisation).
     fn normalised(mut self) -> Self {
-        if self.method == SweepMethod::PhotonGather {
+        if self.method == Method::PhotonGather {
             self.subsample = 1;
             self.caustic_share = 0.0;
             self.accumulate = 1;
@@ -133,7 +118,7 @@ impl Config {
 /// The values of every knob.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Grid {
-    pub method: Vec<SweepMethod>,
+    pub method: Vec<Method>,
     pub photons: Vec<usize>,
     pub bounces: Vec<u32>,
     pub radius: Vec<f32>,
@@ -147,12 +132,12 @@ pub struct Grid {
 impl Default for Grid {
     fn default() -> Self {
         Self {
-            method: vec![SweepMethod::Ispm],
+            method: vec![Method::Ispm],
             photons: vec![10_000, 40_000, 160_000],
-            bounces: vec![crate::photon::trace::MAX_BOUNCES],
+            bounces: vec![DEFAULT_BOUNCES],
             radius: vec![0.5, 1.0, 2.0],
             subsample: vec![1, 2, 4],
-            caustic_share: vec![crate::ispm::CAUSTIC_SHARE],
+            caustic_share: vec![CAUSTIC_SHARE],
             upsample: vec![Upsample::Joint],
             accumulate: vec![1],
             density: vec![Density::Auto],
@@ -263,11 +248,12 @@ impl Grid {
                 "method" => {
                     grid.method = values
                         .iter()
-                        .map(|v| match *v {
-                            "ispm" => Ok(SweepMethod::Ispm),
-                            "photon-gather" => Ok(SweepMethod::PhotonGather),
-                            _ => bail!("method={v}: not ispm or photon-gather"),
-                        })
+                        .map(
+                            |v| match SWEEP_METHODS.into_iter().find(|m| m.name() == *v) {
+                                Some(m) => Ok(m),
+                                None => bail!("method={v}: not ispm or photon-gather"),
+                            },
+                        )
                         .collect::<Result<_>>()?;
                 }
                 _ => bail!(

@@ -25,16 +25,16 @@
 //! a user waits for), the stages the medians of its first N − 1 frames, and the indirect part the
 //! mean less the renderer's direct light (a `Method::Direct` render: deterministic).
 
-use super::grid::{Config, SweepMethod};
+use super::grid::Config;
 use super::reference::References;
 use crate::bench;
-use crate::frame::{Method, RenderSettings, Renderer, Schedule};
+use crate::frame::Renderer;
 use crate::gpu::Gpu;
 use crate::metrics::{difference, flip, rel_mse, rgba};
 use crate::pass_id::PassId;
 use crate::photon::kernel::KernelSettings;
-use crate::plan::Effects;
 use crate::scene::Scene;
+use crate::settings::{Effects, Knobs, Method, RenderSettings, Schedule};
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -94,8 +94,12 @@ pub fn measure(
         r_max,
     };
     let r = match config.method {
-        SweepMethod::Ispm => job.ispm(gpu)?,
-        SweepMethod::PhotonGather => job.gather(refs)?,
+        Method::Ispm => job.ispm(gpu)?,
+        Method::PhotonGather => job.gather(refs)?,
+        other => anyhow::bail!(
+            "method {}: the sweep measures ispm and photon-gather",
+            other.name()
+        ),
     };
     let direct = difference(&r.total, &r.indirect);
     Ok(Measurement {
@@ -125,27 +129,24 @@ struct Job<'a> {
 impl Job<'_> {
     fn ispm(&self, gpu: &Arc<Gpu>) -> Result<Rendered> {
         let (c, scene) = (self.config, self.scene);
-        let settings = RenderSettings {
-            method: Method::Ispm,
-            photons: c.photons,
-            bounces: c.bounces,
+        let accumulate = c.accumulate.max(1);
+        let knobs = Knobs {
+            method: Some(Method::Ispm),
+            photons: Some(c.photons),
+            bounces: Some(c.bounces),
             radius: Some(self.r_max),
-            width: self.width,
-            height: self.height,
-            subsample: c.subsample,
-            upsample: c.upsample,
-            caustic_share: c.caustic_share,
-            schedule: Schedule::Auto,
-            effects: Effects::All,
-            density: c.density,
+            size: Some((self.width, self.height)),
+            subsample: Some(c.subsample),
+            upsample: Some(c.upsample),
+            caustic_share: Some(c.caustic_share),
+            schedule: Some(Schedule::Auto),
+            effects: Some(Effects::All),
+            density: Some(c.density),
+            accumulate: Some(accumulate > 1),
             ..Default::default()
         };
-        let accumulate = c.accumulate.max(1);
-        let settings = RenderSettings {
-            accumulate: accumulate > 1,
-            ..settings
-        };
-        let mut renderer = Renderer::new(gpu, scene, settings.clone())?;
+        let settings = RenderSettings::from_knobs(&knobs, &scene.bounds())?;
+        let mut renderer = Renderer::new(gpu, scene, settings)?;
         bench::timed_frames(&mut renderer, scene, 0, 1)?;
         let (frame_ms, spans, frame, indirect) = if accumulate > 1 {
             // The time to the image: `accumulate` frames from a fresh accumulation (the
@@ -161,16 +162,13 @@ impl Job<'_> {
                 frame.stats.accumulated_frames
             );
             // The mean's indirect part: the mean less the (deterministic) direct light.
-            let direct = Renderer::new(
-                gpu,
-                scene,
-                RenderSettings {
-                    method: Method::Direct,
-                    accumulate: false,
-                    ..settings
-                },
-            )?
-            .render()?;
+            let direct = Knobs {
+                method: Some(Method::Direct),
+                accumulate: Some(false),
+                ..knobs
+            };
+            let direct = RenderSettings::from_knobs(&direct, &scene.bounds())?;
+            let direct = Renderer::new(gpu, scene, direct)?.render()?;
             let indirect = difference(&frame.hdr, &direct.hdr);
             (total_ms, spans, frame, indirect)
         } else {
@@ -225,7 +223,7 @@ impl Job<'_> {
             let start = crate::timing::now_ns();
             let rendered = crate::reference::render(
                 self.scene,
-                crate::reference::Method::PhotonGather,
+                Method::PhotonGather,
                 &settings,
                 None,
                 &cancel,

@@ -28,7 +28,7 @@ use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-pub use grid::{Config, Grid, SweepMethod};
+pub use grid::{Config, Grid};
 pub use reference::ReferenceSpec;
 pub use results::{Record, Results};
 

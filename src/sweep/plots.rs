@@ -9,9 +9,9 @@
 //! - `knobs.svg`: relMSE (whole and indirect) against each knob the grid varies, one panel per
 //!   knob, every configuration a point and the best one at each value joined.
 
-use super::grid::SweepMethod;
 use super::results::Record;
 use crate::output::write_atomically;
+use crate::settings::Method;
 use anyhow::{anyhow, Context, Result};
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -96,8 +96,8 @@ pub fn pareto(title: &str, records: &[&Record]) -> Result<String> {
             )
         };
         for (method, colour, name) in [
-            (SweepMethod::Ispm, PALETTE[0], "ISPM configuration"),
-            (SweepMethod::PhotonGather, PALETTE[4], "photon-gather (CPU)"),
+            (Method::Ispm, PALETTE[0], "ISPM configuration"),
+            (Method::PhotonGather, PALETTE[4], "photon-gather (CPU)"),
         ] {
             let points: Vec<(f64, f64)> = records
                 .iter()

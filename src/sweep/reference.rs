@@ -24,8 +24,9 @@ use super::hash::{fnv1a, fnv1a_debug, hex};
 /// roughness), so that no cached reference of the old physics is compared with the new renderer.
 pub const REFERENCE_REVISION: u32 = 4;
 use crate::metrics::rgba;
-use crate::reference::{self, Method, RefSettings};
+use crate::reference::{self, RefSettings};
 use crate::scene::Scene;
+use crate::settings::{Method, DEFAULT_BOUNCES};
 use anyhow::{Context, Result};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -43,12 +44,18 @@ pub struct ReferenceSpec {
     pub bounces: u32,
 }
 
+/// Path-tracer samples per pixel, or progressive iterations (`--reference-passes`).
+pub const DEFAULT_REFERENCE_PASSES: u32 = 256;
+
+/// Photons per progressive photon mapping iteration (`--reference-photons`).
+pub const DEFAULT_REFERENCE_PHOTONS: usize = 100_000;
+
 impl Default for ReferenceSpec {
     fn default() -> Self {
         Self {
-            passes: 256,
-            photons: 100_000,
-            bounces: crate::photon::trace::MAX_BOUNCES,
+            passes: DEFAULT_REFERENCE_PASSES,
+            photons: DEFAULT_REFERENCE_PHOTONS,
+            bounces: DEFAULT_BOUNCES,
         }
     }
 }
@@ -152,10 +159,7 @@ pub fn references(
             let cancel = AtomicBool::new(false);
             progress.set_message(format!(
                 "reference ({}, {} passes)",
-                match method {
-                    Method::Progressive => "progressive",
-                    _ => "path-trace",
-                },
+                method.name(),
                 spec.passes
             ));
             let total = reference::render(scene, method, &total_settings, Some(progress), &cancel)

@@ -45,7 +45,7 @@ pub fn path_traced(scene: &Scene, passes: u32) -> Reference {
         };
         ispm::reference::render(
             scene,
-            ispm::reference::Method::PathTrace,
+            ispm::settings::Method::PathTrace,
             &settings,
             None,
             &cancel,
@@ -144,13 +144,13 @@ pub fn progressive_indirect(scene: &Scene) -> Vec<f32> {
             .pixels
     };
     let progressive = reference(
-        ispm::reference::Method::Progressive,
+        ispm::settings::Method::Progressive,
         PROGRESSIVE_ITERATIONS,
         CONVERGENCE_BOUNCES,
     );
     // Direct light only: with more bounces the path tracer's diffuse interreflection (floor →
     // glass → floor, L D S D E) would be subtracted too, though ISPM's photons carry it.
-    let direct = reference(ispm::reference::Method::PathTrace, 1, 0);
+    let direct = reference(ispm::settings::Method::PathTrace, 1, 0);
     progressive
         .iter()
         .zip(&direct)

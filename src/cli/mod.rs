@@ -1,0 +1,178 @@
+//! The command line's parts (`src/main.rs` parses, these run): one module per command with its
+//! arguments and what it does, and here what they share: the scene and quality flags, value
+//! parsers, loading the scene and starting Vulkan. Settings are made in one place, the library's
+//! `settings::RenderSettings::from_knobs`: a command only maps its flags onto `settings::Knobs`.
+
+use anyhow::Context;
+use ispm::gpu::{Gpu, GpuOptions};
+use ispm::quality::{Quality, QualityFlag};
+use ispm::settings::Knobs;
+
+pub mod bench;
+pub mod info;
+pub mod plan;
+pub mod render;
+pub mod sweep;
+pub mod view;
+
+/// `--quality` and the knobs it sets, shared by `render`, `view` and `bench` (src/quality.rs).
+#[derive(clap::Args)]
+pub struct QualityArgs {
+    /// Set photons, bounces, kernel radius and subsampling to a point measured on the
+    /// error–time Pareto fronts of the bundled scenes (docs/accuracy.md §5); explicit flags
+    /// override its values. `none`: no preset, the flags' own defaults. Default: `high` for
+    /// `render --method ispm`, `interactive` for `view`, `none` otherwise.
+    #[arg(long, value_enum)]
+    quality: Option<QualityFlag>,
+    /// Photons emitted per frame, split over the lights by power (default: the --quality
+    /// preset's; 100000 without one). A light view holds at most 2048x2048 texels: a light whose share
+    /// asks for more emits fewer photons, and `render` says so.
+    #[arg(long)]
+    photons: Option<usize>,
+    /// Estimate indirect light at 1/N resolution and upsample it (--upsample; N is clamped to
+    /// the image size; 1: full resolution). Default: the --quality preset's; 1 without one.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    subsample: Option<u32>,
+    /// Most scattering events per photon, and per path for the references (default: until
+    /// Russian roulette ends the path, at most 256; a lower N cuts the light after N bounces).
+    #[arg(long)]
+    bounces: Option<u32>,
+    /// Largest photon kernel radius in metres (default: from the scene size and photon count,
+    /// scaled by the --quality preset's factor).
+    #[arg(long)]
+    radius: Option<f32>,
+    /// At --subsample N > 1: `joint` bilateral upsampling against the full-resolution G-buffer,
+    /// or plain `bilinear` (default joint).
+    #[arg(long, value_enum)]
+    upsample: Option<ispm::settings::Upsample>,
+}
+
+impl QualityArgs {
+    /// The knobs these flags give, with `--quality`'s preset, else the command's `default` one
+    /// (`settings::RenderSettings::from_knobs` fills the rest and checks them).
+    pub fn knobs(&self, default: Option<Quality>) -> Knobs {
+        Knobs {
+            preset: self
+                .quality
+                .map_or(default, QualityFlag::preset)
+                .map(Quality::preset),
+            photons: self.photons,
+            bounces: self.bounces,
+            radius: self.radius,
+            subsample: self.subsample,
+            upsample: self.upsample,
+            ..Knobs::default()
+        }
+    }
+}
+
+/// How the scene file is read, shared by every command that loads one.
+#[derive(clap::Args)]
+pub struct SceneArgs {
+    /// Render a scene with no light and no emissive surface as it is (unlit: only unlit
+    /// materials show) instead of adding the default key light over the camera's shoulder.
+    #[arg(long)]
+    no_default_light: bool,
+    /// KHR_materials_variants: show the material variant NAME instead of the default materials.
+    #[arg(long, value_name = "NAME")]
+    variant: Option<String>,
+}
+
+impl SceneArgs {
+    pub fn options(&self) -> ispm::scene::load::LoadOptions {
+        ispm::scene::load::LoadOptions {
+            default_light: !self.no_default_light,
+            variant: self.variant.clone(),
+        }
+    }
+}
+
+pub fn parse_seconds_per_turn(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!(
+            "{s:?} is not a positive number of seconds per turn (put the scene before \
+             --orbit-lights)"
+        )),
+    }
+}
+
+pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("size {s:?} is not WIDTHxHEIGHT"))?;
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .map_err(|_| format!("size {s:?} is not WIDTHxHEIGHT"))
+    };
+    let (w, h) = (parse(w)?, parse(h)?);
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        return Err(format!("size {s:?} must be between 1x1 and 16384x16384"));
+    }
+    Ok((w, h))
+}
+
+/// The scene of `arg` read as `scene_args` say, seen from its file's camera `camera`
+/// (`--camera N`) if given, with its lights orbiting when `--orbit-lights` asks. Says on
+/// stderr when the default light was added, or when `--no-default-light` leaves the scene
+/// without light.
+pub fn load_scene_from(
+    arg: Option<&str>,
+    scene_args: &SceneArgs,
+    camera: Option<usize>,
+    orbit_lights: Option<f32>,
+) -> anyhow::Result<ispm::scene::Scene> {
+    let mut scene = ispm::scene::bundled::resolve_with(arg, &scene_args.options())?;
+    let name = arg.unwrap_or("cornell-box");
+    if let Some(n) = camera {
+        let count = scene.cameras.len();
+        scene.camera = *scene.cameras.get(n).ok_or_else(|| match count {
+            0 => anyhow::anyhow!("--camera {n}: {name} has no cameras"),
+            1 => anyhow::anyhow!("--camera {n}: {name} has 1 camera (--camera 0)"),
+            _ => anyhow::anyhow!(
+                "--camera {n}: {name} has {count} cameras (--camera 0 to {})",
+                count - 1
+            ),
+        })?;
+        scene.aim_default_light();
+    }
+    if let Some(seconds) = orbit_lights {
+        scene.orbit_lights(seconds).context("--orbit-lights")?;
+    }
+    if scene.default_light {
+        eprintln!(
+            "ispm: {name} has no lights; adding a default key light (--no-default-light turns \
+             it off)"
+        );
+    } else if scene.needs_default_light() {
+        eprintln!(
+            "ispm: warning: {name} has no lights and --no-default-light keeps it so: nothing in \
+             it is lit (only unlit materials show)"
+        );
+    }
+    Ok(scene)
+}
+
+pub fn gpu(cli_device: Option<usize>) -> anyhow::Result<std::sync::Arc<Gpu>> {
+    Gpu::new(&GpuOptions {
+        device_index: cli_device,
+        ..Default::default()
+    })
+    .context("cannot start Vulkan")
+}
+
+/// Fails when the validation layer reported anything (printing every message first).
+pub fn check_validation(gpu: &Gpu) -> anyhow::Result<()> {
+    let messages = gpu.validation_messages();
+    if messages.is_empty() {
+        return Ok(());
+    }
+    for m in &messages {
+        eprintln!("validation: {m}");
+    }
+    anyhow::bail!(
+        "the Vulkan validation layer reported {} message(s)",
+        messages.len()
+    )
+}
