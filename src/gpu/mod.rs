@@ -3,7 +3,7 @@
 //! | file | owns |
 //! |---|---|
 //! | `instance.rs` | instance, validation layer + synchronization validation, debug messenger |
-//! | `device.rs` | [`Gpu`]: device choice, queues with one timeline each, allocator, graveyard |
+//! | `device.rs` | [`Gpu`]: its queues with one timeline each, allocator; `device/`: `choice.rs` (which physical device), `create.rs` ([`Gpu::new`]), `graveyard.rs` (deferred destruction) |
 //! | `resources.rs` | RAII [`Buffer`], [`Image`], [`Sampler`] with debug names |
 //! | `access.rs` | the [`Access`] vocabulary and its table of sync2 stages/accesses/layouts |
 //! | `uses.rs` | a pass's declared [`Use`]s: its descriptor layout, writes and barriers from one list |

@@ -1,8 +1,12 @@
 //! Unit tests of the bounce plan (src/ispm.rs).
 
+use super::texels::{texel_ndc, unproject, FAR, NEAR};
 use super::*;
 use crate::photon::emit::photon_budget;
-use crate::scene::{Light, Scene};
+use crate::photon::rng::hash2;
+use crate::photon::types::BounceMapPhoton;
+use crate::scene::{Light, LightKind, Scene};
+use crate::shared_constants::{BOUNCE_VIEW_PARENT, BOUNCE_VIEW_WHOLE};
 use glam::Vec3;
 
 fn scene_with(lights: Vec<Light>) -> Scene {

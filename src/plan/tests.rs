@@ -5,8 +5,9 @@ use super::*;
 use crate::pass_id::PassId;
 use crate::photon::trace::MAX_BOUNCES;
 use crate::reference::scenes::{closed_box, cornell, grey_box};
-use crate::scene::Light;
-use glam::Mat4;
+use crate::scene::{Camera, Light, LightKind, Scene};
+use crate::settings::Method;
+use glam::{Mat4, Vec3};
 
 fn settings() -> RenderSettings {
     RenderSettings {

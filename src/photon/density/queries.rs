@@ -1,0 +1,193 @@
+//! The queries of the k-d tree: what a search collects (the k nearest in a max-heap, or every
+//! distance under a bound), and the runs of queries, each bounded by the last one's answer, that
+//! give every point of a class its kNN radius (module docs of [`crate::photon::density`],
+//! "Radius" and "The k-d tree").
+
+use super::{KdTree, MAX_K, NO_NEIGHBOURS, QUERY_RUN};
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// The most squared distances a bounded query collects before it falls back to a heap.
+const WITHIN_CAPACITY: usize = 4 * MAX_K;
+
+/// What a search collects: the squared distances it is offered, and the bound a point or a
+/// subtree must beat to matter.
+pub(super) trait Collect {
+    fn offer(&mut self, d2: f32);
+    fn bound(&self) -> f32;
+}
+
+/// The k smallest squared distances offered: a max-heap in a fixed buffer.
+pub(super) struct Nearest {
+    pub(super) d2: [f32; MAX_K],
+    pub(super) len: usize,
+    k: usize,
+}
+
+impl Nearest {
+    pub(super) fn new(k: usize) -> Self {
+        Self {
+            d2: [0.0; MAX_K],
+            len: 0,
+            k: k.min(MAX_K),
+        }
+    }
+
+    /// The k-th smallest squared distance (the largest kept; 0 when none).
+    pub(super) fn kth(&self) -> f32 {
+        if self.len == 0 {
+            0.0
+        } else {
+            self.d2[0]
+        }
+    }
+}
+
+impl Collect for Nearest {
+    /// The k-th best once there are k, else ∞.
+    fn bound(&self) -> f32 {
+        if self.len < self.k {
+            f32::INFINITY
+        } else {
+            self.d2[0]
+        }
+    }
+
+    fn offer(&mut self, d2: f32) {
+        // False for NaN: a point with NaN coordinates never enters.
+        let enters = d2 < self.bound();
+        if !enters {
+            return;
+        }
+        let h = &mut self.d2;
+        if self.len < self.k {
+            let mut i = self.len;
+            self.len += 1;
+            while i > 0 {
+                let parent = (i - 1) / 2;
+                if h[parent] >= d2 {
+                    break;
+                }
+                h[i] = h[parent];
+                i = parent;
+            }
+            h[i] = d2;
+        } else {
+            let mut i = 0;
+            loop {
+                let (a, b) = (2 * i + 1, 2 * i + 2);
+                let mut largest = i;
+                let mut value = d2;
+                if a < self.len && h[a] > value {
+                    largest = a;
+                    value = h[a];
+                }
+                if b < self.len && h[b] > value {
+                    largest = b;
+                }
+                if largest == i {
+                    break;
+                }
+                h[i] = h[largest];
+                i = largest;
+            }
+            h[i] = d2;
+        }
+    }
+}
+
+/// Every squared distance offered below a fixed limit, in a fixed buffer.
+struct Within {
+    d2: [f32; WITHIN_CAPACITY],
+    len: usize,
+    limit: f32,
+    /// More than the buffer holds were below the limit (the search then stops).
+    overflow: bool,
+}
+
+impl Within {
+    fn new() -> Self {
+        Self {
+            d2: [0.0; WITHIN_CAPACITY],
+            len: 0,
+            limit: 0.0,
+            overflow: false,
+        }
+    }
+
+    /// Empties it for a search below `limit`.
+    fn reset(&mut self, limit: f32) {
+        (self.len, self.limit, self.overflow) = (0, limit, false);
+    }
+
+    /// The `n`-th smallest squared distance collected (1-based), if there are `n`.
+    fn nth(&mut self, n: usize) -> Option<f32> {
+        if self.overflow || n == 0 || self.len < n {
+            return None;
+        }
+        let found = &mut self.d2[..self.len];
+        Some(*found.select_nth_unstable_by(n - 1, f32::total_cmp).1)
+    }
+}
+
+impl Collect for Within {
+    fn bound(&self) -> f32 {
+        self.limit
+    }
+
+    fn offer(&mut self, d2: f32) {
+        if d2 < self.limit {
+            if self.len == WITHIN_CAPACITY {
+                // The caller searches again with a heap: stop here.
+                self.overflow = true;
+                self.limit = f32::NEG_INFINITY;
+                return;
+            }
+            self.d2[self.len] = d2;
+            self.len += 1;
+        }
+    }
+}
+
+/// The kNN radius of every point of one class (module docs, "Radius"), in tree order.
+pub(super) fn class_radii(tree: &KdTree, k: usize) -> Vec<f32> {
+    // The point itself is its own nearest: its k + 1 nearest hold k neighbours.
+    let k = k.clamp(1, MAX_K - 1);
+    let wanted = (k + 1).min(tree.len());
+    let mut out = vec![0.0; tree.len()];
+    out.par_chunks_mut(QUERY_RUN)
+        .zip(tree.points().par_chunks(QUERY_RUN))
+        .for_each(|(out, points)| {
+            let mut within = Within::new();
+            let mut last: Option<(Vec3, f32)> = None;
+            for (r, &p) in out.iter_mut().zip(points) {
+                // The last query's `wanted` points lie within d + |p − q| of p (widened for
+                // rounding: a bound that holds too few is searched again with a heap).
+                let bounded = last.and_then(|(q, d)| {
+                    let bound = (d + p.distance(q)) * (1.0 + 1e-5) + 1e-30;
+                    within.reset(bound * bound);
+                    tree.search(p, &mut within);
+                    within.nth(wanted)
+                });
+                let (d2, found) = bounded.map_or_else(
+                    || {
+                        let mut nearest = Nearest::new(wanted);
+                        tree.search(p, &mut nearest);
+                        (nearest.kth(), nearest.len)
+                    },
+                    |d2| (d2, wanted),
+                );
+                let d = d2.sqrt();
+                last = d.is_finite().then_some((p, d));
+                let m = found.saturating_sub(1);
+                *r = if m == 0 {
+                    NO_NEIGHBOURS
+                } else if m < k {
+                    d * (k as f32 / m as f32).sqrt()
+                } else {
+                    d
+                };
+            }
+        });
+    out
+}
