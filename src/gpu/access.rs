@@ -1,6 +1,7 @@
 //! One vocabulary of resource accesses, and the one table that turns it into synchronization2
-//! barriers. Passes never spell out stage masks: they say how they are about to use a resource
-//! and [`Cmd::transition`](super::Cmd::transition) emits the barrier from the last access.
+//! stages, accesses and layouts. Passes never spell out stage masks: they declare how they use
+//! each resource (`uses.rs`) and the recording's tracker (`tracker.rs`) derives the barrier
+//! from what came before.
 
 use ash::vk;
 

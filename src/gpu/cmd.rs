@@ -321,7 +321,7 @@ impl<'a> Cmd<'a> {
         for (i, &(resource, to)) in uses.iter().enumerate() {
             // A resource bound twice (e.g. one image for two bindings) waits once.
             if let Some(&(_, before)) = uses[..i].iter().find(|(r, _)| r.same(&resource)) {
-                debug_assert_eq!(before, to, "one resource used two ways in one batch");
+                assert_eq!(before, to, "one resource used two ways in one batch");
                 continue;
             }
             match resource {

@@ -1,5 +1,5 @@
-//! RAII buffers, images and samplers on gpu-allocator, each with a debug name and the last
-//! [`Access`] made of it (so barriers are derived, not written by hand). Dropping one retires it
+//! RAII buffers, images and samplers on gpu-allocator, each with a debug name and its state at
+//! rest for the barrier tracker (`tracker.rs`: barriers are derived, not written by hand). Dropping one retires it
 //! to the graveyard of [`Gpu`]; it is destroyed once the GPU can no longer be using it.
 
 use super::device::{Gpu, Retired};

@@ -35,8 +35,10 @@ pub struct State {
     /// made.
     write: Option<(vk::PipelineStageFlags2, vk::AccessFlags2)>,
     /// The reads ordered after the last write, one bit per [`Access`] (`Access as u32`): a
-    /// read in this set needs no barrier, and a write waits for all of them.
+    /// read in this set needs no barrier.
     readers: u64,
+    /// Their stages: a write (or a layout change) waits for all of them.
+    reader_stages: vk::PipelineStageFlags2,
     /// The queue family that last used the resource, if any.
     pub family: Option<u32>,
     /// Released by `family` to this family, which must acquire it before use.
@@ -49,6 +51,7 @@ impl Default for State {
             layout: vk::ImageLayout::UNDEFINED,
             write: None,
             readers: 0,
+            reader_stages: vk::PipelineStageFlags2::NONE,
             family: None,
             released_to: None,
         }
@@ -60,13 +63,15 @@ impl Default for State {
 ///
 /// An ownership transfer of a buffer is two barriers naming the same two families: the
 /// release, recorded on the source family's queue, and the acquire, recorded on the
-/// destination family's queue after a semaphore wait on the release. The spec ignores the
-/// release's destination masks and the acquire's source masks; they are left empty.
+/// destination family's queue in a submission that waits on the release's semaphore. The
+/// spec ignores the release's destination access mask and the acquire's source access mask
+/// (left empty); the stage masks still order: the release's destination stages are left empty
+/// (the semaphore signal follows it), the acquire's source stages are all commands.
 ///
 /// ```text
 ///   transfer queue (family T)               graphics queue (family G)
 ///   copy → photons  [TransferDst]
-///   release T→G: src = TransferDst, dst = ∅ ──timeline──► acquire T→G: src = ∅, dst = VertexInput
+///   release T→G: src = TransferDst, dst = ∅ ──timeline──► acquire T→G: src = all, dst = VertexInput
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Barrier {
@@ -83,12 +88,15 @@ fn bit(access: Access) -> u64 {
     1 << (access as u32)
 }
 
-/// The union of the stages of the reads in `readers`.
-fn reader_stages(readers: u64) -> vk::PipelineStageFlags2 {
-    Access::ALL
-        .iter()
-        .filter(|&&a| readers & bit(a) != 0)
-        .fold(vk::PipelineStageFlags2::NONE, |s, a| s | a.info().stage)
+/// The write half of `access`: what a later barrier must make available (its reads need
+/// nothing made available).
+fn writes_of(access: vk::AccessFlags2) -> vk::AccessFlags2 {
+    access
+        & (vk::AccessFlags2::SHADER_STORAGE_WRITE
+            | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE
+            | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE
+            | vk::AccessFlags2::TRANSFER_WRITE
+            | vk::AccessFlags2::HOST_WRITE)
 }
 
 impl State {
@@ -101,6 +109,11 @@ impl State {
     /// are undefined there; the frame script must hand it over with a release).
     pub fn next(&mut self, to: Access, family: u32, image: bool) -> Option<Barrier> {
         let t = to.info();
+        // A use without a stage (Nothing, Present) orders nothing: it is not a use to track.
+        debug_assert!(
+            !t.stage.is_empty(),
+            "{to:?} is not a use a barrier can wait for"
+        );
         let new_layout = if image {
             t.layout
         } else {
@@ -112,20 +125,27 @@ impl State {
                 dst, family,
                 "used on queue family {family} while released to {dst}"
             );
-            let src = self.family.unwrap_or(dst);
+            let src = self
+                .family
+                .expect("a released resource names the family that released it");
             // The acquire: the release already waited for the past and made it available.
+            let reads = !to.writes();
             *self = State {
                 layout: new_layout,
-                write: Some((t.stage, vk::AccessFlags2::NONE)),
-                readers: if to.writes() { 0 } else { bit(to) },
+                write: Some((t.stage, writes_of(t.access))),
+                readers: if reads { bit(to) } else { 0 },
+                reader_stages: if reads {
+                    t.stage
+                } else {
+                    vk::PipelineStageFlags2::NONE
+                },
                 family: Some(family),
                 released_to: None,
             };
-            if to.writes() {
-                self.write = Some((t.stage, t.access));
-            }
             return Some(Barrier {
-                src_stage: vk::PipelineStageFlags2::NONE,
+                // Every earlier command of this queue, so the acquire also chains through the
+                // semaphore wait of an earlier submission on it.
+                src_stage: vk::PipelineStageFlags2::ALL_COMMANDS,
                 src_access: vk::AccessFlags2::NONE,
                 dst_stage: t.stage,
                 dst_access: t.access,
@@ -141,7 +161,7 @@ impl State {
         );
         self.family = Some(family);
         let layout_change = image && self.layout != new_layout;
-        let readers = reader_stages(self.readers);
+        let readers = self.reader_stages;
         let (write_stage, write_access) = self
             .write
             .unwrap_or((vk::PipelineStageFlags2::NONE, vk::AccessFlags2::NONE));
@@ -159,15 +179,18 @@ impl State {
             families: None,
         });
         if to.writes() {
-            self.write = Some((t.stage, t.access));
+            self.write = Some((t.stage, writes_of(t.access)));
             self.readers = 0;
+            self.reader_stages = vk::PipelineStageFlags2::NONE;
         } else if layout_change {
             // The transition is a write ordered before `to`'s stages: later reads elsewhere
             // chain on those stages.
             self.write = Some((t.stage, vk::AccessFlags2::NONE));
             self.readers = bit(to);
+            self.reader_stages = t.stage;
         } else {
             self.readers |= bit(to);
+            self.reader_stages |= t.stage;
         }
         self.layout = new_layout;
         barrier
@@ -185,7 +208,7 @@ impl State {
             .unwrap_or((vk::PipelineStageFlags2::NONE, vk::AccessFlags2::NONE));
         self.released_to = Some(to);
         Some(Barrier {
-            src_stage: write_stage | reader_stages(self.readers),
+            src_stage: write_stage | self.reader_stages,
             src_access: write_access,
             dst_stage: vk::PipelineStageFlags2::NONE,
             dst_access: vk::AccessFlags2::NONE,
@@ -331,7 +354,7 @@ mod tests {
         let mut s = State::default();
         s.next(Access::ComputeStorageWrite, G, false);
         let b = s.next(Access::ComputeStorageWrite, G, false).expect("WAW");
-        assert_eq!(b.src_access, Access::ComputeStorageWrite.info().access);
+        assert_eq!(b.src_access, vk::AccessFlags2::SHADER_STORAGE_WRITE);
     }
 
     #[test]
@@ -364,9 +387,52 @@ mod tests {
         assert_eq!(s.release(G, T), None);
         let a = s.next(Access::TransferSrc, T, false).expect("acquire");
         assert_eq!(a.families, Some((G, T)));
-        assert_eq!(a.src_stage, S::NONE);
+        assert_eq!(a.src_stage, S::ALL_COMMANDS);
         assert_eq!(s.family, Some(T));
         assert_eq!(s.next(Access::TransferSrc, T, false), None);
+    }
+
+    /// The photon buffer's round trip over frames on a GPU whose transfer queue is a family of
+    /// its own (`photon_frame`: box A releases whatever the graphics queue holds, the upload
+    /// writes and hands back, box D draws), with a frame in between that has no photons
+    /// (box A releases, nothing is uploaded or drawn).
+    #[test]
+    fn the_photon_buffer_goes_round_between_families_also_across_a_frame_without_photons() {
+        let mut s = State::default();
+        let upload = |s: &mut State| {
+            let acquire = s.next(Access::TransferDst, T, false);
+            let release = s.release(T, G).expect("upload hands back");
+            (acquire, release)
+        };
+        let draw = |s: &mut State| s.next(Access::GraphicsStorageRead, G, false);
+        // Frame 1: never used before, so nothing to release or acquire.
+        assert_eq!(s.release(G, T), None);
+        let (acquire, _) = upload(&mut s);
+        assert_eq!(acquire, None);
+        assert_eq!(draw(&mut s).and_then(|b| b.families), Some((T, G)));
+        // Frame 2, no photons: box A still hands the buffer over; nothing else touches it.
+        assert!(s.release(G, T).is_some());
+        // Frame 3: already handed over, box A does nothing; the upload acquires it.
+        assert_eq!(s.release(G, T), None);
+        let (acquire, release) = upload(&mut s);
+        assert_eq!(acquire.and_then(|b| b.families), Some((G, T)));
+        assert_eq!(release.families, Some((T, G)));
+        assert_eq!(draw(&mut s).and_then(|b| b.families), Some((T, G)));
+    }
+
+    #[test]
+    fn a_write_waits_for_every_read_since_the_last_write_however_many_kinds() {
+        let mut s = State::default();
+        s.next(Access::ComputeStorageWrite, G, false);
+        s.next(Access::VertexInput, G, false);
+        s.next(Access::ComputeStorageRead, G, false);
+        s.next(Access::TransferSrc, G, false);
+        let w = s.next(Access::ComputeStorageWrite, G, false).expect("WAR");
+        assert!(w
+            .src_stage
+            .contains(S::VERTEX_ATTRIBUTE_INPUT | S::COMPUTE_SHADER | S::COPY));
+        // Only the write is made available, not the reads.
+        assert_eq!(w.src_access, vk::AccessFlags2::SHADER_STORAGE_WRITE);
     }
 
     #[test]

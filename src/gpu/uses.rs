@@ -40,8 +40,9 @@ pub enum Use<'a> {
     Read(&'a Buffer),
     /// A storage buffer the shaders write (and may read).
     Write(&'a Buffer),
-    /// A storage buffer bound for reading whose synchronisation the pass's caller owns (e.g.
-    /// the bounce map's buffers, which the bounce-map pass dispatches over one at a time).
+    /// A storage buffer bound but not read by this dispatch, so it needs no barrier (the
+    /// tiled gather's first dispatch clears its targets from a photon buffer without photons,
+    /// which may belong to another queue).
     Bound(&'a Buffer),
     /// An image sampled (or fetched) through `sampler`.
     Sampled(&'a Image, &'a Sampler),

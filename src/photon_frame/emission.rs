@@ -28,16 +28,17 @@ impl PhotonFrame {
         let lights = self.scene.lights.len();
         self.retrace = self.traced.changed(plan, lights, self.reuse_lights);
         self.batches.clear();
+        // Every photon buffer the graphics queue holds goes to the transfer queue, whatever
+        // this frame uploads: also one that held photons only frames ago, and in a frame with
+        // none, so the next upload finds each handed over. Nothing for a buffer already handed
+        // over or never drawn, or on one queue family: the tracker knows who holds it.
+        for photons in &self.buffers.device {
+            cmd.release_buffer(photons, QueueRole::Transfer);
+        }
         if plan.texels == 0 {
-            // No photons this frame (the lights went dark): nothing to upload or draw, so the
-            // photon buffer's hand-offs stay paired.
+            // No photons this frame (the lights went dark): nothing to upload or draw.
             self.buffers.counts.fill(0);
             return;
-        }
-        // Nothing when the photon buffer is not the graphics queue's (already handed over, or
-        // a single queue family): the tracker knows who holds it.
-        for (_, photons) in self.buffers.used() {
-            cmd.release_buffer(photons, QueueRole::Transfer);
         }
         // The re-traced lights' views, consecutive ones in one batch, cut where the bounce map's
         // buffers end (`passes/bounce_map.rs`).

@@ -52,8 +52,10 @@ impl PhotonFrame {
         (composite, accumulated, mut check): (bool, u32, Option<&mut ValueCheckPass>),
     ) -> anyhow::Result<()> {
         // The photon map from the upload and the bounce map back from the readback (for the
-        // next frame's bounce map): the first use on this queue acquires what the transfer
-        // queue handed over (`gpu/tracker.rs`).
+        // next frame's bounce map), acquired here (`gpu/tracker.rs`: a use on the receiving
+        // queue acquires what was handed to it). Required here, not at a later first use: box D
+        // is the submission that waits for the readback's and the upload's releases, and an
+        // acquire must follow its release.
         let mut uses: Vec<_> = Vec::new();
         if self.count() > 0 {
             uses.extend(
