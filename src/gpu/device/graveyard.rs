@@ -50,7 +50,7 @@ impl Gpu {
 
     fn destroy(&self, object: Retired) {
         let d = &self.device;
-        // SAFETY (all arms): the object belongs to this device and the GPU has finished every
+        // SAFETY: (every arm) the object belongs to this device and the GPU has finished every
         // submission that could use it (collect_garbage checked the timelines, or Drop waited
         // for the device to go idle).
         unsafe {
