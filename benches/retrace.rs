@@ -12,11 +12,12 @@
 
 use divan::Bencher;
 use glam::Vec3;
-use ispm::frame::{Method, RenderSettings, Renderer};
+use ispm::config::settings::{Method, RenderSettings};
 use ispm::gpu::{Gpu, GpuOptions};
-use ispm::pass_id::PassId;
 use ispm::reference::scenes::{cornell, point_light};
+use ispm::render::frame::Renderer;
 use ispm::scene::{Light, Scene};
+use ispm::timing::pass_id::PassId;
 use std::sync::Arc;
 
 fn main() {
@@ -71,7 +72,7 @@ fn frames(bencher: Bencher, moving: &[usize]) {
     });
     let median = |k: usize| {
         let v: Vec<f64> = stages.iter().map(|s| s[k]).collect();
-        ispm::bench::quantile(&v, 0.5)
+        ispm::tools::bench::quantile(&v, 0.5)
     };
     println!(
         "lights {moving:?} moving: median cpu_trace {:.2} ms, light_gbuffers {:.2} ms, \

@@ -12,10 +12,11 @@
 //! the split touches are printed.
 
 use divan::Bencher;
-use ispm::frame::{Method, RenderSettings, Renderer};
+use ispm::config::settings::Effects;
+use ispm::config::settings::{Method, RenderSettings};
 use ispm::gpu::{Gpu, GpuOptions};
-use ispm::pass_id::PassId;
-use ispm::plan::Effects;
+use ispm::render::frame::Renderer;
+use ispm::timing::pass_id::PassId;
 
 fn main() {
     divan::main();
@@ -51,7 +52,7 @@ fn frames(bencher: Bencher, range: Option<u64>) {
     });
     let median = |k: usize| {
         let v: Vec<f64> = stages.iter().map(|s| s[k]).collect();
-        ispm::bench::quantile(&v, 0.5)
+        ispm::tools::bench::quantile(&v, 0.5)
     };
     println!(
         "(bounce map, photon map) in {buffers:?} buffers: median frame {:.1} ms, bounce_map \

@@ -20,7 +20,7 @@ fn main() -> anyhow::Result<()> {
         rest.get(i)
             .map_or(Ok(default), |v| v.parse().context("not a number"))
     };
-    let defaults = ispm::frame::RenderSettings::default();
+    let defaults = ispm::config::settings::RenderSettings::default();
     let (share, half, white) = (
         number(0, defaults.caustic_share)?,
         number(1, 0.6)?,
@@ -28,13 +28,13 @@ fn main() -> anyhow::Result<()> {
     );
     let scene = ispm::scene::bundled::resolve(Some(scene))?;
     let gpu = ispm::gpu::Gpu::new(&Default::default())?;
-    let settings = ispm::frame::RenderSettings {
+    let settings = ispm::config::settings::RenderSettings {
         width: 16,
         height: 16,
         caustic_share: share,
         ..defaults
     };
-    let mut renderer = ispm::frame::Renderer::new(&gpu, &scene, settings)?;
+    let mut renderer = ispm::render::frame::Renderer::new(&gpu, &scene, settings)?;
     let frame = renderer.render()?;
     let camera = scene.camera.position();
     let n = 200usize;

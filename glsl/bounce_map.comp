@@ -3,7 +3,7 @@
 // the photon through that texel hits the scene; it carries the light's power through the texel
 // (exact solid angle × spot falloff, or irradiance × area for directional lights), and scatters
 // once by importance-sampling the über-BSDF with Russian roulette. Absorbed photons and texels
-// that saw nothing are written with zero power. A light's caustic views (src/ispm.rs, "Caustic
+// that saw nothing are written with zero power. A light's caustic views (src/plan/bounce_plan.rs, "Caustic
 // views") subdivide the texels of its main views around mirrors and glass: a main texel and its
 // k × k caustic texels share its power, each direction counted once.
 #include "shared.glsl"
@@ -49,7 +49,7 @@ bool first_hit_is_delta(ivec3 t) {
     return mirror || max(m.transmission.r, max(m.transmission.g, m.transmission.b)) > 0.0;
 }
 
-// The random-number key of texel xy of `view`: the twin of BouncePlan::texel_key (src/ispm.rs),
+// The random-number key of texel xy of `view`: the twin of BouncePlan::texel_key (src/plan/bounce_plan.rs),
 // which says why: the light's seed, which of its views this is, and the texel in the view's
 // grid (a caustic view's in its parent's grid subdivided k x k), never its bounce-map index.
 uint texel_key(BounceView view, uvec2 xy) {
@@ -63,7 +63,7 @@ uint texel_key(BounceView view, uvec2 xy) {
 }
 
 // Where inside its texel the photon of sample `sample_index` passes, in texels from its corner:
-// the twin of ispm::texel_jitter (src/ispm.rs), bit for bit (32-bit fixed point).
+// the twin of ispm::texel_jitter (src/plan/bounce_plan.rs), bit for bit (32-bit fixed point).
 vec2 texel_jitter(uint key, uint sample_index) {
     uint x = hash2(key, JITTER_STREAM_X) + sample_index * JITTER_R2_X;
     uint y = hash2(key, JITTER_STREAM_Y) + sample_index * JITTER_R2_Y;
@@ -85,8 +85,8 @@ bool same_surface(ivec3 t, vec3 p, vec3 n, uint material) {
 }
 
 // Whether the texel with key `key` sends its photon in sample `sample_index` when its view keeps
-// texels with probability `keep` (module docs of src/ispm.rs, "Budget"): the twin of
-// ispm::texel_kept (src/ispm.rs), bit for bit.
+// texels with probability `keep` (module docs of src/plan/bounce_plan.rs, "Budget"): the twin of
+// ispm::texel_kept (src/plan/bounce_plan.rs), bit for bit.
 bool texel_kept(uint key, uint sample_index, float keep) {
     uint bits = hash2(key, KEEP_STREAM) + sample_index * KEEP_R1;
     return float(bits >> 8u) * (1.0 / 16777216.0) < keep;
@@ -136,7 +136,7 @@ void main() {
     // view its parent texel's centre (q, and the direction to the parent's first hit), so that
     // the powers still sum to the light's flux exactly.
     vec3 emitted = texel_direction(view, xy, pos);
-    // The part of the texel's power it carries: every direction counted once (src/ispm.rs,
+    // The part of the texel's power it carries: every direction counted once (src/plan/bounce_plan.rs,
     // "Caustic views").
     float part = 1.0;
     if (view.kind.y == BOUNCE_VIEW_PARENT) {
@@ -188,7 +188,7 @@ void main() {
                                dot(view.axis.xyz, emitted));
     }
     // The budget: the texel sends its photon with probability keep, which then carries 1/keep
-    // of its power (src/ispm.rs, "Budget").
+    // of its power (src/plan/bounce_plan.rs, "Budget").
     float keep = view.params.y;
     if (!(part > 0.0) || !any(greaterThan(power, vec3(0.0)))
         || !texel_kept(key, push.sample_index, keep)) {

@@ -8,7 +8,7 @@
 // same radiance estimate as the photon volumes (photon_volumes.frag, and at --subsample N > 1
 // photon_volumes_subsampled.frag), gathered instead of splatted. One workgroup is one screen
 // tile of PHOTON_TILE² pixels; the CPU listed, per tile, the photons whose kernel's bounding sphere
-// may cover one of its pixels (src/photon_frame/tiles.rs). Each subgroup reads its tile's list
+// may cover one of its pixels (src/render/photon_frame/tiles.rs). Each subgroup reads its tile's list
 // a subgroup's width at a time, keeps the photons whose sphere reaches the box around its
 // pixels' surface points, and passes them lane to lane (subgroupShuffle: no shared memory and
 // no barrier, which llvmpipe makes expensive); each pixel sums what the

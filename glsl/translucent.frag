@@ -21,7 +21,7 @@ layout(std430, set = 0, binding = 3) readonly buffer Views { ShadowView shadow_v
 layout(set = 0, binding = 4) uniform sampler2DArrayShadow shadow_atlas;
 layout(set = 0, binding = 5) uniform Environment { EnvironmentUniforms env; };
 layout(set = 0, binding = 6) uniform samplerCube environment_map;
-// The photons' indirect light from the same centre (src/photon_frame/environment.rs).
+// The photons' indirect light from the same centre (src/render/photon_frame/environment.rs).
 layout(set = 0, binding = 7) uniform samplerCube environment_indirect;
 layout(set = 1, binding = 0) uniform sampler2D base_color;
 layout(push_constant) uniform Push { DrawPush draw; };

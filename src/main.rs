@@ -1,6 +1,6 @@
 //! The `ispm` command line (DESIGN.md §7). Parsing and reporting only: the work is in the
 //! library. Each command's arguments and run are in `cli/` (one module per command); the
-//! settings they give are made in one place, `ispm::settings::RenderSettings::from_knobs`.
+//! settings they give are made in one place, `ispm::config::settings::RenderSettings::from_knobs`.
 
 use clap::{Parser, Subcommand};
 use cli::bench::BenchArgs;

@@ -6,9 +6,11 @@
 mod common;
 
 use glam::Vec3;
-use ispm::camera_control::scripted_pose;
-use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
+use ispm::app::camera_control::scripted_pose;
+use ispm::config::settings::{Method, RenderSettings};
 use ispm::reference::scenes::{cornell, grey_box};
+use ispm::render::frame::Renderer;
+use ispm::render::stats::FrameImage;
 use ispm::scene::{Camera, Scene};
 
 fn settings() -> RenderSettings {

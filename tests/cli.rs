@@ -189,7 +189,7 @@ fn plan_prints_one_line_per_decision_naming_the_material_or_light_behind_it() {
             "{needle:?} missing from:\n{stdout}"
         );
     }
-    for stage in ispm::stats::stages() {
+    for stage in ispm::render::stats::stages() {
         assert!(
             stdout.contains(&format!("pass {stage}: ")),
             "{stage} missing from:\n{stdout}"

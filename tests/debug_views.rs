@@ -4,8 +4,10 @@
 
 mod common;
 
-use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
+use ispm::config::settings::{Method, RenderSettings};
 use ispm::passes::debug_view::DebugView;
+use ispm::render::frame::Renderer;
+use ispm::render::stats::FrameImage;
 use std::collections::HashSet;
 
 fn settings() -> RenderSettings {

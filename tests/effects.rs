@@ -4,10 +4,13 @@
 
 mod common;
 
-use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
+use ispm::config::settings::Effects;
+use ispm::config::settings::{Method, RenderSettings};
 use ispm::photon::bsdf::BsdfVariant;
-use ispm::plan::{Effects, EffectsPlan};
+use ispm::plan::EffectsPlan;
 use ispm::reference::scenes;
+use ispm::render::frame::Renderer;
+use ispm::render::stats::FrameImage;
 use ispm::scene::{bundled, Scene};
 
 const SIZE: u32 = 96;

@@ -8,10 +8,13 @@ mod common;
 
 use common::golden::rel_mse;
 use glam::Vec3;
-use ispm::frame::{FrameImage, Method, RenderSettings, Renderer, SkippedPass};
+use ispm::config::settings::Effects;
+use ispm::config::settings::{Method, RenderSettings, SkippedPass};
 use ispm::photon::bsdf::BsdfVariant;
-use ispm::plan::{Effects, EffectsPlan};
+use ispm::plan::EffectsPlan;
 use ispm::reference::scenes::{cornell, grey_box, point_light};
+use ispm::render::frame::Renderer;
+use ispm::render::stats::FrameImage;
 use ispm::scene::{Camera, Light, Scene};
 
 /// The photon passes (GPU scopes, and the host trace), with the density estimator the device
@@ -364,7 +367,7 @@ fn a_static_scene_reuses_its_photon_map_until_a_light_moves() {
         bits(&first) == bits(&second),
         "the reused photon map changed the image"
     );
-    let json = ispm::stats::frame_json(&scene, &second, r.triangles(), 8, 0);
+    let json = ispm::render::stats::frame_json(&scene, &second, r.triangles(), 8, 0);
     let names: Vec<&str> = json["passes_skipped"]
         .as_array()
         .expect("passes_skipped")
@@ -587,12 +590,15 @@ fn a_dark_scene_traces_only_the_bounces_that_carry_power_and_renders_the_same_wi
     let all = render(&scene, settings(Effects::All));
     assert_eq!(planned.plan.max_bounces, 6, "{}", planned.plan);
     // Unplanned, only the safety cap limits the depth: Russian roulette ends the paths.
-    assert_eq!(all.plan.max_bounces, ispm::settings::DEFAULT_BOUNCES);
+    assert_eq!(
+        all.plan.max_bounces,
+        ispm::config::settings::DEFAULT_BOUNCES
+    );
     // The trace's per-bounce buffers are sized for the plan's bounces.
     assert_eq!(planned.frame.stats.attrition.len(), 7);
     assert_eq!(
         all.frame.stats.attrition.len(),
-        ispm::settings::DEFAULT_BOUNCES as usize + 1
+        ispm::config::settings::DEFAULT_BOUNCES as usize + 1
     );
     // The photons the unplanned frame stores past bounce 6 are all the difference (closed
     // box, all diffuse: a photon alive after bounce k is stored at its next hit).
@@ -621,7 +627,7 @@ fn drain_reports_the_passes_and_variants_skipped_as_finish_does() {
     let mut r = Renderer::new(&gpu, &scene, settings(Effects::Auto)).expect("renderer");
     r.submit_frame().expect("frame 0");
     let (_, drained) = r.drain().expect("drain");
-    let names = |stats: &ispm::frame::FrameStats| -> Vec<String> {
+    let names = |stats: &ispm::render::stats::FrameStats| -> Vec<String> {
         stats
             .passes_skipped
             .iter()

@@ -14,9 +14,11 @@ mod common;
 
 use common::golden::rel_mse;
 use glam::{Quat, Vec3};
-use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
+use ispm::config::settings::{Method, RenderSettings};
 use ispm::plan::EffectsPlan;
 use ispm::reference::{self, RefSettings};
+use ispm::render::frame::Renderer;
+use ispm::render::stats::FrameImage;
 use ispm::scene::authoring::{cornell_room, cuboid, quad, GltfWriter, MaterialSpec};
 use ispm::scene::units::candela_to_watts_per_sr;
 use ispm::scene::Scene;
@@ -306,7 +308,7 @@ fn the_effects_plan_treats_an_emitter_as_a_light() {
     let shadows = plan
         .passes()
         .into_iter()
-        .find(|p| p.name == ispm::pass_id::PassId::ShadowMaps);
+        .find(|p| p.name == ispm::timing::pass_id::PassId::ShadowMaps);
     assert!(shadows.is_some_and(|p| p.run));
     // Direct light alone accumulates too: its shadows are sampled anew every frame.
     let direct = EffectsPlan::analyse(

@@ -1,8 +1,9 @@
-//! The floor plan (docs/architecture.md): which top-level modules of `src/` import which, and
-//! that no new import circle forms. A module's imports are its `crate::NAME` paths outside
-//! comments and tests; a circle is a strongly connected component of that graph with more than
-//! one module. There is none: a circle that forms fails here (list it in [`KNOWN_CIRCLES`]
-//! only with the reason and the cut that would break it).
+//! The floor plan (docs/architecture.md): `src/`'s root holds only rooms (folders), each room
+//! imports only from the floors below its own, and no import circle forms between the modules
+//! inside them. A node's imports are its `crate::…` paths outside comments and tests; a circle
+//! is a strongly connected component of that graph with more than one module. There is none:
+//! a circle that forms fails here (list it in [`KNOWN_CIRCLES`] only with the reason and the
+//! cut that would break it).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -71,23 +72,32 @@ fn code_lines(file: &Path, text: &str) -> (Vec<String>, Vec<PathBuf>) {
     (code, test_files)
 }
 
-/// `module → modules it imports` over `src/`'s top-level modules (files and folders; `lib.rs`
-/// and `main.rs` excluded: they sit above every floor).
-fn import_graph() -> BTreeMap<String, BTreeSet<String>> {
+/// `node → nodes it imports` over `src/` (`lib.rs` and `main.rs` excluded: they sit above every
+/// floor). With `depth` 1 the nodes are the rooms, the root's folders (`render`, `gpu`, …);
+/// with `depth` 2 they are the modules inside them (`render::frame`, `gpu::scene`, …: a room's
+/// `mod.rs` is the room itself). A `crate::a::b::…` path names the deepest node it reaches.
+fn import_graph(depth: usize) -> BTreeMap<String, BTreeSet<String>> {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let mut files = Vec::new();
     sources(&src, &mut files);
-    let module_of = |path: &Path| -> Option<String> {
-        let first = path.strip_prefix(&src).ok()?.components().next()?;
-        let name = first.as_os_str().to_str()?;
-        let name = name.strip_suffix(".rs").unwrap_or(name);
-        (name != "lib" && name != "main").then(|| name.to_string())
+    let node_of = |path: &Path| -> Option<String> {
+        let parts: Vec<String> = path
+            .strip_prefix(&src)
+            .ok()?
+            .components()
+            .take(depth)
+            .map(|c| {
+                let name = c.as_os_str().to_str().unwrap_or_default();
+                name.strip_suffix(".rs").unwrap_or(name).to_string()
+            })
+            .filter(|n| n != "mod")
+            .collect();
+        let first = parts.first()?;
+        (first != "lib" && first != "main").then(|| parts.join("::"))
     };
-    let modules: BTreeSet<String> = files.iter().filter_map(|f| module_of(f)).collect();
-    let mut graph: BTreeMap<String, BTreeSet<String>> = modules
-        .iter()
-        .map(|m| (m.clone(), BTreeSet::new()))
-        .collect();
+    let nodes: BTreeSet<String> = files.iter().filter_map(|f| node_of(f)).collect();
+    let mut graph: BTreeMap<String, BTreeSet<String>> =
+        nodes.iter().map(|m| (m.clone(), BTreeSet::new())).collect();
     let mut code = Vec::new();
     let mut test_files = BTreeSet::new();
     for file in &files {
@@ -97,7 +107,7 @@ fn import_graph() -> BTreeMap<String, BTreeSet<String>> {
         code.push((file, lines));
     }
     for (file, lines) in code {
-        let Some(module) = module_of(file) else {
+        let Some(node) = node_of(file) else {
             continue;
         };
         if test_files.contains(file.as_path()) {
@@ -105,13 +115,24 @@ fn import_graph() -> BTreeMap<String, BTreeSet<String>> {
         }
         for line in lines {
             for (i, _) in line.match_indices("crate::") {
-                let rest = &line[i + "crate::".len()..];
-                let name: String = rest
-                    .chars()
-                    .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+                let segments: Vec<&str> = line[i + "crate::".len()..]
+                    .split("::")
+                    .take(depth)
+                    .map(|s| {
+                        let end = s
+                            .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+                            .unwrap_or(s.len());
+                        &s[..end]
+                    })
                     .collect();
-                if name != module && modules.contains(&name) {
-                    graph.get_mut(&module).expect("module").insert(name);
+                let target = (1..=segments.len())
+                    .rev()
+                    .map(|n| segments[..n].join("::"))
+                    .find(|t| nodes.contains(t));
+                if let Some(target) = target {
+                    if target != node {
+                        graph.get_mut(&node).expect("node").insert(target);
+                    }
                 }
             }
         }
@@ -151,10 +172,60 @@ fn circles(graph: &BTreeMap<String, BTreeSet<String>>) -> BTreeSet<Vec<String>> 
         .collect()
 }
 
+/// The floor of each room, as drawn in docs/architecture.md: a room imports only from lower
+/// floors. A new room must be given its floor here (and in the picture).
+const FLOORS: &[(&str, u32)] = &[
+    ("cli", 7),
+    ("app", 6),
+    ("tools", 6),
+    ("render", 5),
+    ("passes", 4),
+    ("plan", 4),
+    ("reference", 4),
+    ("config", 3),
+    ("gpu", 2),
+    ("photon", 2),
+    ("timing", 1),
+    ("layout", 0),
+    ("output", 0),
+    ("scene", 0),
+];
+
 #[test]
-fn no_import_circle_forms_between_the_top_level_modules_beyond_the_known_ones() {
-    let graph = import_graph();
-    assert!(graph.contains_key("frame") && graph.contains_key("plan"));
+fn the_root_holds_only_rooms_each_importing_only_from_the_floors_below() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let loose: Vec<String> = std::fs::read_dir(&src)
+        .expect("read src")
+        .map(|e| e.expect("entry").path())
+        .filter(|p| p.is_file())
+        .filter_map(|p| p.file_name()?.to_str().map(str::to_string))
+        .filter(|n| n != "lib.rs" && n != "main.rs" && !n.starts_with('.'))
+        .collect();
+    assert!(
+        loose.is_empty(),
+        "files at the root of src/, not in a room: {loose:?}"
+    );
+    let floors: BTreeMap<&str, u32> = FLOORS.iter().copied().collect();
+    let graph = import_graph(1);
+    for (room, imports) in &graph {
+        let Some(&floor) = floors.get(room.as_str()) else {
+            panic!("the room {room} has no floor in FLOORS (docs/architecture.md)");
+        };
+        for import in imports {
+            let below = floors[import.as_str()];
+            assert!(
+                below < floor,
+                "{room} (floor {floor}) imports {import} (floor {below}): imports point down"
+            );
+        }
+    }
+    assert_eq!(graph.len(), FLOORS.len(), "a room in FLOORS is gone");
+}
+
+#[test]
+fn no_import_circle_forms_between_the_modules_beyond_the_known_ones() {
+    let graph = import_graph(2);
+    assert!(graph.contains_key("render::frame") && graph.contains_key("plan::bounce_plan"));
     let found = circles(&graph);
     let known: BTreeSet<Vec<String>> = KNOWN_CIRCLES
         .iter()
@@ -181,26 +252,37 @@ fn no_import_circle_forms_between_the_top_level_modules_beyond_the_known_ones() 
 }
 
 #[test]
-fn the_plan_the_passes_the_settings_and_the_stats_import_nothing_of_the_frame() {
-    let graph = import_graph();
-    for low in ["settings", "pass_id", "plan", "passes", "stats"] {
-        for high in ["frame", "photon_frame", "translucent_frame", "bench"] {
-            assert!(
-                !graph[low].contains(high),
-                "{low} imports {high}: {:?}",
-                graph[low]
-            );
-        }
+fn the_frames_parts_the_stats_and_the_pass_names_never_call_up() {
+    let graph = import_graph(2);
+    // The frame drives its two parts and fills in the stats; none of them calls back up.
+    for part in [
+        "render::photon_frame",
+        "render::translucent_frame",
+        "render::stats",
+    ] {
+        assert!(
+            !graph[part].contains("render::frame"),
+            "{part}: {:?}",
+            graph[part]
+        );
     }
-    // The frame drives its two parts; they never call back up.
-    for part in ["photon_frame", "translucent_frame"] {
-        assert!(!graph[part].contains("frame"), "{part}: {:?}", graph[part]);
-    }
-    assert!(!graph["timing"].contains("gpu"), "{:?}", graph["timing"]);
-    assert!(graph["pass_id"].is_empty(), "{:?}", graph["pass_id"]);
+    assert!(
+        !graph["render::stats"].contains("render::photon_frame"),
+        "{:?}",
+        graph["render::stats"]
+    );
+    // Every stage's name is the bottom of everything that names a stage.
+    assert!(
+        graph["timing::pass_id"].is_empty(),
+        "{:?}",
+        graph["timing::pass_id"]
+    );
     // The reader sees past `#[cfg(test)] mod tests;` at the top of a file: the plan's own
     // imports are found (a reader that stopped there would pass anything).
-    for low in ["settings", "photon", "scene"] {
-        assert!(graph["plan"].contains(low), "plan: {:?}", graph["plan"]);
+    for low in ["config::settings", "photon", "scene"] {
+        let found = graph["plan"]
+            .iter()
+            .any(|i| i == low || i.starts_with(&format!("{low}::")));
+        assert!(found, "plan: {:?}", graph["plan"]);
     }
 }

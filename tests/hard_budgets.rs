@@ -5,7 +5,7 @@
 mod common;
 
 use common::hard::{self, render_hard};
-use ispm::frame::RenderSettings;
+use ispm::config::settings::RenderSettings;
 use ispm::photon::emit::light_flux;
 use ispm::reference::scenes::{cornell, grey_box};
 
@@ -23,7 +23,7 @@ fn zero_photons() {
 #[test]
 fn one_photon() {
     // One photon asked for: each of the point light's six views gets one texel, each texel
-    // sends its photon with probability 1/6 (the budget: src/ispm.rs), and each photon sent
+    // sends its photon with probability 1/6 (the budget: src/plan/bounce_plan.rs), and each photon sent
     // carries six texels' power, the whole flux (walls of albedo 1).
     let scene = grey_box(1.0, 2.0);
     let f = render_hard("one_photon", &scene, hard::settings_for(1));

@@ -9,7 +9,7 @@ mod common;
 
 use common::hard::{self, Checked};
 use glam::Vec3;
-use ispm::frame::{Method, RenderSettings};
+use ispm::config::settings::{Method, RenderSettings};
 use ispm::gpu::Gpu;
 use ispm::scene::{Camera, Scene};
 use std::sync::Arc;

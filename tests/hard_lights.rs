@@ -279,12 +279,12 @@ fn hundreds_of_lights() {
         photons,
         "the budget misses the total"
     );
-    let settings = ispm::frame::RenderSettings {
+    let settings = ispm::config::settings::RenderSettings {
         shadow_resolution: 64,
         ..hard::first_bounce_for(photons)
     };
     // Each light emits its budget: 78 photons each, to within the binomial spread of the
-    // texels' keep test (src/ispm.rs, "Budget"), so all of them to within 1 %.
+    // texels' keep test (src/plan/bounce_plan.rs, "Budget"), so all of them to within 1 %.
     let kept = render_hard(case, &scene, settings.clone());
     let sent = kept.frame.stats.emitted_photons;
     eprintln!("{case}: {sent} photons sent of {photons}");
@@ -296,7 +296,7 @@ fn hundreds_of_lights() {
     // the records with power are the photons the lights emitted, and they carry exactly the
     // lights' flux. Each light's views are square, so its count rounds up by at most 2√n_L + 1
     // (and its cone's share is measured on a probe grid).
-    let settings = ispm::frame::RenderSettings {
+    let settings = ispm::config::settings::RenderSettings {
         whole_light_grids: true,
         ..settings
     };

@@ -6,7 +6,7 @@ mod common;
 
 use common::hard::{self, add_mesh, load_glb, render_hard, stage, total_flux as flux};
 use glam::{Mat4, Quat, Vec3};
-use ispm::frame::RenderSettings;
+use ispm::config::settings::RenderSettings;
 use ispm::reference::scenes::{furnace_sphere, grey_box};
 use ispm::scene::authoring::{icosphere, quad, GltfWriter, MaterialSpec};
 use ispm::scene::{Material, Scene};
@@ -20,7 +20,7 @@ fn albedo_exactly_one_in_a_closed_sphere() {
     // exactly 1 + B on the smooth sphere (the faceted one is ≈ 1 % brighter: physics_furnace.rs).
     let scene = furnace_sphere(3, 1.0, PI);
     // The kernel radius of physics_furnace.rs (its bias on the facets ≈ 1.5 %).
-    let settings = ispm::frame::RenderSettings {
+    let settings = ispm::config::settings::RenderSettings {
         bounces: 4,
         radius: Some(0.05),
         ..hard::settings_for(40_000)

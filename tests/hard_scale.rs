@@ -15,7 +15,7 @@ mod common;
 
 use common::hard;
 use glam::Vec3;
-use ispm::frame::{Method, RenderSettings};
+use ispm::config::settings::{Method, RenderSettings};
 
 const SIZE: u32 = 48;
 const SEEDS: u32 = 2;

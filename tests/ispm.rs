@@ -5,17 +5,19 @@
 mod common;
 
 use glam::Vec3;
-use ispm::frame::{Density, FrameImage, Method, RenderSettings, Renderer};
+use ispm::config::settings::{Density, Method, RenderSettings};
+use ispm::layout::shared_constants::{
+    CAUSTIC_PATH_DENSITY, LIGHT_VIEW_FAR_Z, LIGHT_VIEW_NEAR_Z, SUPPORT_FRACTION_MIN,
+    SUPPORT_NORMAL_COS,
+};
 use ispm::photon::bsdf::Bsdf;
 use ispm::photon::density::PhotonClass;
 use ispm::photon::kernel::{kernel_radius, kernel_t, kernel_weight, KernelSettings};
 use ispm::photon::types::{unpack_direction, unpack_normal, Photon};
 use ispm::reference::scenes;
+use ispm::render::frame::Renderer;
+use ispm::render::stats::FrameImage;
 use ispm::scene::{Camera, Light, LightKind, Scene};
-use ispm::shared_constants::{
-    CAUSTIC_PATH_DENSITY, LIGHT_VIEW_FAR_Z, LIGHT_VIEW_NEAR_Z, SUPPORT_FRACTION_MIN,
-    SUPPORT_NORMAL_COS,
-};
 
 fn settings(size: u32, photons: usize) -> RenderSettings {
     RenderSettings {
@@ -412,7 +414,7 @@ fn bounce_map_power_by_role(renderer: &Renderer) -> (f64, f64, f64) {
             all += power;
             if unpack_direction(p.direction).1 > 0.5 {
                 mirror += power;
-                if view.kind.y == ispm::shared_constants::BOUNCE_VIEW_CAUSTIC {
+                if view.kind.y == ispm::layout::shared_constants::BOUNCE_VIEW_CAUSTIC {
                     caustic += power;
                 }
             }
@@ -592,7 +594,7 @@ fn stats_describe_the_photon_buffers_drawn() {
             s.passes_run
         );
     }
-    let json = ispm::stats::frame_json(&scene, &frame, renderer.triangles(), 8, 0);
+    let json = ispm::render::stats::frame_json(&scene, &frame, renderer.triangles(), 8, 0);
     for key in [
         "triangles",
         "lights",
@@ -609,7 +611,10 @@ fn stats_describe_the_photon_buffers_drawn() {
     ] {
         assert!(json.get(key).is_some(), "stats JSON lacks {key}");
     }
-    for stage in ispm::stats::stages().map(|s| s.name()).chain(["frame"]) {
+    for stage in ispm::render::stats::stages()
+        .map(|s| s.name())
+        .chain(["frame"])
+    {
         assert!(json["ms"][stage].is_number(), "no time for {stage}");
     }
     // The kernel the estimate used, with the glossy regularisation's cap.

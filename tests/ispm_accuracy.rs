@@ -17,7 +17,9 @@ mod ispm_accuracy {
 
 use common::golden::{assert_matches_golden, rel_mse};
 use glam::Vec3;
-use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
+use ispm::config::settings::{Method, RenderSettings};
+use ispm::render::frame::Renderer;
+use ispm::render::stats::FrameImage;
 use ispm::scene::Scene;
 use ispm_accuracy::bounce_stats::{compare, cpu_bounces, gpu_bounces, histograms, Tally};
 use ispm_accuracy::references::{
@@ -275,8 +277,8 @@ fn cornell_box_bleeds_red_and_green_onto_the_floor() {
 /// the ball is 0.958).
 #[test]
 fn the_glass_sphere_shows_the_rooms_indirect_light_like_the_cpu_gather() {
+    use ispm::config::settings::Method as Reference;
     use ispm::reference::{render as reference, RefSettings};
-    use ispm::settings::Method as Reference;
     let scene = bundled("cornell-box");
     let (w, h) = (64, 48);
     let gpu = common::gpu();

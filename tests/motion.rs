@@ -8,7 +8,9 @@ mod common;
 
 use common::animated::glass_on_a_carousel;
 use glam::{Mat4, Vec2, Vec3, Vec3Swizzles};
-use ispm::frame::{FrameImage, RenderSettings, Renderer};
+use ispm::config::settings::RenderSettings;
+use ispm::render::frame::Renderer;
+use ispm::render::stats::FrameImage;
 use ispm::scene::load::load_from_slice;
 use ispm::scene::{bundled, Camera, Scene, FRAME_STEP_SECONDS};
 

@@ -12,8 +12,9 @@
 mod common;
 
 use common::animated::glass_on_a_carousel;
-use ispm::frame::{RenderSettings, Renderer};
+use ispm::config::settings::RenderSettings;
 use ispm::gpu::{Gpu, GpuOptions};
+use ispm::render::frame::Renderer;
 use ispm::scene::load::load_from_slice;
 use ispm::scene::FRAME_STEP_SECONDS;
 

@@ -28,11 +28,12 @@
 mod common;
 
 use glam::{Mat4, Quat, Vec3};
-use ispm::frame::{Method as GpuMethod, RenderSettings, Renderer};
+use ispm::config::settings::Method;
+use ispm::config::settings::{Method as GpuMethod, RenderSettings};
 use ispm::reference::scenes::{grey_box, point_light};
 use ispm::reference::{render, RefSettings};
+use ispm::render::frame::Renderer;
 use ispm::scene::{Camera, Scene};
-use ispm::settings::Method;
 use std::sync::atomic::AtomicBool;
 
 /// The albedos of the issue.

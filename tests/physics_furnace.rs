@@ -12,8 +12,8 @@
 //! indirect half scaled by E[cos] = 2/3), far outside it.
 
 use glam::Vec3;
+use ispm::config::settings::Method;
 use ispm::reference::{render, scenes::furnace_sphere, RefSettings};
-use ispm::settings::Method;
 use std::f32::consts::PI;
 use std::sync::atomic::AtomicBool;
 

@@ -2,13 +2,13 @@
 //! stop when cancelled, and write their EXR atomically.
 
 use glam::{Mat4, Vec2, Vec3};
+use ispm::config::settings::Method;
 use ispm::reference::{
     render,
     scenes::{cornell, furnace_sphere, scaled},
     HdrImage, RefSettings,
 };
 use ispm::scene::{Instance, Mesh};
-use ispm::settings::Method;
 use std::sync::atomic::AtomicBool;
 
 fn small(spp: u32, photons: usize) -> RefSettings {

@@ -17,7 +17,9 @@ mod references;
 
 use common::golden::rel_mse;
 use glam::Vec3;
-use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
+use ispm::config::settings::{Method, RenderSettings};
+use ispm::render::frame::Renderer;
+use ispm::render::stats::FrameImage;
 use ispm::scene::Scene;
 use references::{
     first_hits, path_traced, pixel_ray, CONVERGENCE_BOUNCES, CONVERGENCE_SIZE, REFERENCE_PASSES,

@@ -6,12 +6,14 @@
 mod common;
 
 use glam::{Mat4, Vec3};
-use ispm::frame::{FrameImage, RenderSettings, Renderer};
+use ispm::config::settings::Effects;
+use ispm::config::settings::RenderSettings;
+use ispm::layout::shared_constants::BOUNCE_VIEW_CAUSTIC;
 use ispm::photon::types::{unpack_normal, Photon};
-use ispm::plan::Effects;
 use ispm::reference::scenes::{cornell, point_light};
+use ispm::render::frame::Renderer;
+use ispm::render::stats::FrameImage;
 use ispm::scene::{Light, Material, Scene};
-use ispm::shared_constants::BOUNCE_VIEW_CAUSTIC;
 
 fn settings(effects: Effects) -> RenderSettings {
     common::small_ispm_settings(effects)
@@ -148,7 +150,7 @@ fn moving_one_light_retraces_only_that_light() {
         s.bounce_map_photons
     );
     assert!(light0_now == light0 && starts0_now == starts0);
-    let json = ispm::stats::frame_json(&scene, &second, r.triangles(), 8, 0);
+    let json = ispm::render::stats::frame_json(&scene, &second, r.triangles(), 8, 0);
     assert_eq!(json["lights_retraced"], serde_json::json!([1]), "{json}");
     assert_eq!(json["lights_reused"][0]["light"], 0, "{json}");
     assert_eq!(json["traced_bounce_map_photons"], starts1_now, "{json}");

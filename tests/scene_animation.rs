@@ -8,7 +8,7 @@ mod common;
 
 use common::animated::{edit_json, glass_on_a_carousel};
 use glam::{Mat4, Quat, Vec3};
-use ispm::frame::RenderSettings;
+use ispm::config::settings::RenderSettings;
 use ispm::plan::EffectsPlan;
 use ispm::scene::authoring::{quad, AnimationChannel, GltfWriter, MaterialSpec};
 use ispm::scene::load::load_from_slice;

@@ -152,7 +152,7 @@ fn diffuse_box_is_lambertian_only_so_the_plan_compiles_every_optional_lobe_out()
     assert!(names.contains(&"tall-block") && names.contains(&"white-sphere"));
     let b = s.bounds();
     assert!((b.extent() - Vec3::splat(2.0)).length() < 1e-3, "a 2 m box");
-    let settings = ispm::frame::RenderSettings::default();
+    let settings = ispm::config::settings::RenderSettings::default();
     let plan = ispm::plan::EffectsPlan::analyse(&s, &settings, &s.camera);
     let none = ispm::photon::bsdf::BsdfVariant {
         glossy: false,

@@ -1,13 +1,15 @@
-//! The frame schedule (`src/frame.rs`): frames in flight with a moving light stay
+//! The frame schedule (`src/render/frame.rs`): frames in flight with a moving light stay
 //! validation-clean (synchronization validation included) and end on the image a serial render
 //! of the same frame gives; the logical transfer queue (the multi-queue path on a one-queue
 //! device) renders the same image as the single queue.
 
 mod common;
 
-use ispm::frame::{FrameImage, Method, RenderSettings, Renderer, Schedule};
+use ispm::config::settings::Effects;
+use ispm::config::settings::{Method, RenderSettings, Schedule};
 use ispm::gpu::{Gpu, GpuOptions, QueueMode, QueueRole};
-use ispm::plan::Effects;
+use ispm::render::frame::Renderer;
+use ispm::render::stats::FrameImage;
 use ispm::scene::{bundled, Light, Scene};
 use std::sync::{Arc, Mutex, MutexGuard};
 

@@ -3,9 +3,11 @@
 
 mod common;
 
-use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
-use ispm::metrics::rel_mse_masked;
+use ispm::config::settings::{Method, RenderSettings};
+use ispm::render::frame::Renderer;
+use ispm::render::stats::FrameImage;
 use ispm::scene::Scene;
+use ispm::tools::metrics::rel_mse_masked;
 
 const SIZE: u32 = 128;
 
@@ -204,7 +206,7 @@ fn plain_bilinear_upsampling_differs_from_joint_only_near_edges() {
     let bilinear = render(
         &scene,
         RenderSettings {
-            upsample: ispm::passes::upsample::Upsample::Bilinear,
+            upsample: ispm::config::settings::Upsample::Bilinear,
             ..settings(SIZE, n)
         },
     );

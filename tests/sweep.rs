@@ -5,11 +5,11 @@
 mod common;
 
 use common::cli::ispm;
+use ispm::config::settings::Method;
 use ispm::photon::kernel::KernelSettings;
-use ispm::settings::Method;
-use ispm::sweep::measure::measure;
-use ispm::sweep::reference::{method_for, references};
-use ispm::sweep::{Config, ReferenceSpec};
+use ispm::tools::sweep::measure::measure;
+use ispm::tools::sweep::reference::{method_for, references};
+use ispm::tools::sweep::{Config, ReferenceSpec};
 use std::path::Path;
 
 fn stderr(out: &std::process::Output) -> String {
@@ -212,10 +212,10 @@ fn more_photons_at_a_fixed_kernel_never_worsen_the_indirect_error() {
                     radius_scale: r_fixed
                         / KernelSettings::scene_relative(&bounds, photons, None).r_max,
                     subsample: 1,
-                    caustic_share: ispm::settings::CAUSTIC_SHARE,
+                    caustic_share: ispm::config::settings::CAUSTIC_SHARE,
                     upsample: Default::default(),
                     accumulate: 1,
-                    density: ispm::frame::Density::Auto,
+                    density: ispm::config::settings::Density::Auto,
                 };
                 let m = measure(&gpu, &scene, &config, (size, size), 1, &refs).expect("measure");
                 assert!(

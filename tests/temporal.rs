@@ -13,8 +13,9 @@
 mod common;
 
 use common::hard;
-use ispm::frame::{RenderSettings, Renderer};
-use ispm::plan::Effects;
+use ispm::config::settings::Effects;
+use ispm::config::settings::RenderSettings;
+use ispm::render::frame::Renderer;
 use ispm::scene::{Light, LightKind, Scene};
 
 const SIZE: u32 = 48;
@@ -79,7 +80,7 @@ fn a_static_scene_renders_bit_identical_consecutive_frames_traced_again_or_reuse
     common::assert_validation_clean(&gpu);
 }
 
-fn check_total(frame: &ispm::frame::FrameImage) -> u64 {
+fn check_total(frame: &ispm::render::stats::FrameImage) -> u64 {
     frame
         .stats
         .value_check

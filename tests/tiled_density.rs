@@ -5,7 +5,9 @@
 
 mod common;
 
-use ispm::frame::{Density, FrameImage, Method, RenderSettings, Renderer};
+use ispm::config::settings::{Density, Method, RenderSettings};
+use ispm::render::frame::Renderer;
+use ispm::render::stats::FrameImage;
 use ispm::scene::Scene;
 
 fn render(scene: &Scene, settings: RenderSettings) -> (FrameImage, Vec<String>) {
@@ -165,7 +167,8 @@ fn a_caustic_focus_longer_than_one_dispatch_gathers_every_photon() {
     );
     let tiles = tiled.stats.tiles.expect("tile stats");
     assert!(
-        tiles.longest > 2 * ispm::shared_constants::TILE_JOB as usize && tiles.dispatches > 2,
+        tiles.longest > 2 * ispm::layout::shared_constants::TILE_JOB as usize
+            && tiles.dispatches > 2,
         "{tiles:?}"
     );
     assert_same_estimate("tiled_long_lists", &bundled("glass-sphere"), settings);

@@ -5,8 +5,9 @@
 mod common;
 
 use common::cli::{assert_clean_failure, ispm};
-use ispm::frame::{RenderSettings, Renderer};
+use ispm::config::settings::RenderSettings;
 use ispm::gpu::{ClockSource, Gpu, GpuOptions, QueueRole};
+use ispm::render::frame::Renderer;
 use serde_json::Value;
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::OnceLock;
@@ -348,7 +349,7 @@ fn assert_one_time_base(trace: &Trace, tolerance_us: f64) {
             .iter()
             .filter(|e| !e.gpu && e.frame == Some(f) && e.name == "submit")
             .collect();
-        // Box A, readback, box B, upload, box D (src/frame.rs).
+        // Box A, readback, box B, upload, box D (src/render/frame.rs).
         assert_eq!(submits.len(), 5, "frame {f}: {submits:?}");
         before(
             submits[0].ts,
@@ -416,7 +417,10 @@ fn stats_carry_the_last_frames_stage_times_from_the_same_spans() {
     let (trace, stats) = cli_run();
     let last = FRAMES - 1;
     let ms = &stats["ms"];
-    for stage in ispm::stats::stages().map(|s| s.name()).chain(["frame"]) {
+    for stage in ispm::render::stats::stages()
+        .map(|s| s.name())
+        .chain(["frame"])
+    {
         assert!(
             ms[stage].as_f64().is_some_and(|v| v >= 0.0),
             "{stage}: {ms}"
@@ -528,7 +532,7 @@ fn measured_clock_still_orders_gpu_passes_around_host_work() {
         height: 32,
         shadow_resolution: 128,
         // Every frame traces (a planned frame would reuse the static photon map).
-        effects: ispm::plan::Effects::All,
+        effects: ispm::config::settings::Effects::All,
         ..Default::default()
     };
     ispm::timing::start_capture();

@@ -4,7 +4,9 @@
 mod common;
 
 use glam::{Vec2, Vec3};
-use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
+use ispm::config::settings::{Method, RenderSettings};
+use ispm::render::frame::Renderer;
+use ispm::render::stats::FrameImage;
 use ispm::scene::{bundled, Scene};
 
 const WIDTH: u32 = 160;

@@ -7,8 +7,11 @@
 
 mod common;
 
-use ispm::frame::{Checked, FrameImage, Method, RenderSettings, Renderer, ValueCheck};
-use ispm::plan::Effects;
+use ispm::config::settings::Effects;
+use ispm::config::settings::{Method, RenderSettings};
+use ispm::passes::value_check::{Checked, ValueCheck};
+use ispm::render::frame::Renderer;
+use ispm::render::stats::FrameImage;
 use ispm::scene::Scene;
 
 const SIZE: u32 = 48;

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Derives the `--quality` presets (src/quality.rs, docs/accuracy.md §5.3) from the sweep's CSVs.
+"""Derives the `--quality` presets (src/config/quality.rs, docs/accuracy.md §5.3) from the sweep's CSVs.
 
 For every ISPM configuration of the main grid measured on every scene (joint upsampling, the
 default bounces and caustic share), it takes the geometric mean over the scenes of the frame

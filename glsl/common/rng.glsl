@@ -4,7 +4,7 @@
 // Rng: PCG RXS-M-XS 32/32 (period 2^32), one uint of state; floats are the top 24 bits * 2^-24.
 // Seeds are frame-coherent (DESIGN.md §2.3): seed_bounce_map_texel hashes the light position
 // bits and the texel index (the CPU references' twin); the bounce map seeds a texel from its
-// view's light seed, a hash of the light's index (src/ispm.rs); -0.0 counts as +0.0.
+// view's light seed, a hash of the light's index (src/plan/bounce_plan.rs); -0.0 counts as +0.0.
 //
 // Test vectors (also `PCG_HASH_TEST_VECTORS` / `RNG_TEST_VECTORS` in rng.rs):
 //   pcg_hash(0u) = 129708002u          pcg_hash(1u) = 2831084092u

@@ -1,5 +1,5 @@
 // Struct layouts shared with the CPU. Each struct here has a `#[repr(C)]` twin in
-// src/layout.rs with compile-time size/offset asserts; tests/layouts.rs checks both against the
+// src/layout/mod.rs with compile-time size/offset asserts; tests/layouts.rs checks both against the
 // offsets the compiled SPIR-V declares. Everything is camera-relative world space: positions
 // have the camera position subtracted on the CPU in double precision, so scenes far from the
 // origin keep their precision.

@@ -1,5 +1,5 @@
 // Display transforms: exposure, then one of the operators below, then the sRGB transfer
-// function. Operator ids are the TONEMAP_* constants shared with src/output.rs.
+// function. Operator ids are the TONEMAP_* constants shared with src/output/mod.rs.
 #ifndef TONEMAP_GLSL
 #define TONEMAP_GLSL
 #include "shared_constants.glsl"

@@ -1,17 +1,12 @@
-//! `ispm bench`: the frame's cost per stage, schedules side by side (`ispm::bench`).
+//! `ispm bench`: the frame's cost per stage, schedules side by side (`ispm::tools::bench`).
 
-use super::{
-    check_validation, gpu, load_scene_from, parse_seconds_per_turn, parse_size, QualityArgs,
-    SceneArgs,
-};
+use super::{check_validation, gpu, parse_size, EstimateArgs, OrbitArgs, QualityArgs, SceneArgs};
 use anyhow::Context;
-use ispm::settings::{Density, Knobs, Schedule, DEFAULT_SHADOW_RESOLUTION};
+use ispm::config::settings::{Knobs, Schedule, DEFAULT_SHADOW_RESOLUTION};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct BenchArgs {
-    /// A .gltf/.glb file or a bundled scene name (default: the bundled cornell-box).
-    scene: Option<String>,
     #[command(flatten)]
     scene_args: SceneArgs,
     /// Image size, WIDTHxHEIGHT.
@@ -37,19 +32,8 @@ pub struct BenchArgs {
     /// Write an SVG of the last overlapped chunk's schedule (the paper's Figure 3).
     #[arg(long)]
     figure: Option<PathBuf>,
-    /// The density estimator: `volumes` (each photon's kernel rasterised as a
-    /// billboard, the paper's), `tiled` (a per-tile gather in compute; the same sums) or `auto`
-    /// (the faster on this device: tiled on a CPU implementation such as lavapipe, volumes on
-    /// a GPU; `ispm info` says which).
-    #[arg(long, value_enum, default_value_t)]
-    density: Density,
-    /// GPU methods: levels of the edge-avoiding à-trous filter over the indirect light (taps up
-    /// to ±2·(2^N − 1) pixels apart, on one surface), fewer as still frames accumulate and none
-    /// from the 2^N-th on, so the mean converges as without it (0: the raw estimate;
-    /// docs/accuracy.md, "The denoiser").
-    #[arg(long, value_name = "N", default_value_t = ispm::passes::denoise::DEFAULT_LEVELS,
-          value_parser = clap::value_parser!(u32).range(0..=ispm::passes::denoise::MAX_LEVELS as i64))]
-    denoise: u32,
+    #[command(flatten)]
+    estimate: EstimateArgs,
     /// The schedule measured against the serial one: `auto` (the default: the paper's
     /// overlapped frame, except that on a CPU device such as lavapipe the trace waits for the
     /// passes that would share its cores) or `overlapped` (the paper's order on every device);
@@ -70,14 +54,8 @@ pub struct BenchArgs {
     /// alternating chunks.
     #[arg(long)]
     compare_effects: bool,
-    /// Render from the file's camera N (0-based, in node order; default: the first).
-    #[arg(long, value_name = "N")]
-    camera: Option<usize>,
-    /// Orbit every light about the vertical axis through the scene's centre, one turn per
-    /// SECONDS_PER_TURN (default 10), so any scene shows moving light and caustics.
-    #[arg(long, value_name = "SECONDS_PER_TURN", num_args = 0..=1, default_missing_value = "10",
-          value_parser = parse_seconds_per_turn)]
-    orbit_lights: Option<f32>,
+    #[command(flatten)]
+    orbit: OrbitArgs,
     /// Count NaN, ±Inf and negative values in every HDR buffer on the GPU, every frame (the
     /// times then include the check); the last frames' counts are printed and in --json.
     #[arg(long)]
@@ -91,25 +69,20 @@ pub fn bench(args: BenchArgs, device: Option<usize>) -> anyhow::Result<()> {
     {
         ispm::output::check_writable(path)?;
     }
-    let scene = load_scene_from(
-        args.scene.as_deref(),
-        &args.scene_args,
-        args.camera,
-        args.orbit_lights,
-    )?;
-    let scene_name = args.scene.as_deref().unwrap_or("cornell-box");
+    let scene = args.scene_args.load(&args.orbit)?;
+    let scene_name = args.scene_args.name();
     let knobs = Knobs {
         size: Some(args.size),
         shadow_resolution: Some(args.shadow_resolution),
         check_values: Some(args.check_values),
-        density: Some(args.density),
-        denoise: Some(args.denoise),
+        density: Some(args.estimate.density),
+        denoise: Some(args.estimate.denoise),
         schedule: Some(args.schedule),
         ..args.quality.knobs(None)
     };
     let gpu = gpu(device)?;
     let (width, height) = args.size;
-    let settings = ispm::bench::BenchSettings {
+    let settings = ispm::tools::bench::BenchSettings {
         knobs,
         frames: args.frames,
         warmup: args.warmup,
@@ -118,7 +91,7 @@ pub fn bench(args: BenchArgs, device: Option<usize>) -> anyhow::Result<()> {
         compare_density: args.compare_density,
         compare_subsample: args.compare_subsample,
     };
-    let report = ispm::bench::run(&gpu, &scene, scene_name, &settings, |step| {
+    let report = ispm::tools::bench::run(&gpu, &scene, scene_name, &settings, |step| {
         log::info!("bench: {step}")
     })?;
     check_validation(&gpu)?;
@@ -131,7 +104,7 @@ pub fn bench(args: BenchArgs, device: Option<usize>) -> anyhow::Result<()> {
     }
     if let Some(path) = &args.figure {
         let title = format!("{scene_name}, {width}x{height}, overlapped schedule");
-        let svg = ispm::bench::schedule_svg(&report.last_overlapped_spans, &title);
+        let svg = ispm::tools::bench::schedule_svg(&report.last_overlapped_spans, &title);
         ispm::output::write_atomically(path, |f| {
             use std::io::Write;
             f.write_all(svg.as_bytes())

@@ -47,7 +47,7 @@ pub fn info(device: Option<usize>) -> anyhow::Result<()> {
         p.timestamp_period,
         gpu.clock_source()
     );
-    let density = ispm::settings::Density::Auto.resolve_for_device(p);
+    let density = ispm::config::settings::Density::Auto.resolve_for_device(p);
     println!(
         "  --density auto: {density:?}, compute subgroup ops for the tiled gather: {} (measured \
          on lavapipe and an NVIDIA H100, docs/performance.md \"Density estimators\")",

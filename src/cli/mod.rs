@@ -4,9 +4,9 @@
 //! `settings::RenderSettings::from_knobs`: a command only maps its flags onto `settings::Knobs`.
 
 use anyhow::Context;
+use ispm::config::quality::{Quality, QualityFlag};
+use ispm::config::settings::{Density, Knobs};
 use ispm::gpu::{Gpu, GpuOptions};
-use ispm::quality::{Quality, QualityFlag};
-use ispm::settings::Knobs;
 
 pub mod bench;
 pub mod info;
@@ -15,7 +15,7 @@ pub mod render;
 pub mod sweep;
 pub mod view;
 
-/// `--quality` and the knobs it sets, shared by `render`, `view` and `bench` (src/quality.rs).
+/// `--quality` and the knobs it sets, shared by `render`, `view` and `bench` (src/config/quality.rs).
 #[derive(clap::Args)]
 pub struct QualityArgs {
     /// Set photons, bounces, kernel radius and subsampling to a point measured on the
@@ -44,7 +44,7 @@ pub struct QualityArgs {
     /// At --subsample N > 1: `joint` bilateral upsampling against the full-resolution G-buffer,
     /// or plain `bilinear` (default joint).
     #[arg(long, value_enum)]
-    upsample: Option<ispm::settings::Upsample>,
+    upsample: Option<ispm::config::settings::Upsample>,
 }
 
 impl QualityArgs {
@@ -66,9 +66,12 @@ impl QualityArgs {
     }
 }
 
-/// How the scene file is read, shared by every command that loads one.
+/// Which scene, how its file is read and from which of its cameras: shared by every command
+/// that loads one.
 #[derive(clap::Args)]
 pub struct SceneArgs {
+    /// A .gltf/.glb file or a bundled scene name (default: the bundled cornell-box).
+    scene: Option<String>,
     /// Render a scene with no light and no emissive surface as it is (unlit: only unlit
     /// materials show) instead of adding the default key light over the camera's shoulder.
     #[arg(long)]
@@ -76,15 +79,85 @@ pub struct SceneArgs {
     /// KHR_materials_variants: show the material variant NAME instead of the default materials.
     #[arg(long, value_name = "NAME")]
     variant: Option<String>,
+    /// View the scene from the file's camera N (0-based, in node order; default: the first).
+    #[arg(long, value_name = "N")]
+    camera: Option<usize>,
 }
 
 impl SceneArgs {
-    pub fn options(&self) -> ispm::scene::load::LoadOptions {
-        ispm::scene::load::LoadOptions {
+    /// The scene's name as the user gave it (the bundled cornell-box when none was).
+    pub fn name(&self) -> &str {
+        self.scene.as_deref().unwrap_or("cornell-box")
+    }
+
+    /// The scene read as these flags say, seen from its file's camera `--camera N` if given,
+    /// with its lights orbiting when `orbit` asks. Says on stderr when the default light was
+    /// added, or when `--no-default-light` leaves the scene without light.
+    pub fn load(&self, orbit: &OrbitArgs) -> anyhow::Result<ispm::scene::Scene> {
+        let options = ispm::scene::load::LoadOptions {
             default_light: !self.no_default_light,
             variant: self.variant.clone(),
+        };
+        let mut scene = ispm::scene::bundled::resolve_with(self.scene.as_deref(), &options)?;
+        let name = self.name();
+        if let Some(n) = self.camera {
+            let count = scene.cameras.len();
+            scene.camera = *scene.cameras.get(n).ok_or_else(|| match count {
+                0 => anyhow::anyhow!("--camera {n}: {name} has no cameras"),
+                1 => anyhow::anyhow!("--camera {n}: {name} has 1 camera (--camera 0)"),
+                _ => anyhow::anyhow!(
+                    "--camera {n}: {name} has {count} cameras (--camera 0 to {})",
+                    count - 1
+                ),
+            })?;
+            scene.aim_default_light();
         }
+        if let Some(seconds) = orbit.orbit_lights {
+            scene.orbit_lights(seconds).context("--orbit-lights")?;
+        }
+        if scene.default_light {
+            eprintln!(
+                "ispm: {name} has no lights; adding a default key light (--no-default-light \
+                 turns it off)"
+            );
+        } else if scene.needs_default_light() {
+            eprintln!(
+                "ispm: warning: {name} has no lights and --no-default-light keeps it so: nothing \
+                 in it is lit (only unlit materials show)"
+            );
+        }
+        Ok(scene)
     }
+}
+
+/// `--orbit-lights`, shared by the commands that render or plan a frame (not `sweep`, whose
+/// measurements need still lights).
+#[derive(clap::Args, Default)]
+pub struct OrbitArgs {
+    /// Orbit every light about the vertical axis through the scene's centre, one turn per
+    /// SECONDS_PER_TURN (default 10), so any scene shows moving light and caustics.
+    #[arg(long, value_name = "SECONDS_PER_TURN", num_args = 0..=1, default_missing_value = "10",
+          value_parser = parse_seconds_per_turn)]
+    orbit_lights: Option<f32>,
+}
+
+/// How the GPU methods estimate the indirect light, shared by `render`, `view`, `bench` and
+/// `plan`.
+#[derive(clap::Args)]
+pub struct EstimateArgs {
+    /// GPU methods: the density estimator: `volumes` (each photon's kernel rasterised as a
+    /// billboard, the paper's), `tiled` (a per-tile gather in compute; the same sums) or `auto`
+    /// (the faster on the device: tiled on a CPU implementation such as lavapipe, volumes on
+    /// a GPU; `ispm info` says which).
+    #[arg(long, value_enum, default_value_t)]
+    pub density: Density,
+    /// GPU methods: levels of the edge-avoiding à-trous filter over the indirect light (taps up
+    /// to ±2·(2^N − 1) pixels apart, on one surface), fewer as still frames accumulate and none
+    /// from the 2^N-th on, so the mean converges as without it (0: the raw estimate;
+    /// docs/accuracy.md, "The denoiser").
+    #[arg(long, value_name = "N", default_value_t = ispm::passes::denoise::DEFAULT_LEVELS,
+          value_parser = clap::value_parser!(u32).range(0..=ispm::passes::denoise::MAX_LEVELS as i64))]
+    pub denoise: u32,
 }
 
 pub fn parse_seconds_per_turn(s: &str) -> Result<f32, String> {
@@ -111,47 +184,6 @@ pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
         return Err(format!("size {s:?} must be between 1x1 and 16384x16384"));
     }
     Ok((w, h))
-}
-
-/// The scene of `arg` read as `scene_args` say, seen from its file's camera `camera`
-/// (`--camera N`) if given, with its lights orbiting when `--orbit-lights` asks. Says on
-/// stderr when the default light was added, or when `--no-default-light` leaves the scene
-/// without light.
-pub fn load_scene_from(
-    arg: Option<&str>,
-    scene_args: &SceneArgs,
-    camera: Option<usize>,
-    orbit_lights: Option<f32>,
-) -> anyhow::Result<ispm::scene::Scene> {
-    let mut scene = ispm::scene::bundled::resolve_with(arg, &scene_args.options())?;
-    let name = arg.unwrap_or("cornell-box");
-    if let Some(n) = camera {
-        let count = scene.cameras.len();
-        scene.camera = *scene.cameras.get(n).ok_or_else(|| match count {
-            0 => anyhow::anyhow!("--camera {n}: {name} has no cameras"),
-            1 => anyhow::anyhow!("--camera {n}: {name} has 1 camera (--camera 0)"),
-            _ => anyhow::anyhow!(
-                "--camera {n}: {name} has {count} cameras (--camera 0 to {})",
-                count - 1
-            ),
-        })?;
-        scene.aim_default_light();
-    }
-    if let Some(seconds) = orbit_lights {
-        scene.orbit_lights(seconds).context("--orbit-lights")?;
-    }
-    if scene.default_light {
-        eprintln!(
-            "ispm: {name} has no lights; adding a default key light (--no-default-light turns \
-             it off)"
-        );
-    } else if scene.needs_default_light() {
-        eprintln!(
-            "ispm: warning: {name} has no lights and --no-default-light keeps it so: nothing in \
-             it is lit (only unlit materials show)"
-        );
-    }
-    Ok(scene)
 }
 
 pub fn gpu(cli_device: Option<usize>) -> anyhow::Result<std::sync::Arc<Gpu>> {

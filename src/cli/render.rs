@@ -1,23 +1,18 @@
 //! `ispm render`: one picture, headless: the GPU renderer's frames accumulated for `--seconds`
 //! or `--frames`, or a CPU reference.
 
-use super::{
-    check_validation, gpu, load_scene_from, parse_seconds_per_turn, parse_size, QualityArgs,
-    SceneArgs,
-};
+use super::{check_validation, gpu, parse_size, EstimateArgs, OrbitArgs, QualityArgs, SceneArgs};
 use anyhow::Context;
-use ispm::frame::Renderer;
-use ispm::output::{write_exr, write_png, OutputFormat};
-use ispm::settings::{
-    Density, Effects, Knobs, Method, RenderSettings, Schedule, Tonemap, CAUSTIC_SHARE,
+use ispm::config::settings::{
+    Effects, Knobs, Method, RenderSettings, Schedule, Tonemap, CAUSTIC_SHARE,
     DEFAULT_EMITTER_LIGHTS, DEFAULT_EXPOSURE_EV, DEFAULT_SEED, DEFAULT_SHADOW_RESOLUTION,
 };
+use ispm::output::{write_exr, write_png, OutputFormat};
+use ispm::render::frame::Renderer;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct RenderArgs {
-    /// A .gltf/.glb file or a bundled scene name (default: the bundled cornell-box).
-    scene: Option<String>,
     #[command(flatten)]
     scene_args: SceneArgs,
     /// Output image: .png (tonemapped sRGB) or .exr (linear HDR).
@@ -45,19 +40,8 @@ pub struct RenderArgs {
     /// GPU methods: every frame stands alone (no accumulation); the image is the last frame.
     #[arg(long)]
     no_accumulate: bool,
-    /// GPU methods: the density estimator: `volumes` (each photon's kernel rasterised as a
-    /// billboard, the paper's), `tiled` (a per-tile gather in compute; the same sums) or `auto`
-    /// (the faster on this device: tiled on a CPU implementation such as lavapipe, volumes on
-    /// a GPU; `ispm info` says which).
-    #[arg(long, value_enum, default_value_t)]
-    density: Density,
-    /// GPU methods: levels of the edge-avoiding à-trous filter over the indirect light (taps up
-    /// to ±2·(2^N − 1) pixels apart, on one surface), fewer as still frames accumulate and none
-    /// from the 2^N-th on, so the mean converges as without it (0: the raw estimate;
-    /// docs/accuracy.md, "The denoiser").
-    #[arg(long, value_name = "N", default_value_t = ispm::passes::denoise::DEFAULT_LEVELS,
-          value_parser = clap::value_parser!(u32).range(0..=ispm::passes::denoise::MAX_LEVELS as i64))]
-    denoise: u32,
+    #[command(flatten)]
+    estimate: EstimateArgs,
     /// GPU methods: `overlapped` traces the photons on the CPU while the GPU draws the eye
     /// G-buffer and direct light and keeps frames in flight (the paper's Figure 3); `auto` does
     /// the same except on a CPU device (lavapipe), whose passes run on the cores the trace
@@ -96,18 +80,12 @@ pub struct RenderArgs {
     /// photons (new points every accumulated frame; 0: emitters are seen but light nothing).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_EMITTER_LIGHTS)]
     emitter_lights: u32,
-    /// Render from the file's camera N (0-based, in node order; default: the first).
-    #[arg(long, value_name = "N")]
-    camera: Option<usize>,
     /// Render from the pose of frame K of `ispm view --frames`'s scripted camera path (which
     /// starts at the --camera one): the headless twin of the viewer's screenshot.
     #[arg(long, value_name = "K")]
     camera_path_frame: Option<u32>,
-    /// Orbit every light about the vertical axis through the scene's centre, one turn per
-    /// SECONDS_PER_TURN (default 10), so any scene shows moving light and caustics.
-    #[arg(long, value_name = "SECONDS_PER_TURN", num_args = 0..=1, default_missing_value = "10",
-          value_parser = parse_seconds_per_turn)]
-    orbit_lights: Option<f32>,
+    #[command(flatten)]
+    orbit: OrbitArgs,
     /// Render the scene as it is SECONDS into its motion (glTF animations, --orbit-lights).
     #[arg(long, value_name = "SECONDS", default_value_t = 0.0, value_parser = parse_time)]
     time: f32,
@@ -158,15 +136,10 @@ pub fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
     {
         ispm::output::check_writable(path)?;
     }
-    let scene = load_scene_from(
-        args.scene.as_deref(),
-        &args.scene_args,
-        args.camera,
-        args.orbit_lights,
-    )?;
+    let scene = args.scene_args.load(&args.orbit)?;
     // ISPM starts from a preset; direct light and the CPU references from the flags' own
     // defaults.
-    let default = (args.method == Method::Ispm).then_some(ispm::quality::RENDER_DEFAULT);
+    let default = (args.method == Method::Ispm).then_some(ispm::config::quality::RENDER_DEFAULT);
     let knobs = Knobs {
         method: Some(args.method),
         size: Some(args.size),
@@ -175,8 +148,8 @@ pub fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
         tonemap: Some(args.tonemap),
         exposure_ev: Some(args.exposure),
         schedule: Some(args.schedule),
-        density: Some(args.density),
-        denoise: Some(args.denoise),
+        density: Some(args.estimate.density),
+        denoise: Some(args.estimate.denoise),
         effects: Some(args.effects),
         caustic_share: Some(args.caustic_share),
         emitter_lights: Some(args.emitter_lights),
@@ -188,7 +161,7 @@ pub fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
     // The viewer's scripted path starts from the scene as loaded.
     let path_pose = args
         .camera_path_frame
-        .map(|k| ispm::camera_control::scripted_pose(&scene.camera, &scene.bounds(), k));
+        .map(|k| ispm::app::camera_control::scripted_pose(&scene.camera, &scene.bounds(), k));
     let mut scene = scene.posed(args.time);
     if let Some(camera) = path_pose {
         scene.camera = camera;
@@ -238,7 +211,7 @@ pub fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
                     // This frame and the FRAMES_IN_FLIGHT after it finishing (the frames in
                     // flight overlap them and the last frame, which `render` submits, is one
                     // of them): it may run over by a frame's period, and stops early by as much.
-                    let to_finish = (ispm::frame::FRAMES_IN_FLIGHT + 1) as f64 * period;
+                    let to_finish = (ispm::config::settings::FRAMES_IN_FLIGHT + 1) as f64 * period;
                     !args.no_accumulate
                         && renderer.plan().accumulate
                         && elapsed + to_finish < args.seconds
@@ -275,7 +248,7 @@ pub fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
         OutputFormat::Exr => write_exr(&args.output, frame.width, frame.height, &frame.hdr)?,
     }
     if let Some(path) = &args.stats {
-        let json = ispm::stats::frame_json(
+        let json = ispm::render::stats::frame_json(
             &scene,
             &frame,
             triangles,
@@ -311,7 +284,7 @@ pub fn render(args: RenderArgs, device: Option<usize>) -> anyhow::Result<()> {
             .iter()
             .map(|&l| scene.lights[l].name.as_str())
             .collect();
-        let side = ispm::ispm::MAX_RESOLUTION;
+        let side = ispm::plan::bounce_plan::MAX_RESOLUTION;
         eprintln!(
             "note: the photon budget of light {} asks for light views past the largest \
              ({side}x{side} texels): the frame emits {} photons of the {} asked",

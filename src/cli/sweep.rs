@@ -1,14 +1,12 @@
-//! `ispm sweep`: accuracy against time over a grid of settings (`ispm::sweep`).
+//! `ispm sweep`: accuracy against time over a grid of settings (`ispm::tools::sweep`).
 
-use super::{check_validation, gpu, load_scene_from, parse_size, SceneArgs};
-use ispm::settings::DEFAULT_BOUNCES;
-use ispm::sweep::reference::{DEFAULT_REFERENCE_PASSES, DEFAULT_REFERENCE_PHOTONS};
+use super::{check_validation, gpu, parse_size, OrbitArgs, SceneArgs};
+use ispm::config::settings::DEFAULT_BOUNCES;
+use ispm::tools::sweep::reference::{DEFAULT_REFERENCE_PASSES, DEFAULT_REFERENCE_PHOTONS};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct SweepArgs {
-    /// A .gltf/.glb file or a bundled scene name (default: the bundled cornell-box).
-    scene: Option<String>,
     #[command(flatten)]
     scene_args: SceneArgs,
     /// Folder for results.csv, results.json and the plots (configurations already in its
@@ -41,34 +39,31 @@ pub struct SweepArgs {
     /// Where references are cached (default: $XDG_CACHE_HOME/ispm/references).
     #[arg(long, value_name = "DIR")]
     reference_cache: Option<PathBuf>,
-    /// Render from the file's camera N (0-based, in node order; default: the first).
-    #[arg(long, value_name = "N")]
-    camera: Option<usize>,
 }
 
 pub fn sweep(args: SweepArgs, device: Option<usize>) -> anyhow::Result<()> {
-    let grid = ispm::sweep::Grid::parse(&args.grid)?;
+    let grid = ispm::tools::sweep::Grid::parse(&args.grid)?;
     anyhow::ensure!(
         !args.out.is_file(),
         "--out {}: a file, not a folder",
         args.out.display()
     );
-    let scene = load_scene_from(args.scene.as_deref(), &args.scene_args, args.camera, None)?;
-    let scene_name = args.scene.as_deref().unwrap_or("cornell-box");
+    let scene = args.scene_args.load(&OrbitArgs::default())?;
+    let scene_name = args.scene_args.name();
     let gpu = gpu(device)?;
-    let settings = ispm::sweep::SweepSettings {
+    let settings = ispm::tools::sweep::SweepSettings {
         grid,
         width: args.size.0,
         height: args.size.1,
         frames: args.frames,
-        reference: ispm::sweep::ReferenceSpec {
+        reference: ispm::tools::sweep::ReferenceSpec {
             passes: args.reference_passes,
             photons: args.reference_photons,
             bounces: args.reference_bounces,
         },
         reference_cache: args.reference_cache,
     };
-    let report = ispm::sweep::run(&gpu, &scene, scene_name, &settings, &args.out)?;
+    let report = ispm::tools::sweep::run(&gpu, &scene, scene_name, &settings, &args.out)?;
     check_validation(&gpu)?;
     print!("{}", report.table());
     eprintln!(

@@ -1,14 +1,12 @@
-//! `ispm view`: the live window (`ispm::viewer`).
+//! `ispm view`: the live window (`ispm::app::viewer`).
 
-use super::{load_scene_from, parse_seconds_per_turn, parse_size, QualityArgs, SceneArgs};
+use super::{parse_size, EstimateArgs, OrbitArgs, QualityArgs, SceneArgs};
+use ispm::config::settings::{Knobs, RenderSettings};
 use ispm::output::OutputFormat;
-use ispm::settings::{Density, Knobs, RenderSettings};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct ViewArgs {
-    /// A .gltf/.glb file or a bundled scene name (default: the bundled cornell-box).
-    scene: Option<String>,
     #[command(flatten)]
     scene_args: SceneArgs,
     /// Window (and render) size, WIDTHxHEIGHT.
@@ -20,19 +18,8 @@ pub struct ViewArgs {
     /// exit (the viewer's smoke test).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     frames: Option<u32>,
-    /// The density estimator: `volumes` (each photon's kernel rasterised as a
-    /// billboard, the paper's), `tiled` (a per-tile gather in compute; the same sums) or `auto`
-    /// (the faster on this device: tiled on a CPU implementation such as lavapipe, volumes on
-    /// a GPU; `ispm info` says which).
-    #[arg(long, value_enum, default_value_t)]
-    density: Density,
-    /// GPU methods: levels of the edge-avoiding à-trous filter over the indirect light (taps up
-    /// to ±2·(2^N − 1) pixels apart, on one surface), fewer as still frames accumulate and none
-    /// from the 2^N-th on, so the mean converges as without it (0: the raw estimate;
-    /// docs/accuracy.md, "The denoiser").
-    #[arg(long, value_name = "N", default_value_t = ispm::passes::denoise::DEFAULT_LEVELS,
-          value_parser = clap::value_parser!(u32).range(0..=ispm::passes::denoise::MAX_LEVELS as i64))]
-    denoise: u32,
+    #[command(flatten)]
+    estimate: EstimateArgs,
     /// Every frame stands alone: no progressive accumulation while the view stands still.
     #[arg(long)]
     no_accumulate: bool,
@@ -54,15 +41,9 @@ pub struct ViewArgs {
     overlay: bool,
     /// Press KEY (p, t or tab) at the start of frame FRAME (FRAME:KEY; tests simulate keys).
     #[arg(long, hide = true, value_parser = parse_press)]
-    press: Vec<(u32, ispm::viewer::ViewKey)>,
-    /// Start from the file's camera N (0-based, in node order; default: the first).
-    #[arg(long, value_name = "N")]
-    camera: Option<usize>,
-    /// Orbit every light about the vertical axis through the scene's centre, one turn per
-    /// SECONDS_PER_TURN (default 10), so any scene shows moving light and caustics.
-    #[arg(long, value_name = "SECONDS_PER_TURN", num_args = 0..=1, default_missing_value = "10",
-          value_parser = parse_seconds_per_turn)]
-    orbit_lights: Option<f32>,
+    press: Vec<(u32, ispm::app::viewer::ViewKey)>,
+    #[command(flatten)]
+    orbit: OrbitArgs,
 }
 
 fn parse_resize(s: &str) -> Result<(u32, (u32, u32)), String> {
@@ -75,8 +56,8 @@ fn parse_resize(s: &str) -> Result<(u32, (u32, u32)), String> {
     Ok((frame, parse_size(size)?))
 }
 
-fn parse_press(s: &str) -> Result<(u32, ispm::viewer::ViewKey), String> {
-    use ispm::viewer::ViewKey;
+fn parse_press(s: &str) -> Result<(u32, ispm::app::viewer::ViewKey), String> {
+    use ispm::app::viewer::ViewKey;
     let bad = || format!("{s:?} is not FRAME:KEY with KEY p, t or tab");
     let (frame, key) = s.split_once(':').ok_or_else(bad)?;
     let frame: u32 = frame.parse().map_err(|_| bad())?;
@@ -105,20 +86,17 @@ pub fn view(args: ViewArgs, device: Option<usize>) -> anyhow::Result<()> {
             dir.display()
         );
     }
-    let scene = load_scene_from(
-        args.scene.as_deref(),
-        &args.scene_args,
-        args.camera,
-        args.orbit_lights,
-    )?;
+    let scene = args.scene_args.load(&args.orbit)?;
     let knobs = Knobs {
         size: Some(args.size),
         accumulate: Some(!args.no_accumulate),
-        density: Some(args.density),
-        denoise: Some(args.denoise),
-        ..args.quality.knobs(Some(ispm::quality::VIEW_DEFAULT))
+        density: Some(args.estimate.density),
+        denoise: Some(args.estimate.denoise),
+        ..args
+            .quality
+            .knobs(Some(ispm::config::quality::VIEW_DEFAULT))
     };
-    let settings = ispm::viewer::ViewSettings {
+    let settings = ispm::app::viewer::ViewSettings {
         render: RenderSettings::from_knobs(&knobs, &scene.bounds())?,
         device_index: device,
         frames: args.frames,
@@ -129,7 +107,7 @@ pub fn view(args: ViewArgs, device: Option<usize>) -> anyhow::Result<()> {
         shots: args.shots,
         presses: args.press,
     };
-    let report = ispm::viewer::run(scene, settings)?;
+    let report = ispm::app::viewer::run(scene, settings)?;
     log::info!(
         "{} frames, {} swapchain(s) recreated, overlay drawn in {} (at most {} vertices)",
         report.frames,

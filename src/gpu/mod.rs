@@ -29,6 +29,7 @@ mod instance;
 mod overlay;
 mod pipeline;
 mod resources;
+pub mod scene;
 pub mod shaders;
 mod swapchain;
 mod timestamps;

@@ -18,7 +18,7 @@
 use super::device::{Gpu, QueueRole, TimelinePoint};
 use super::error::vk_err;
 use super::Cmd;
-use crate::pass_id::PassId;
+use crate::timing::pass_id::PassId;
 use ash::vk;
 use std::collections::VecDeque;
 use std::sync::Arc;

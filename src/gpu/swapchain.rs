@@ -21,7 +21,7 @@ use super::error::{vk_err, GpuError, GpuResult};
 use super::overlay::{OverlayFrame, OverlayPass};
 use super::resources::Image;
 use super::Access;
-use crate::pass_id::PassId;
+use crate::timing::pass_id::PassId;
 use ash::vk;
 use raw_window_handle::{HasDisplayHandle, HasWindowHandle};
 use std::sync::Arc;

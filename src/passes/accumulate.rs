@@ -16,7 +16,7 @@
 
 use super::ComputeKernel;
 use crate::gpu::{vk, Cmd, Gpu, Image, ImageDesc, Shaders, Use, ViewKind};
-use crate::pass_id::PassId;
+use crate::timing::pass_id::PassId;
 use std::sync::Arc;
 
 #[repr(C)]

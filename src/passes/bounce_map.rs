@@ -20,9 +20,9 @@
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
 use crate::gpu::{Buffer, Cmd, Filter, Gpu, Sampler, Shaders, Use};
-use crate::pass_id::PassId;
 use crate::photon::bsdf::BsdfVariant;
 use crate::photon::types::BounceMapPhoton;
+use crate::timing::pass_id::PassId;
 use std::ops::Range;
 use std::sync::Arc;
 

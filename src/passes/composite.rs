@@ -3,7 +3,7 @@
 
 use super::ComputeKernel;
 use crate::gpu::{Cmd, Filter, Gpu, Image, Sampler, Shaders, Use};
-use crate::pass_id::PassId;
+use crate::timing::pass_id::PassId;
 use std::sync::Arc;
 
 #[repr(C)]

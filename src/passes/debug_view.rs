@@ -20,10 +20,10 @@
 
 use super::bounce_map::Split;
 use super::eye_gbuffer::GBuffer;
-use super::tonemap::Tonemap;
 use super::ComputeKernel;
+use crate::config::settings::Tonemap;
 use crate::gpu::{shader_table, vk, Buffer, Cmd, Filter, Gpu, Image, Sampler, Shaders, Use};
-use crate::pass_id::PassId;
+use crate::timing::pass_id::PassId;
 use std::sync::Arc;
 
 /// The count at the top of the photon-overdraw view's scale.

@@ -37,7 +37,7 @@
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
 use crate::gpu::{vk, Cmd, Filter, Gpu, Image, ImageDesc, Sampler, Shaders, Use, ViewKind};
-use crate::pass_id::PassId;
+use crate::timing::pass_id::PassId;
 use std::sync::Arc;
 
 /// Exponent of the normal-similarity weight.

@@ -5,8 +5,8 @@
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
 use crate::gpu::{Buffer, Cmd, Filter, Gpu, Image, Sampler, Shaders, Use};
-use crate::pass_id::PassId;
 use crate::photon::bsdf::BsdfVariant;
+use crate::timing::pass_id::PassId;
 use std::sync::Arc;
 
 /// The buffers the direct pass reads.

@@ -18,14 +18,14 @@
 //! ```
 
 use super::eye_gbuffer::{draw_instances, material_texture_sets};
+use crate::gpu::scene::{Draw, GpuScene};
 use crate::gpu::{
     uses, vk, Attachment, Binding, Blend, Buffer, Cmd, Depth, DescriptorLayout, DescriptorSet,
     Filter, Gpu, GraphicsDesc, Image, ImageDesc, Load, Pipeline, Sampler, Shaders, Use, ViewKind,
 };
-use crate::gpu_scene::{Draw, GpuScene};
 use crate::layout::{DrawPush, FrameUniforms, Vertex};
-use crate::pass_id::PassId;
 use crate::photon::bsdf::BsdfVariant;
+use crate::timing::pass_id::PassId;
 use glam::{Mat4, Vec3, Vec4};
 use std::sync::Arc;
 

@@ -11,13 +11,13 @@
 //!                       their far plane, `lighting.rs`)
 //! ```
 
+use crate::gpu::scene::{Draw, GpuScene};
 use crate::gpu::{
     uses, vk, Attachment, Binding, Blend, Buffer, Cmd, Depth, DescriptorLayout, DescriptorSet, Gpu,
     GraphicsDesc, Image, ImageDesc, Load, Pipeline, Use, ViewKind,
 };
-use crate::gpu_scene::{Draw, GpuScene};
 use crate::layout::{DrawPush, Vertex};
-use crate::pass_id::PassId;
+use crate::timing::pass_id::PassId;
 use std::sync::Arc;
 
 pub const POSITION: vk::Format = vk::Format::R32G32B32A32_SFLOAT;

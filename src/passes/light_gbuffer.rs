@@ -6,10 +6,10 @@
 //! bounce map starts from it.
 
 use super::eye_gbuffer::{GBuffer, GBufferPass, View};
+use crate::gpu::scene::{Draw, GpuScene};
 use crate::gpu::{vk, Buffer, Cmd, Gpu};
-use crate::gpu_scene::{Draw, GpuScene};
 use crate::layout::FrameUniforms;
-use crate::pass_id::PassId;
+use crate::timing::pass_id::PassId;
 use std::sync::Arc;
 
 pub struct LightGBufferPass {

@@ -18,7 +18,7 @@
 //! fragment invocations, not arithmetic, so the gather is 2–5× cheaper there; on an NVIDIA
 //! H100 it is 13–280× cheaper, the volumes' overlapping fragments costing far more than the
 //! gather's culled list (docs/performance.md, "Density estimators"). `--density auto` picks
-//! the gather wherever the device has its subgroup operations ([`crate::settings::Density`]);
+//! the gather wherever the device has its subgroup operations ([`crate::config::settings::Density`]);
 //! the volumes stay for devices without them and as the paper's method to compare against.
 //! No shared memory and no barrier: llvmpipe runs a workgroup's
 //! SIMD vectors as coroutines, and barriers made a shared-memory version 3× slower than the
@@ -40,10 +40,10 @@ use crate::gpu::{
     uses, vk, Binding, Buffer, Cmd, ComputeDesc, DescriptorLayout, DescriptorSet, Filter, Gpu,
     Image, MemoryLocation, Pipeline, Sampler, Shaders, SpecConstant, Use,
 };
-use crate::pass_id::PassId;
+use crate::layout::shared_constants::TILE_JOB;
 use crate::photon::bsdf::BsdfVariant;
 use crate::photon::kernel::KernelSettings;
-use crate::shared_constants::TILE_JOB;
+use crate::timing::pass_id::PassId;
 use std::sync::Arc;
 
 pub mod lists;

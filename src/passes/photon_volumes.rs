@@ -40,10 +40,10 @@ use crate::gpu::{
     DescriptorSet, Filter, Gpu, GraphicsDesc, Image, ImageDesc, Load, Pipeline, Sampler, Shaders,
     Use, VertexAttribute, ViewKind,
 };
-use crate::pass_id::PassId;
+use crate::layout::shared_constants::{BILLBOARD_INSIDE, BILLBOARD_MARGIN};
 use crate::photon::bsdf::BsdfVariant;
 use crate::photon::kernel::KernelSettings;
-use crate::shared_constants::{BILLBOARD_INSIDE, BILLBOARD_MARGIN};
+use crate::timing::pass_id::PassId;
 use std::sync::Arc;
 
 pub const FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;

@@ -1,13 +1,13 @@
 //! Shadow maps: the scene's depth seen from every light view, one layer of the shadow atlas
 //! each (see `lighting.rs` for which views a light gets).
 
+use crate::gpu::scene::{Draw, GpuScene};
 use crate::gpu::{
     vk, Attachment, Cmd, Depth, Gpu, GpuResult, GraphicsDesc, Image, ImageDesc, Load, Pipeline,
     ViewKind,
 };
-use crate::gpu_scene::{Draw, GpuScene};
 use crate::layout::{DrawPush, Vertex};
-use crate::pass_id::PassId;
+use crate::timing::pass_id::PassId;
 use std::sync::Arc;
 
 pub const FORMAT: vk::Format = vk::Format::D32_SFLOAT;

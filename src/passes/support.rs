@@ -59,7 +59,7 @@
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
 use crate::gpu::{Buffer, Cmd, Filter, Gpu, Image, Sampler, Shaders, SpecConstant, Use};
-use crate::pass_id::PassId;
+use crate::timing::pass_id::PassId;
 use std::sync::Arc;
 
 #[repr(C)]

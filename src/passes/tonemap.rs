@@ -1,9 +1,9 @@
 //! Tonemapping (compute): HDR radiance × 2^EV → operator → sRGB, into an 8-bit image.
 
 use super::ComputeKernel;
+use crate::config::settings::Tonemap;
 use crate::gpu::{vk, Cmd, Filter, Gpu, Image, ImageDesc, Sampler, Shaders, Use, ViewKind};
-use crate::pass_id::PassId;
-pub use crate::settings::Tonemap;
+use crate::timing::pass_id::PassId;
 use std::sync::Arc;
 
 pub const FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;

@@ -8,14 +8,14 @@
 //! light and the photons' indirect light, one refraction, from the cube's centre).
 
 use super::eye_gbuffer::{draw_instances, material_texture_sets};
+use crate::gpu::scene::{Draw, GpuScene};
 use crate::gpu::{
     uses, vk, Attachment, Binding, Blend, Buffer, Cmd, Depth, DescriptorLayout, DescriptorSet,
     Filter, Gpu, GraphicsDesc, Image, Load, Pipeline, Sampler, Shaders, Use,
 };
-use crate::gpu_scene::{Draw, GpuScene};
 use crate::layout::{DrawPush, Vertex};
-use crate::pass_id::PassId;
 use crate::photon::bsdf::BsdfVariant;
+use crate::timing::pass_id::PassId;
 use std::sync::Arc;
 
 /// What the translucent shader reads.

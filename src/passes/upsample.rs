@@ -35,10 +35,10 @@
 
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
+use crate::config::settings::Upsample;
 use crate::gpu::{vk, Buffer, Cmd, Filter, Gpu, Image, ImageDesc, Sampler, Shaders, Use, ViewKind};
-use crate::pass_id::PassId;
 use crate::photon::bsdf::BsdfVariant;
-pub use crate::settings::Upsample;
+use crate::timing::pass_id::PassId;
 use std::sync::Arc;
 
 /// Exponent of the normal-similarity weight.

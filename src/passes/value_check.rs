@@ -43,9 +43,9 @@ use crate::gpu::{
     vk, Access, BindingKind, Buffer, Cmd, Filter, Gpu, Image, MemoryLocation, Sampler, Shaders, Use,
 };
 use crate::layout::ValueCounters;
-use crate::pass_id::PassId;
 use crate::passes::bounce_map::MAX_BOUNCE_BUFFERS;
 use crate::passes::photon_volumes::MAX_PHOTON_BUFFERS;
+use crate::timing::pass_id::PassId;
 use std::ops::Range;
 use std::sync::Arc;
 

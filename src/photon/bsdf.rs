@@ -69,11 +69,11 @@ use super::sampling::{
     blinn_phong_half_vector, blinn_phong_half_vector_pdf, cosine_hemisphere, cosine_hemisphere_pdf,
     Frame,
 };
-use crate::scene::Material;
-use crate::shared_constants::{
+use crate::layout::shared_constants::{
     BSDF_MIN_COS, BSDF_MIN_LENGTH_SQUARED, GLOSSY_EXPONENT_MAX, PATH_DENSITY_GLOSSY_DIVISOR,
     PATH_DENSITY_LAMBERTIAN_DIVISOR, PI,
 };
+use crate::scene::Material;
 use glam::Vec3;
 
 /// The lobe a sample took; `as usize` indexes [`Bsdf::albedo_weights`].

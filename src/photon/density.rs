@@ -72,7 +72,7 @@ use queries::class_radii;
 
 /// ρp above which a photon is a caustic photon: no diffuse bounce on its path (module docs,
 /// "Classes").
-pub const CAUSTIC_PATH_DENSITY: f32 = crate::shared_constants::CAUSTIC_PATH_DENSITY;
+pub const CAUSTIC_PATH_DENSITY: f32 = crate::layout::shared_constants::CAUSTIC_PATH_DENSITY;
 
 /// k of the global photons at up to [`REFERENCE_PHOTONS`] emitted photons. On `cornell-box` at
 /// 640×480 and 100k photons (whole-image relMSE against progressive photon mapping; photon

@@ -19,9 +19,9 @@
 
 use super::rng::{hash2, seed_bounce_map_texel, Rng};
 use super::sampling::{concentric_disk, cosine_hemisphere, uniform_sphere, Frame};
+use crate::layout::shared_constants::{LIGHT_AREA_SAMPLE, LIGHT_SPOT};
 use crate::scene::emitters::Emitters;
 use crate::scene::{Aabb, Light, LightKind, Scene};
-use crate::shared_constants::{LIGHT_AREA_SAMPLE, LIGHT_SPOT};
 use glam::Vec3;
 use std::f32::consts::{PI, TAU};
 

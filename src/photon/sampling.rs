@@ -3,7 +3,7 @@
 //! Every function has a twin of the same name in `glsl/common/bsdf.glsl`. Local directions are
 //! expressed in a [`Frame`] whose `n` is +z.
 
-use crate::shared_constants::PI;
+use crate::layout::shared_constants::PI;
 use glam::{Vec2, Vec3};
 
 /// An orthonormal basis `(t, b, n)` around a unit normal `n` (right-handed: `t × b = n`).

@@ -75,7 +75,7 @@
 //! Each path draws from `Rng::new(hash2(path_key, seed))` (frame-coherent). The CPU
 //! references' paths are keyed by where they start (`hash_vec3(origin)`: the same start gives
 //! the same path); the GPU bounce map's by the texel they come from
-//! ([`crate::ispm::BouncePlan::photon_starts`]), so that a slowly moving light keeps each
+//! ([`crate::plan::bounce_plan::BouncePlan::photon_starts`]), so that a slowly moving light keeps each
 //! path's random numbers and its photons move with it instead of being drawn anew (the
 //! temporal stability case, docs/stability.md). Work is split into fixed-size chunks traced in parallel by
 //! rayon; per-chunk buffers are concatenated in chunk order, so the photon map does not depend
@@ -169,7 +169,7 @@ impl PhotonState {
     /// along the direction by the error bound ([`BouncePlan::photon_starts`] computes it from
     /// the scene's scale and the position's magnitude).
     ///
-    /// [`BouncePlan::photon_starts`]: crate::ispm::BouncePlan::photon_starts
+    /// [`BouncePlan::photon_starts`]: crate::plan::bounce_plan::BouncePlan::photon_starts
     pub fn from_bounce_map(
         p: &BounceMapPhoton,
         position: Vec3,

@@ -25,11 +25,11 @@
 //!   is 0) and `‖v‖²` stays a finite, normal `f32`; NaN and +∞ (a photon alone in its class,
 //!   `density::NO_NEIGHBOURS`) pack as the maximum, which every kernel clamp turns into `r_max`.
 //! - The tracer stores unit normals (`photon::trace`, the per-light photons `PhotonFrame`
-//!   keeps); only the copy written for the GPU ([`crate::photon_frame::PhotonFrame::photon_map`])
+//!   keeps); only the copy written for the GPU ([`crate::render::photon_frame::PhotonFrame::photon_map`])
 //!   and the CPU gather's records are packed. Readers that want the direction normalise (the
 //!   photon volumes' shaders always did).
 //! - A zero or non-finite n packs to the zero vector, which unpacks to `(0, 0)`.
-use crate::shared_constants::{PACKED_RADIUS_MAX, PACKED_RADIUS_MIN, PATH_DENSITY_MAX};
+use crate::layout::shared_constants::{PACKED_RADIUS_MAX, PACKED_RADIUS_MIN, PATH_DENSITY_MAX};
 use bytemuck::{Pod, Zeroable};
 use core::mem::{offset_of, size_of};
 use glam::Vec3;

@@ -6,11 +6,11 @@
 use super::emitters::{emitters_decision, has_area_samples};
 use super::{bounces, Decision, EffectsPlan, Enclosures, LightPlan, MotionPlan, Used};
 use super::{SceneAnalysis, StaticEnclosures};
+use crate::config::settings::{Effects, Method, RenderSettings};
 use crate::photon::bsdf::MaterialLobes;
 use crate::photon::emit::photon_budget;
 use crate::scene::emitters::Emitters;
 use crate::scene::{Aabb, Camera, Material, Scene};
-use crate::settings::{Effects, Method, RenderSettings};
 use glam::Vec3;
 
 /// The materials instances use (the default material for a missing one, as `GpuScene` does).

@@ -2,9 +2,9 @@
 //! whether a scene's lights include their area samples (`scene::emitters`).
 
 use super::Decision;
+use crate::config::settings::RenderSettings;
 use crate::scene::emitters::Emitters;
 use crate::scene::{LightKind, Scene};
-use crate::settings::RenderSettings;
 
 /// Whether `scene`'s lights include emitters' area samples (`scene::emitters`).
 pub(super) fn has_area_samples(scene: &Scene) -> bool {

@@ -2,8 +2,8 @@
 //! reason, from the plan's decisions (`ispm plan` prints them; the stats list the skipped ones).
 
 use super::{EffectsPlan, PassPlan};
-use crate::pass_id::PassId;
-use crate::settings::Density;
+use crate::config::settings::Density;
+use crate::timing::pass_id::PassId;
 
 impl EffectsPlan {
     /// Every pass of the frame, in frame order, run or skipped, and why.

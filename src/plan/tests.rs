@@ -2,11 +2,11 @@
 //! a rule could misfire, one built not to).
 
 use super::*;
-use crate::pass_id::PassId;
+use crate::config::settings::Method;
 use crate::photon::trace::MAX_BOUNCES;
 use crate::reference::scenes::{closed_box, cornell, grey_box};
 use crate::scene::{Camera, Light, LightKind, Scene};
-use crate::settings::Method;
+use crate::timing::pass_id::PassId;
 use glam::{Mat4, Vec3};
 
 fn settings() -> RenderSettings {
@@ -523,7 +523,7 @@ fn the_pass_list_covers_every_stage_and_prints_one_line_per_decision() {
         &scene.camera,
     );
     let passes = p.passes();
-    for stage in crate::stats::stages() {
+    for stage in crate::render::stats::stages() {
         assert!(passes.iter().any(|q| q.name == stage), "{stage} missing");
     }
     assert!(pass(&passes, PassId::Upsample).run);

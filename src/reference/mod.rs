@@ -23,6 +23,7 @@ pub mod scenes;
 
 pub use self::image::HdrImage;
 
+use crate::config::settings::Method;
 use crate::photon::bsdf::{Bsdf, Lobe};
 use crate::photon::bvh::SceneBvh;
 use crate::photon::emit::spot_falloff;
@@ -31,7 +32,6 @@ use crate::photon::rng::{hash2, Rng};
 use crate::photon::trace::{bsdf_at, emitted, has_finite_lobe, MAX_BOUNCES};
 use crate::scene::emitters::Emitters;
 use crate::scene::{LightKind, Scene};
-use crate::settings::Method;
 use anyhow::{bail, Result};
 use glam::Vec3;
 use indicatif::ProgressBar;

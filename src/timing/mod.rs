@@ -26,6 +26,7 @@
 
 mod chrome;
 mod clock;
+pub mod pass_id;
 
 pub use clock::now_ns;
 #[cfg(any(target_os = "linux", target_os = "android"))]

@@ -2,14 +2,14 @@
 //! `tests/goldens/<name>.exr` by relative mean squared error.
 //!
 //! - `relMSE(a, r) = mean over pixels and RGB channels of (a − r)² / (r² + ε)`, `ε = 10⁻²`
-//!   ([`rel_mse`], `ispm::metrics`; the same definition as `docs/accuracy.md`).
+//!   ([`rel_mse`], `ispm::tools::metrics`; the same definition as `docs/accuracy.md`).
 //! - On failure, `actual.exr/png`, `expected.exr/png` and `difference.png` (|a − r| / (|r| + 0.1),
 //!   false colour) are written under `target/tmp/test-images/<name>/` and their paths printed.
 //! - `ISPM_BLESS=1` (re)writes the golden from the actual image and passes.
 
 use std::path::{Path, PathBuf};
 
-pub use ispm::metrics::rel_mse;
+pub use ispm::tools::metrics::rel_mse;
 
 /// Where the checked-in goldens live.
 pub fn golden_path(name: &str) -> PathBuf {

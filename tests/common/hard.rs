@@ -19,9 +19,11 @@
 //! `ispm::scene::authoring` (see [`load_glb`]) or built directly as a [`Scene`].
 
 use glam::{Mat4, Quat, Vec3};
-use ispm::frame::{FrameImage, Method, RenderSettings, Renderer};
+use ispm::config::settings::{Method, RenderSettings};
 use ispm::gpu::Gpu;
 use ispm::photon::types::{BounceMapPhoton, Photon};
+use ispm::render::frame::Renderer;
+use ispm::render::stats::FrameImage;
 use ispm::scene::authoring::{
     cornell_room, cuboid, icosphere, quad, Geometry, GltfWriter, MaterialSpec,
 };

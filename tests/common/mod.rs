@@ -8,9 +8,9 @@ pub mod gltf_doc;
 pub mod golden;
 pub mod hard;
 
-use ispm::frame::{Method, RenderSettings};
+use ispm::config::settings::Effects;
+use ispm::config::settings::{Method, RenderSettings};
 use ispm::gpu::{Gpu, GpuOptions};
-use ispm::plan::Effects;
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -27,7 +27,10 @@ pub const REUSED_PHOTON_MAP_SKIPS: &[&str] = &[
 /// The density estimator's pass (GPU scope, stats stage, plan entry) that the default
 /// `--density auto` runs on the test device: `photon_tiles` on lavapipe.
 pub fn estimator_pass() -> &'static str {
-    ispm::frame::Density::Auto.resolve_for(None).pass().name()
+    ispm::config::settings::Density::Auto
+        .resolve_for(None)
+        .pass()
+        .name()
 }
 
 /// A device with the validation layer and synchronization validation on (always, in tests).

@@ -45,7 +45,7 @@ pub fn path_traced(scene: &Scene, passes: u32) -> Reference {
         };
         ispm::reference::render(
             scene,
-            ispm::settings::Method::PathTrace,
+            ispm::config::settings::Method::PathTrace,
             &settings,
             None,
             &cancel,
@@ -75,7 +75,7 @@ pub fn path_traced(scene: &Scene, passes: u32) -> Reference {
             let mean = s[c] / k;
             total.push(mean as f32 + direct[i][c]);
             let variance_of_mean = (q[c] / k - mean * mean).max(0.0) / (k - 1.0);
-            floor += variance_of_mean / (mean * mean + ispm::metrics::REL_MSE_EPSILON);
+            floor += variance_of_mean / (mean * mean + ispm::tools::metrics::REL_MSE_EPSILON);
             image.push(mean as f32);
         }
         image.push(1.0);
@@ -144,13 +144,13 @@ pub fn progressive_indirect(scene: &Scene) -> Vec<f32> {
             .pixels
     };
     let progressive = reference(
-        ispm::settings::Method::Progressive,
+        ispm::config::settings::Method::Progressive,
         PROGRESSIVE_ITERATIONS,
         CONVERGENCE_BOUNCES,
     );
     // Direct light only: with more bounces the path tracer's diffuse interreflection (floor →
     // glass → floor, L D S D E) would be subtracted too, though ISPM's photons carry it.
-    let direct = reference(ispm::settings::Method::PathTrace, 1, 0);
+    let direct = reference(ispm::config::settings::Method::PathTrace, 1, 0);
     progressive
         .iter()
         .zip(&direct)

@@ -22,10 +22,10 @@
 //! pixels are the low-resolution ones, each shading the G-buffer pixel at the centre of its N×N
 //! block.
 
+use crate::layout::shared_constants::PHOTON_TILE;
 use crate::passes::photon_volumes::billboard_half_size;
 use crate::photon::kernel::{kernel_radius, KernelSettings};
 use crate::photon::types::{unpack_normal, Photon};
-use crate::shared_constants::PHOTON_TILE;
 use glam::{Mat4, Vec3, Vec4};
 
 /// The host span (`timing::timed`) of binning the lists: `cpu.photon tiles` among `ispm

@@ -7,8 +7,8 @@
 //! exponent, a mirror for σ = ∞.
 
 use super::{fresnel_ramp, fresnel_ramp_share, Bsdf};
+use crate::layout::shared_constants::{SPEC_ID_DELTA_LOBES, SPEC_ID_GLOSSY_LOBE};
 use crate::scene::Material;
-use crate::shared_constants::{SPEC_ID_DELTA_LOBES, SPEC_ID_GLOSSY_LOBE};
 use glam::Vec3;
 
 /// The lobes of one material that can carry light (texture-independent: a texture only scales

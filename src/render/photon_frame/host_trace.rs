@@ -1,0 +1,102 @@
+//! Box C of the photon part of a frame, on the host: the CPU trace of the bounce map read back
+//! by box A (`emission.rs`), with the kept lights' photons (`retrace.rs`), the photons' kNN
+//! radii over the whole map (`photon_frame.rs`'s module docs, "Kernel radii"), the photon map
+//! written to the staging buffers, and its copy to the GPU on the transfer queue for box D's
+//! estimate (`estimate.rs`).
+
+use super::buffers::PhotonBuffers;
+use super::{drawn_photons, retrace, PhotonFrame};
+use crate::gpu::{Cmd, QueueRole};
+use crate::photon::density::knn_radii;
+use crate::photon::types::{BounceMapPhoton, Photon};
+use crate::render::stats::FrameStats;
+use crate::timing;
+use crate::timing::pass_id::PassId;
+use std::ops::Range;
+
+/// Photons packed at a time for the staging buffers (3 MiB).
+const WRITE_CHUNK: usize = 1 << 16;
+
+impl PhotonFrame {
+    /// Box C, on the host once the readback has completed: traces the re-traced lights'
+    /// bounce-map photons on every core, keeps the other lights' photons, and writes the photon
+    /// map (light after light) into the staging buffer for [`Self::record_upload`]. The
+    /// previous frame's upload must have completed.
+    pub fn trace(&mut self) -> anyhow::Result<FrameStats> {
+        let plan = &self.plan;
+        let mut stats = FrameStats {
+            bounce_map_records: plan.texels,
+            lights_at_max_resolution: plan.lights_at_max_resolution.clone(),
+            ..Default::default()
+        };
+        if plan.texels == 0 {
+            self.buffers.counts.fill(0);
+            self.traced.clear();
+            self.radii.clear();
+            return Ok(stats);
+        }
+        anyhow::ensure!(
+            self.retrace.len() == self.scene.lights.len(),
+            "the photon trace ran without its emission"
+        );
+        // Only the re-traced lights' records, straight from the mapped readback.
+        let readback = &self.readback;
+        let mut read = |texels: Range<usize>, out: &mut [BounceMapPhoton]| {
+            let offset = (texels.start * size_of::<BounceMapPhoton>()) as u64;
+            readback.read_into(offset, bytemuck::cast_slice_mut(out))
+        };
+        let frame = retrace::Frame {
+            plan,
+            scene: &self.scene,
+            bvh: &self.bvh,
+            trace: &self.trace,
+            retrace: &self.retrace,
+            sample: self.sample,
+        };
+        self.traced.update(&frame, &mut read, &mut stats)?;
+        // The kernel radii over every light's photons (module docs, "Kernel radii"), before
+        // anything can fail: the radii always match the kept photons.
+        let (traced, neighbours) = (&self.traced, self.neighbours);
+        self.radii = timing::timed("photon density", || knn_radii(traced.photons(), neighbours));
+        let count = self.traced.photon_count();
+        if !self.buffers.holds(count) {
+            // The old buffers go to the graveyard, destroyed once the frames using them finish.
+            // The photons that were on the graphics queue were released in `record_emission`
+            // (they have none now: the new buffers start out owned by nobody).
+            let per_buffer = self.buffers.per_buffer;
+            let capacity = count.next_power_of_two();
+            self.buffers = PhotonBuffers::new(&self.gpu, count, capacity, per_buffer)?;
+            self.rebind = true;
+        }
+        // Light after light, each light's photons where a fresh map has them, normals packed
+        // with their radii, a chunk at a time.
+        let mut drawn = drawn_photons(&self.traced, &self.radii, glam::Vec3::ZERO);
+        let chunks = std::iter::from_fn(|| {
+            let chunk: Vec<Photon> = drawn.by_ref().take(WRITE_CHUNK).collect();
+            (!chunk.is_empty()).then_some(chunk)
+        });
+        timing::timed("upload write", || self.buffers.write(chunks))?;
+        stats.photon_buffers = self.buffers.counts.iter().filter(|&&n| n > 0).count();
+        stats.bounce_map_buffers = self.bounce_map_buffers();
+        Ok(stats)
+    }
+
+    /// Buffers of the bounce map holding this frame's records.
+    fn bounce_map_buffers(&self) -> usize {
+        let split = self.bounce_map.split;
+        split.pieces(0..self.plan.texels).count()
+    }
+
+    /// The CPU→GPU copy of the photon map (on the transfer queue), handing it to the graphics
+    /// queue for [`Self::record_estimate`].
+    pub fn record_upload(&self, cmd: &Cmd) {
+        if self.count() == 0 {
+            return;
+        }
+        let _scope = cmd.scope(PassId::Upload.name());
+        for (staging, photons) in self.buffers.used() {
+            cmd.copy_buffer(staging, photons);
+            cmd.release_buffer(photons, QueueRole::Graphics);
+        }
+    }
+}

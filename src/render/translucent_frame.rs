@@ -1,0 +1,227 @@
+//! The translucent part of a frame: the environment cube map (cached), the photons' indirect
+//! light seen from its centre (a small cube, new with every photon map), and the forward pass
+//! that draws glass and mirrors over the opaque radiance. Exists only for scenes with at least
+//! one delta-material instance; `frame.rs` calls [`TranslucentFrame::update`] with the frame's
+//! uniforms, [`TranslucentFrame::set_indirect`] after a photon trace and
+//! [`TranslucentFrame::record`] after the composite.
+
+use crate::gpu::scene::{Draw, GpuScene};
+use crate::gpu::{vk, Buffer, Gpu, Image, ImageDesc, MemoryLocation, ViewKind};
+use crate::layout::{EnvironmentUniforms, FrameUniforms};
+use crate::passes::environment::{EnvironmentInputs, EnvironmentPass};
+use crate::passes::translucent::{TranslucentInputs, TranslucentPass};
+use crate::photon::bsdf::BsdfVariant;
+use crate::render::photon_frame::environment::FACE_SIZE as INDIRECT_FACE_SIZE;
+use crate::scene::{Aabb, Scene};
+use glam::DVec3;
+use std::sync::Arc;
+
+/// The buffers and images of the frame the translucent passes read.
+pub struct TranslucentResources<'a> {
+    pub frame: &'a Buffer,
+    pub lights: &'a Buffer,
+    pub shadow_views: &'a Buffer,
+    pub shadow_atlas: &'a Image,
+}
+
+pub struct TranslucentFrame {
+    environment: EnvironmentPass,
+    pass: TranslucentPass,
+    /// `EnvironmentUniforms`, camera-relative, rewritten every frame.
+    uniforms: Buffer,
+    /// The photons' indirect light seen from the centre (an RGBA16F cube like the direct one:
+    /// linear filtering of 16-bit floats is required by Vulkan, of 32-bit ones not;
+    /// `photon_frame/environment.rs`), its host-visible staging copy, and whether the staging
+    /// copy holds texels the cube does not have yet.
+    indirect: Image,
+    indirect_staging: Buffer,
+    indirect_pending: bool,
+    /// World-space centre of the cube map: the centre of the delta instances' bounds.
+    centre: DVec3,
+    /// World-space scene bounds, the box environment lookups are projected onto.
+    bounds: Aabb,
+    /// Near plane of the cube faces (metres).
+    near: f32,
+}
+
+impl TranslucentFrame {
+    /// `None` when no instance has a delta material: the pass does not run and no cube map is
+    /// allocated. Both passes compile in the über-BSDF lobes of `variant`.
+    pub fn new(
+        gpu: &Arc<Gpu>,
+        scene: &Scene,
+        gpu_scene: &GpuScene,
+        resources: &TranslucentResources,
+        depth_format: vk::Format,
+        radiance_format: vk::Format,
+        variant: BsdfVariant,
+    ) -> anyhow::Result<Option<Self>> {
+        let delta = gpu_scene.delta_bounds(scene);
+        if delta.is_empty() {
+            return Ok(None);
+        }
+        let uniforms = Buffer::constants(
+            gpu,
+            "environment.uniforms",
+            size_of::<EnvironmentUniforms>() as u64,
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+        )?;
+        let environment = EnvironmentPass::new(
+            gpu,
+            gpu_scene,
+            &EnvironmentInputs {
+                materials: &gpu_scene.materials,
+                lights: resources.lights,
+                shadow_views: resources.shadow_views,
+                shadow_atlas: resources.shadow_atlas,
+            },
+            variant,
+        )?;
+        let texels = 6 * INDIRECT_FACE_SIZE * INDIRECT_FACE_SIZE;
+        let indirect = Image::new(
+            gpu,
+            &ImageDesc {
+                name: "environment.indirect",
+                format: crate::passes::environment::FORMAT,
+                width: INDIRECT_FACE_SIZE,
+                height: INDIRECT_FACE_SIZE,
+                layers: 6,
+                usage: vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
+                view: ViewKind::Cube,
+            },
+        )?;
+        let indirect_staging = Buffer::new(
+            gpu,
+            "environment.indirect.staging",
+            u64::from(texels) * 8,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::CpuToGpu,
+        )?;
+        // Black until a photon map says otherwise (`--method direct`, or no photons).
+        indirect_staging.write(0, &vec![0u8; texels as usize * 8])?;
+        let pass = TranslucentPass::new(
+            gpu,
+            gpu_scene,
+            &TranslucentInputs {
+                frame: resources.frame,
+                materials: &gpu_scene.materials,
+                lights: resources.lights,
+                shadow_views: resources.shadow_views,
+                shadow_atlas: resources.shadow_atlas,
+                environment: &uniforms,
+                environment_map: &environment.cube,
+                environment_indirect: &indirect,
+            },
+            radiance_format,
+            depth_format,
+            variant,
+        )?;
+        let bounds = gpu_scene.bounds;
+        Ok(Some(Self {
+            environment,
+            pass,
+            uniforms,
+            indirect,
+            indirect_staging,
+            indirect_pending: true,
+            centre: delta.center().as_dvec3(),
+            bounds,
+            // Scale case: relative only (a 10⁻⁴ m floor clipped the middle of a 2 mm scene).
+            near: (1e-3 * bounds.extent().length()).max(f32::MIN_POSITIVE),
+        }))
+    }
+
+    /// Records this frame's camera-relative uniforms (and the cube faces' while it is dirty);
+    /// without `indirect` (the direct-only debug view) lookups leave the indirect cube out.
+    pub fn update(
+        &self,
+        cmd: &crate::gpu::Cmd,
+        frame: &FrameUniforms,
+        camera: DVec3,
+        indirect: bool,
+    ) {
+        let relative = |p: glam::Vec3| (p.as_dvec3() - camera).as_vec3().extend(1.0);
+        let centre = (self.centre - camera).as_vec3();
+        let uniforms = EnvironmentUniforms {
+            centre: centre.extend(if indirect { 1.0 } else { 0.0 }),
+            bounds_min: relative(self.bounds.min),
+            bounds_max: relative(self.bounds.max),
+        };
+        cmd.update_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
+        self.environment.update(cmd, frame, centre, self.near);
+    }
+
+    /// The environment cube map (if dirty) from the `opaque` draws, then the `delta` draws over
+    /// `radiance`, depth-tested against the eye G-buffer's `depth`. `resources` are the ones
+    /// the frame was made with.
+    pub fn record(
+        &mut self,
+        cmd: &crate::gpu::Cmd,
+        (scene, opaque, delta): (&GpuScene, &[Draw], &[Draw]),
+        resources: &TranslucentResources,
+        depth: &mut Image,
+        radiance: &mut Image,
+    ) {
+        let environment = EnvironmentInputs {
+            materials: &scene.materials,
+            lights: resources.lights,
+            shadow_views: resources.shadow_views,
+            shadow_atlas: resources.shadow_atlas,
+        };
+        self.environment.record(cmd, scene, opaque, &environment);
+        if std::mem::take(&mut self.indirect_pending) {
+            cmd.copy_buffer_to_image(&self.indirect_staging, &self.indirect);
+        }
+        let inputs = TranslucentInputs {
+            frame: resources.frame,
+            materials: &scene.materials,
+            lights: resources.lights,
+            shadow_views: resources.shadow_views,
+            shadow_atlas: resources.shadow_atlas,
+            environment: &self.uniforms,
+            environment_map: &self.environment.cube,
+            environment_indirect: &self.indirect,
+        };
+        self.pass
+            .record(cmd, (scene, delta), &inputs, depth, radiance);
+    }
+
+    /// World-space centre of the cube maps.
+    pub fn centre(&self) -> DVec3 {
+        self.centre
+    }
+
+    /// Gives the next [`Self::record`] new indirect texels (`PhotonFrame::environment_indirect`).
+    /// The GPU must be done with the previous frame (whose record may have copied the staging
+    /// buffer this writes).
+    pub fn set_indirect(&mut self, texels: &[[f32; 4]]) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            texels.len() == (6 * INDIRECT_FACE_SIZE * INDIRECT_FACE_SIZE) as usize,
+            "{} indirect environment texels for a cube of {INDIRECT_FACE_SIZE}² a face",
+            texels.len()
+        );
+        let halves: Vec<u16> = texels
+            .iter()
+            .flatten()
+            .map(|&v| half::f16::from_f32(v).to_bits())
+            .collect();
+        self.indirect_staging
+            .write(0, bytemuck::cast_slice(&halves))?;
+        self.indirect_pending = true;
+        Ok(())
+    }
+
+    /// Makes the next frame render the environment cube map again.
+    pub fn invalidate(&mut self) {
+        self.environment.invalidate();
+    }
+
+    /// Instances moved: the cube map is rendered again, from the centre of `delta`, the delta
+    /// instances' bounds where they are now (`GpuScene::delta_bounds`).
+    pub fn moved(&mut self, delta: Aabb) {
+        if !delta.is_empty() {
+            self.centre = delta.center().as_dvec3();
+        }
+        self.environment.invalidate();
+    }
+}
