@@ -4,7 +4,9 @@
 //! `settings::RenderSettings::from_knobs`: a command only maps its flags onto `settings::Knobs`.
 
 use anyhow::Context;
-use ispm::config::quality::{Quality, QualityFlag};
+use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+use clap::ValueEnum;
+use ispm::config::quality::Quality;
 use ispm::config::settings::{Density, Knobs};
 use ispm::gpu::{Gpu, GpuOptions};
 
@@ -22,8 +24,8 @@ pub struct QualityArgs {
     /// error–time Pareto fronts of the bundled scenes (docs/accuracy.md §5); explicit flags
     /// override its values. `none`: no preset, the flags' own defaults. Default: `high` for
     /// `render --method ispm`, `interactive` for `view`, `none` otherwise.
-    #[arg(long, value_enum)]
-    quality: Option<QualityFlag>,
+    #[arg(long, value_parser = preset_or_none())]
+    quality: Option<PresetOrNone>,
     /// Photons emitted per frame, split over the lights by power (default: the --quality
     /// preset's; 100000 without one). A light view holds at most 2048x2048 texels: a light whose share
     /// asks for more emits fewer photons, and `render` says so.
@@ -47,15 +49,26 @@ pub struct QualityArgs {
     upsample: Option<ispm::config::settings::Upsample>,
 }
 
+/// What `--quality` names: a preset, or `none` (no preset, whatever the command's default one).
+#[derive(Clone, Copy)]
+pub struct PresetOrNone(Option<Quality>);
+
+/// `--quality`'s values: `none` and the presets, each with its description.
+fn preset_or_none() -> impl TypedValueParser<Value = PresetOrNone> {
+    let none = PossibleValue::new("none").help("No preset: the flags' own defaults");
+    let presets = Quality::value_variants()
+        .iter()
+        .filter_map(ValueEnum::to_possible_value);
+    PossibleValuesParser::new(std::iter::once(none).chain(presets))
+        .map(|name| PresetOrNone(Quality::from_str(&name, false).ok()))
+}
+
 impl QualityArgs {
     /// The knobs these flags give, with `--quality`'s preset, else the command's `default` one
     /// (`settings::RenderSettings::from_knobs` fills the rest and checks them).
     pub fn knobs(&self, default: Option<Quality>) -> Knobs {
         Knobs {
-            preset: self
-                .quality
-                .map_or(default, QualityFlag::preset)
-                .map(Quality::preset),
+            preset: self.quality.map_or(default, |q| q.0).map(Quality::preset),
             photons: self.photons,
             bounces: self.bounces,
             radius: self.radius,

@@ -28,31 +28,6 @@ pub enum Quality {
     Reference,
 }
 
-/// What `--quality` names: a preset, or `none`, the flags' own defaults (100k photons, the
-/// scene-relative radius, full resolution) whatever the command's default preset.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum QualityFlag {
-    /// No preset: the flags' own defaults.
-    None,
-    Draft,
-    Interactive,
-    High,
-    Reference,
-}
-
-impl QualityFlag {
-    /// The preset named, if any.
-    pub fn preset(self) -> Option<Quality> {
-        match self {
-            QualityFlag::None => None,
-            QualityFlag::Draft => Some(Quality::Draft),
-            QualityFlag::Interactive => Some(Quality::Interactive),
-            QualityFlag::High => Some(Quality::High),
-            QualityFlag::Reference => Some(Quality::Reference),
-        }
-    }
-}
-
 impl Quality {
     /// The preset's knobs: points of the single-frame front of the four bundled scenes' sweeps
     /// taken together, picked by `docs/tools/presets.py` (docs/accuracy.md §5.3: geometric

@@ -5,7 +5,7 @@
 
 use super::PhotonFrame;
 use crate::gpu::scene::GpuScene;
-use crate::gpu::{Access, Cmd, QueueRole};
+use crate::gpu::{Access, Cmd, QueueRole, Resource};
 use crate::passes::bounce_map::{BounceMapIo, ViewBatch};
 use crate::photon::types::BounceMapPhoton;
 use crate::timing::pass_id::PassId;
@@ -110,10 +110,15 @@ impl PhotonFrame {
         let _scope = cmd.scope(PassId::Readback.name());
         let record = size_of::<BounceMapPhoton>() as u64;
         let split = self.bounce_map.split;
-        for buffer in &self.bounce_map.device {
-            // Every buffer, also one without new records: each is handed back below.
-            cmd.transition_buffer(buffer, Access::TransferSrc);
-        }
+        // Every buffer, also one without new records (each is handed back below), in one
+        // barrier.
+        let sources: Vec<(Resource, Access)> = self
+            .bounce_map
+            .device
+            .iter()
+            .map(|buffer| (Resource::Buffer(buffer), Access::TransferSrc))
+            .collect();
+        cmd.barriers(&sources);
         // Each buffer's new records to their places in the one readback buffer.
         for (b, buffer) in self.bounce_map.device.iter().enumerate() {
             let base = split.records_of(b).start;
