@@ -14,8 +14,6 @@ pub enum Access {
     /// Colour attachment read-modify-write (additive blending).
     ColorAttachmentBlend,
     DepthAttachmentWrite,
-    /// Depth test without writes, while the image may also be sampled.
-    DepthAttachmentRead,
     /// Sampled or fetched by a fragment shader.
     FragmentSampledRead,
     /// Sampled or fetched by a compute shader.
@@ -39,8 +37,6 @@ pub enum Access {
     /// Read by `vkCmdBlitImage` (the swapchain blit).
     BlitSrc,
     HostRead,
-    HostWrite,
-    Present,
 }
 
 /// The synchronization2 view of an [`Access`].
@@ -53,12 +49,11 @@ pub struct AccessInfo {
 
 impl Access {
     /// Every access, in declaration order (`Access as u32` indexes it).
-    pub const ALL: [Access; 20] = [
+    pub const ALL: [Access; 17] = [
         Access::Nothing,
         Access::ColorAttachmentWrite,
         Access::ColorAttachmentBlend,
         Access::DepthAttachmentWrite,
-        Access::DepthAttachmentRead,
         Access::FragmentSampledRead,
         Access::ComputeSampledRead,
         Access::ComputeStorageWrite,
@@ -72,8 +67,6 @@ impl Access {
         Access::TransferDst,
         Access::BlitSrc,
         Access::HostRead,
-        Access::HostWrite,
-        Access::Present,
     ];
 
     /// The one table.
@@ -97,11 +90,6 @@ impl Access {
                 S::EARLY_FRAGMENT_TESTS | S::LATE_FRAGMENT_TESTS,
                 A::DEPTH_STENCIL_ATTACHMENT_READ | A::DEPTH_STENCIL_ATTACHMENT_WRITE,
                 L::DEPTH_ATTACHMENT_OPTIMAL,
-            ),
-            Access::DepthAttachmentRead => (
-                S::EARLY_FRAGMENT_TESTS | S::LATE_FRAGMENT_TESTS,
-                A::DEPTH_STENCIL_ATTACHMENT_READ,
-                L::DEPTH_READ_ONLY_OPTIMAL,
             ),
             Access::FragmentSampledRead => (
                 S::FRAGMENT_SHADER,
@@ -146,8 +134,6 @@ impl Access {
             Access::TransferDst => (S::ALL_TRANSFER, A::TRANSFER_WRITE, L::TRANSFER_DST_OPTIMAL),
             Access::BlitSrc => (S::BLIT, A::TRANSFER_READ, L::TRANSFER_SRC_OPTIMAL),
             Access::HostRead => (S::HOST, A::HOST_READ, L::GENERAL),
-            Access::HostWrite => (S::HOST, A::HOST_WRITE, L::GENERAL),
-            Access::Present => (S::NONE, A::NONE, L::PRESENT_SRC_KHR),
         };
         AccessInfo {
             stage,

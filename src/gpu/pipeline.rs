@@ -79,12 +79,6 @@ pub enum Write<'a> {
         image: &'a Image,
         sampler: &'a Sampler,
     },
-    /// One layer of an array image, sampled.
-    ImageLayer {
-        image: &'a Image,
-        layer: u32,
-        sampler: &'a Sampler,
-    },
     StorageImage(&'a Image),
 }
 
@@ -170,18 +164,6 @@ impl DescriptorLayout {
                     [vk::DescriptorImageInfo {
                         sampler: sampler.raw,
                         image_view: image.view,
-                        image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-                    }],
-                )),
-                Write::ImageLayer {
-                    image,
-                    layer,
-                    sampler,
-                } => image_infos.push((
-                    b,
-                    [vk::DescriptorImageInfo {
-                        sampler: sampler.raw,
-                        image_view: image.layer_view(*layer),
                         image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
                     }],
                 )),

@@ -109,7 +109,7 @@ impl State {
     /// are undefined there; the frame script must hand it over with a release).
     pub fn next(&mut self, to: Access, family: u32, image: bool) -> Option<Barrier> {
         let t = to.info();
-        // A use without a stage (Nothing, Present) orders nothing: it is not a use to track.
+        // A use without a stage (Nothing) orders nothing: it is not a use to track.
         debug_assert!(
             !t.stage.is_empty(),
             "{to:?} is not a use a barrier can wait for"

@@ -46,8 +46,6 @@ pub enum Use<'a> {
     Bound(&'a Buffer),
     /// An image sampled (or fetched) through `sampler`.
     Sampled(&'a Image, &'a Sampler),
-    /// One layer of an array image, sampled.
-    SampledLayer(&'a Image, u32, &'a Sampler),
     /// A storage image written (and maybe read).
     Storage(&'a Image),
     /// A storage image only read.
@@ -60,7 +58,7 @@ impl<'a> Use<'a> {
         match self {
             Use::Uniform(_) => BindingKind::UniformBuffer,
             Use::Read(_) | Use::Write(_) | Use::Bound(_) => BindingKind::StorageBuffer,
-            Use::Sampled(..) | Use::SampledLayer(..) => BindingKind::SampledImage,
+            Use::Sampled(..) => BindingKind::SampledImage,
             Use::Storage(_) | Use::StorageRead(_) => BindingKind::StorageImage,
         }
     }
@@ -70,11 +68,6 @@ impl<'a> Use<'a> {
         match *self {
             Use::Uniform(b) | Use::Read(b) | Use::Write(b) | Use::Bound(b) => Write::Buffer(b),
             Use::Sampled(image, sampler) => Write::Image { image, sampler },
-            Use::SampledLayer(image, layer, sampler) => Write::ImageLayer {
-                image,
-                layer,
-                sampler,
-            },
             Use::Storage(image) | Use::StorageRead(image) => Write::StorageImage(image),
         }
     }
@@ -94,7 +87,7 @@ impl<'a> Use<'a> {
                 debug_assert!(compute, "{}: graphics passes write attachments", b.name);
                 (Resource::Buffer(b), Access::ComputeStorageWrite)
             }
-            Use::Sampled(image, _) | Use::SampledLayer(image, ..) => (
+            Use::Sampled(image, _) => (
                 Resource::Image(image),
                 pick(Access::ComputeSampledRead, Access::FragmentSampledRead),
             ),
@@ -112,7 +105,7 @@ impl<'a> Use<'a> {
     /// The image usage the resource must have been made with (none for buffers).
     pub fn usage(&self) -> vk::ImageUsageFlags {
         match self {
-            Use::Sampled(..) | Use::SampledLayer(..) => vk::ImageUsageFlags::SAMPLED,
+            Use::Sampled(..) => vk::ImageUsageFlags::SAMPLED,
             Use::Storage(_) | Use::StorageRead(_) => vk::ImageUsageFlags::STORAGE,
             _ => vk::ImageUsageFlags::empty(),
         }
@@ -131,11 +124,7 @@ pub fn kinds(uses: &[Use]) -> Vec<BindingKind> {
 /// would otherwise report later, further from its cause).
 pub fn writes<'a>(uses: &[Use<'a>]) -> Vec<Write<'a>> {
     for u in uses {
-        if let Use::Sampled(image, _)
-        | Use::SampledLayer(image, ..)
-        | Use::Storage(image)
-        | Use::StorageRead(image) = u
-        {
+        if let Use::Sampled(image, _) | Use::Storage(image) | Use::StorageRead(image) = u {
             assert!(
                 image.usage.contains(u.usage()),
                 "{} is bound as {:?} but was made without {:?}",
