@@ -12,7 +12,7 @@
 //! - [`plan`]: scene analysis → which effects, passes, lights and shader variants a frame
 //!   needs; the lights' shadow views; the bounce plan (photon budget → bounce-map views, bounce
 //!   map → photon map). No Vulkan.
-//! - [`reference`]: CPU reference renderers; no Vulkan.
+//! - [`reference`](mod@reference): CPU reference renderers; no Vulkan.
 //! - [`config`]: [`config::settings::RenderSettings`], built once from the user's knobs, and the
 //!   `--quality` presets.
 //! - [`photon`]: über-BSDF, photon types, RNG, BVH and watertight tracing, CPU photon tracer;

@@ -27,8 +27,8 @@ pub enum Access {
     /// Storage buffer read by graphics and compute shaders alike (scene-wide data such as the
     /// material buffer).
     AnyShaderStorageRead,
-    /// Uniform or storage buffer read by any shader stage: what [`Cmd::update_buffer`]
-    /// (super::Cmd::update_buffer) leaves a per-frame constant buffer in.
+    /// Uniform or storage buffer read by any shader stage: what
+    /// [`Cmd::update_buffer`](super::Cmd::update_buffer) leaves a per-frame constant buffer in.
     AnyShaderUniformRead,
     VertexInput,
     IndexInput,

@@ -20,7 +20,7 @@
 //!   loses much of the light of a rough lobe (half vectors that reflect `wo` below the horizon,
 //!   and the max): 0.14 at σ = 0 and normal incidence, 0.45 at grazing, about 0.5 at grazing
 //!   for any σ. **Glossy energy compensation** (issue #19) divides by E, tabulated in
-//!   `glsl/common/glossy_albedo.glsl` ([`glossy_albedo`]), so the lobe reflects exactly c_S at
+//!   `glsl/common/glossy_albedo.glsl` ([`glossy_albedo`](mod@glossy_albedo)), so the lobe reflects exactly c_S at
 //!   every angle (to the table's ±0.5 %): a white glossy room conserves energy like a white
 //!   Lambertian one. The estimator `f cos/pdf = c_S cos θi / (max(cos θo, cos θi) E) ≤ c_S/E`
 //!   stays bounded (E > 0.13). Like the Fresnel weights below, E depends on `wo` alone, so the

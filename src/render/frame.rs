@@ -15,16 +15,16 @@
 //! [`Renderer::submit_frame`] issues box A, the bounce map's copy to the host, and box B; then
 //! the host waits for the copy only and traces the photons on every core (box C) while the GPU
 //! draws box B (on a CPU device the default schedule waits for box B first,
-//! [`Schedule::trace_beside_box_b`]) (in scenes with glass or mirrors it then gathers the photons' light seen from
+//! [`Schedule::trace_beside_box_b`](crate::config::settings::Schedule::trace_beside_box_b)) (in scenes with glass or mirrors it then gathers the photons' light seen from
 //! the environment cube's centre, `photon_frame/environment.rs`, and waits for the previous
 //! frame's box D before it writes that cube's staging buffer); then it issues the photon map's
 //! upload and box D, which waits for it. Every
 //! cross-queue dependency is a wait on a queue's timeline; the bounce map and the photon buffer
 //! change queue-family ownership with release/acquire barriers where the transfer queue is a
 //! family of its own (`Cmd::release_buffer`). Per-frame constants go through the command stream
-//! (`Cmd::update_buffer`), so [`FRAMES_IN_FLIGHT`] frames can be in flight without the host
+//! (`Cmd::update_buffer`), so [`FRAMES_IN_FLIGHT`](crate::config::settings::FRAMES_IN_FLIGHT) frames can be in flight without the host
 //! writing memory an earlier frame still reads; a frame slot's timestamps are read when the
-//! slot comes round again (or in [`Renderer::finish`]). [`Schedule::Serial`] waits after every
+//! slot comes round again (or in [`Renderer::finish`]). [`Schedule::Serial`](crate::config::settings::Schedule::Serial) waits after every
 //! submission: the same work strictly in order, the baseline `ispm bench` compares against.
 //!
 //! The effects plan (`plan.rs`, issue #9) decides which of these steps exist, which lights they

@@ -20,7 +20,7 @@
 //! class around it (`photon::density`, the k-th nearest neighbour), over the whole photon map:
 //! every light's photons, so [`PhotonFrame::trace`] measures it again whenever it runs, kept
 //! lights included (their photons' neighbours may have changed). The per-light photons
-//! ([`retrace::Traced`]) keep the tracer's unit normals, and the radii are kept beside them in
+//! (`retrace::Traced`) keep the tracer's unit normals, and the radii are kept beside them in
 //! photon-map order; only the copy written to the staging buffers, and
 //! [`PhotonFrame::photon_map`], pack each normal with its radius (`photon::types::pack_normal`).
 //! So the kept photons stay exactly what a trace makes (the reuse's bit-for-bit invariant is

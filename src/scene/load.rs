@@ -2,9 +2,9 @@
 //!
 //! The loader reads the default scene (the `scene` property, else scene 0, else every root
 //! node), flattens its node hierarchy into [`Instance`]s, converts each triangle primitive
-//! into one [`Mesh`] ([`gltf_mesh`](super::gltf_mesh)), each material into über-BSDF
-//! parameters ([`gltf_material`](super::gltf_material)), KHR_lights_punctual lights into
-//! radiometric [`Light`]s ([`units`](super::units)) and perspective cameras into [`Camera`]s.
+//! into one [`Mesh`](super::Mesh) (`scene/gltf_mesh.rs`), each material into über-BSDF
+//! parameters (`scene/gltf_material.rs`), KHR_lights_punctual lights into
+//! radiometric [`Light`](super::Light)s ([`units`](super::units)) and perspective cameras into [`Camera`]s.
 //! Animation channels (translation, rotation, scale; STEP, LINEAR, CUBICSPLINE) become
 //! [`Clip`]s over the flattened node hierarchy ([`Animations`]), and an animated scene is
 //! returned posed at t = 0 ([`Scene::pose_at`]).

@@ -1,6 +1,6 @@
 //! `ispm sweep`: what accuracy costs in time. Renders one scene over a grid of the knobs that
 //! trade accuracy for time ([`grid`]), measures every configuration's per-stage times and its
-//! error against a cached CPU reference ([`measure`], [`reference`]), and writes the results
+//! error against a cached CPU reference ([`measure`], [`reference`](mod@reference)), and writes the results
 //! and plots into a folder ([`results`], [`plots`]):
 //!
 //! ```text
