@@ -63,7 +63,7 @@ uint texel_key(BounceView view, uvec2 xy) {
 }
 
 // Where inside its texel the photon of sample `sample_index` passes, in texels from its corner:
-// the twin of ispm::texel_jitter (src/plan/bounce_plan.rs), bit for bit (32-bit fixed point).
+// the twin of bounce_plan::texel_jitter (src/plan/bounce_plan.rs), bit for bit (32-bit fixed point).
 vec2 texel_jitter(uint key, uint sample_index) {
     uint x = hash2(key, JITTER_STREAM_X) + sample_index * JITTER_R2_X;
     uint y = hash2(key, JITTER_STREAM_Y) + sample_index * JITTER_R2_Y;
@@ -86,7 +86,7 @@ bool same_surface(ivec3 t, vec3 p, vec3 n, uint material) {
 
 // Whether the texel with key `key` sends its photon in sample `sample_index` when its view keeps
 // texels with probability `keep` (module docs of src/plan/bounce_plan.rs, "Budget"): the twin of
-// ispm::texel_kept (src/plan/bounce_plan.rs), bit for bit.
+// bounce_plan::texel_kept (src/plan/bounce_plan.rs), bit for bit.
 bool texel_kept(uint key, uint sample_index, float keep) {
     uint bits = hash2(key, KEEP_STREAM) + sample_index * KEEP_R1;
     return float(bits >> 8u) * (1.0 / 16777216.0) < keep;

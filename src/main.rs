@@ -87,3 +87,46 @@ fn main() -> ExitCode {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Cli;
+    use clap::CommandFactory;
+
+    /// Every command's arguments are consistent (no two with one name, every flattened group
+    /// well formed), which clap otherwise checks only when that command is parsed.
+    #[test]
+    fn every_commands_arguments_are_consistent() {
+        Cli::command().debug_assert();
+    }
+
+    /// The flags shared through flattened groups reach the commands that take them, and only
+    /// those: `sweep` measures with still lights, so it has no `--orbit-lights`.
+    #[test]
+    fn the_shared_flags_reach_the_commands_that_take_them() {
+        use clap::Parser;
+        for command in ["render", "view", "bench", "plan"] {
+            let args = [
+                "ispm",
+                command,
+                "cornell-box",
+                "--camera",
+                "0",
+                "--orbit-lights",
+                "--density",
+                "tiled",
+                "--denoise",
+                "0",
+            ];
+            assert!(Cli::try_parse_from(args).is_ok(), "{command}");
+        }
+        let sweep = ["ispm", "sweep", "--out", "x", "--camera", "0"];
+        assert!(Cli::try_parse_from(sweep).is_ok());
+        let orbit = ["ispm", "sweep", "--out", "x", "--orbit-lights"];
+        assert!(Cli::try_parse_from(orbit).is_err());
+        for q in ["none", "draft", "interactive", "high", "reference"] {
+            assert!(Cli::try_parse_from(["ispm", "render", "--quality", q]).is_ok());
+        }
+        assert!(Cli::try_parse_from(["ispm", "render", "--quality", "best"]).is_err());
+    }
+}

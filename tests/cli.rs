@@ -72,6 +72,48 @@ fn render_to_an_unknown_format_or_missing_folder_fails_cleanly() {
 }
 
 #[test]
+fn quality_none_drops_the_default_preset_and_an_unknown_preset_fails_cleanly() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let emitted = |quality: &[&str]| {
+        let (png, json) = (dir.path().join("q.png"), dir.path().join("q.json"));
+        let mut args = vec!["render", "--size", "32x24", "--frames", "1"];
+        args.extend_from_slice(quality);
+        args.extend(["-o", png.to_str().expect("utf8")]);
+        args.extend(["--stats", json.to_str().expect("utf8")]);
+        let out = ispm(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let stats: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).expect("stats")).expect("json");
+        stats["emitted_photons"].as_u64().expect("emitted_photons")
+    };
+    // `render`'s default preset (`high`: 10k photons) against no preset (100k, the flag's own
+    // default), each to within the light views' rounding.
+    let (preset, none) = (emitted(&[]), emitted(&["--quality", "none"]));
+    assert!((9_000..=11_000).contains(&preset), "{preset}");
+    assert!((90_000..=110_000).contains(&none), "{none}");
+    let bad = dir.path().join("bad.png");
+    let out = ispm(&[
+        "render",
+        "--quality",
+        "best",
+        "-o",
+        bad.to_str().expect("utf8"),
+    ]);
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("'best'") && stderr.contains("none, draft, interactive, high, reference"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(!bad.exists());
+}
+
+#[test]
 fn caustic_share_multiplies_the_rings_stored_photons_and_rejects_out_of_range_values() {
     let dir = tempfile::tempdir().expect("tempdir");
     let stored = |share: &str| {

@@ -59,7 +59,7 @@ fn a_light_touching_a_surface() {
     // intercepts; 0.1 mm above, the floor also gets the whole lower hemisphere, ρ·Φ/2 (less the
     // directions within 10⁻⁴ rad of the horizon, which leave its 3 m square). The light views'
     // near plane, 10⁻⁶ of the scene's diagonal (4 µm here), lies below 0.1 mm
-    // (`lighting.rs`); at 10⁻⁴ (0.4 mm) the floor was hidden from the photons (2.73 W).
+    // (`plan/lighting.rs`); at 10⁻⁴ (0.4 mm) the floor was hidden from the photons (2.73 W).
     let flux = total_flux(&on_scene);
     let (a, b) = (on.bounce_map_power().x, above.bounce_map_power().x);
     let expected = a + 0.75 * flux / 2.0;

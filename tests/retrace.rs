@@ -415,7 +415,7 @@ fn a_change_that_moves_no_lights_views_retraces_nothing_and_uploads_the_kept_map
     let third = r.render().expect("frame 2");
     assert_eq!(third.stats.lights_retraced, vec![1]);
     // A new name is a new light to the random numbers (they are keyed by the light's name,
-    // `ispm::light_seed`, not its position): that light alone is traced again.
+    // `bounce_plan::light_seed`, not its position): that light alone is traced again.
     let mut renamed = moved(&off_moved, 1, Vec3::new(0.1, 0.0, 0.0));
     renamed[0].name = "lamp".into();
     r.set_lights(&renamed).expect("rename light 0");

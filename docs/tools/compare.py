@@ -3,7 +3,7 @@
 
     python3 docs/tools/compare.py REFERENCE.exr IMAGE.exr [IMAGE.exr ...]
 
-Per image: relMSE (ispm's definition, metrics.rs: mean over pixels and RGB of
+Per image: relMSE (ispm's definition, src/tools/metrics.rs: mean over pixels and RGB of
 (a - r)^2 / (r^2 + 0.01)), relMSE after a 3-pixel box blur of both images (blotches and lattices
 survive it, per-pixel noise does not), the share of sparkle pixels (luminance above twice the
 median of its 5x5 neighbourhood, less the reference's own share), the mean ratio, and the

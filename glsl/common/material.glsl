@@ -4,7 +4,7 @@
 #include "shared.glsl"
 #include "bsdf.glsl"
 
-// gpu_scene.rs stores a perfect mirror's infinite exponent as 1e30.
+// gpu/scene.rs stores a perfect mirror's infinite exponent as 1e30.
 Bsdf material_bsdf(GpuMaterial m, vec3 lambertian) {
     float exponent = m.glossy.a >= 1e20 ? uintBitsToFloat(0x7f800000u) : m.glossy.a;
     return bsdf_make(lambertian, m.glossy.rgb, exponent, m.transmission.rgb, m.transmission.a,

@@ -17,7 +17,7 @@ float shadow_visibility(GpuLight light, vec3 p, vec3 n, vec3 wi) {
     float sin_t = sqrt(max(0.0, 1.0 - cos_t * cos_t));
     vec3 q = p + n * (1.5 * texel * max(sin_t, 0.2));
     // The face is chosen for the point actually looked up (cube faces overlap by a margin
-    // that covers the offset and the PCF footprint, see lighting.rs).
+    // that covers the offset and the PCF footprint, see plan/lighting.rs).
     uint vi = shadow_view_index(light, q);
     ShadowView view = shadow_views[vi];
     vec4 clip = view.view_proj * vec4(q, 1.0);
@@ -26,7 +26,7 @@ float shadow_visibility(GpuLight light, vec3 p, vec3 n, vec3 wi) {
     }
     vec3 ndc = clip.xyz / clip.w;
     vec2 uv = ndc.xy * 0.5 + 0.5;
-    // Reversed depth (lighting.rs): beyond the far plane is below 0.
+    // Reversed depth (plan/lighting.rs): beyond the far plane is below 0.
     if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))) || ndc.z < 0.0) {
         // Outside the light's view: spot cones and fitted directional frusta cover every
         // point the light reaches, so a point outside is not lit through this view.

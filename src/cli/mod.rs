@@ -59,8 +59,10 @@ fn preset_or_none() -> impl TypedValueParser<Value = PresetOrNone> {
     let presets = Quality::value_variants()
         .iter()
         .filter_map(ValueEnum::to_possible_value);
-    PossibleValuesParser::new(std::iter::once(none).chain(presets))
-        .map(|name| PresetOrNone(Quality::from_str(&name, false).ok()))
+    PossibleValuesParser::new(std::iter::once(none).chain(presets)).map(|name| {
+        // The parser admits only the names above: `none`, or a preset's.
+        PresetOrNone((name != "none").then(|| Quality::from_str(&name, false).expect("a preset")))
+    })
 }
 
 impl QualityArgs {
@@ -143,8 +145,8 @@ impl SceneArgs {
     }
 }
 
-/// `--orbit-lights`, shared by the commands that render or plan a frame (not `sweep`, whose
-/// measurements need still lights).
+/// `--orbit-lights`, shared by `render`, `view`, `bench` and `plan` (not `sweep`: its error
+/// against a still reference needs still lights).
 #[derive(clap::Args, Default)]
 pub struct OrbitArgs {
     /// Orbit every light about the vertical axis through the scene's centre, one turn per

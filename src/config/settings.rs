@@ -2,13 +2,13 @@
 //! and the choices it is made of ([`Method`], [`Schedule`], [`Density`], [`Effects`],
 //! [`Tonemap`], [`Upsample`]), and [`SkippedPass`], the plan's and the stats' record of a pass
 //! not run. The renderer (`frame`), the effects plan (`plan`), the passes and the command line
-//! all read them here; none of them is imported back (docs/architecture.md, "Floors").
+//! all read them here; none of them is imported back (docs/architecture.md).
 //!
 //! The settings' one home: the user's knobs ([`Knobs`]: flags, a `--quality` preset) become
 //! settings in one function, [`RenderSettings::from_knobs`], and every default is one named
 //! constant in [`knobs`], as pbrt-v4 reads each parameter once. `--photons` thus walks
 //! CLI → [`Knobs::photons`] → [`RenderSettings::photons`] → the effects plan's split over the
-//! lights (`plan::LightPlan::photons`), which the bounce plan (`ispm::BouncePlan`) takes as it is.
+//! lights (`plan::LightPlan::photons`), which the bounce plan (`bounce_plan::BouncePlan`) takes as it is.
 
 use crate::gpu::vk;
 use crate::layout::shared_constants::{TONEMAP_ACES, TONEMAP_LINEAR, TONEMAP_PBR_NEUTRAL};
@@ -228,7 +228,7 @@ pub struct RenderSettings {
     /// `EffectsPlan::bsdf_variant` is the smallest one a scene renders exactly with.
     pub bsdf_variant: BsdfVariant,
     /// Smallest share of each light's photons spent on its caustic views, the windows around
-    /// the mirrors and glass it lights (`ispm::CAUSTIC_SHARE`; 0: no caustic views).
+    /// the mirrors and glass it lights (`config::settings::CAUSTIC_SHARE`; 0: no caustic views).
     pub caustic_share: f32,
     /// Most bytes one buffer of the bounce map or photon map is bound with (`None`: what one
     /// storage-buffer descriptor reaches, the device's `maxStorageBufferRange`; a larger value

@@ -3,7 +3,7 @@
 //!
 //! - **Calibrated**: where the device has `VK_KHR_calibrated_timestamps` or
 //!   `VK_EXT_calibrated_timestamps` and offers `CLOCK_MONOTONIC` (or, on Linux,
-//!   `CLOCK_MONOTONIC_RAW`) among its time domains, [`Gpu::clock_calibration`] reads the
+//!   `CLOCK_MONOTONIC_RAW`) among its time domains, `Gpu::clock_calibration` (`gpu/calibrate.rs`) reads the
 //!   device clock and the host clock at one instant (± the driver's `maxDeviation`), afresh at
 //!   every call, so drift between the clocks does not build up. A `CLOCK_MONOTONIC_RAW`
 //!   reading is moved to `CLOCK_MONOTONIC` by host reads of both around it.
@@ -19,17 +19,12 @@
 //! placed by its signed distance (mod 2^bits) from the calibration's device reading, times
 //! `timestampPeriod` nanoseconds per tick ([`Calibration::to_host_ns`]).
 
-use super::device::{Gpu, QueueRole, Retired};
-use super::error::{vk_err, GpuError, GpuResult};
-use super::timestamps::{create_timestamp_pool, read_ticks, write_timestamp};
+use super::error::{vk_err, GpuResult};
 use crate::timing::now_ns;
 use ash::vk;
 use std::ffi::CStr;
 use std::fmt;
-use std::sync::{Arc, OnceLock};
-
-/// Tries of the measured offset; the tightest bracket wins.
-const MEASURE_TRIES: u32 = 8;
+use std::sync::OnceLock;
 
 /// How device ticks are put on the host clock.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -110,7 +105,7 @@ pub(super) struct CalibrationChoice {
 /// The device's clock mapping; one per [`Gpu`].
 pub(super) struct DeviceClock {
     calibrated: Option<(Calibrator, CalibrationChoice)>,
-    measured: OnceLock<Calibration>,
+    pub(super) measured: OnceLock<Calibration>,
 }
 
 /// The host time domains [`crate::timing`] can read, best first.
@@ -200,7 +195,7 @@ impl DeviceClock {
         }
     }
 
-    fn calibrated(&self) -> Option<GpuResult<Calibration>> {
+    pub(super) fn calibrated(&self) -> Option<GpuResult<Calibration>> {
         let (calibrator, choice) = self.calibrated.as_ref()?;
         let infos = [
             vk::CalibratedTimestampInfoKHR::default().time_domain(vk::TimeDomainKHR::DEVICE),
@@ -254,72 +249,6 @@ fn raw_to_monotonic(raw: u64) -> (u64, u64) {
 
 fn extension_name(name: &'static CStr) -> &'static str {
     name.to_str().unwrap_or("calibrated timestamps")
-}
-
-impl Gpu {
-    /// A device-clock reading paired with the host clock: calibrated now where the device can,
-    /// else the offset measured at device creation.
-    pub fn clock_calibration(self: &Arc<Self>) -> GpuResult<Calibration> {
-        if let Some(c) = self.clock.calibrated() {
-            return c;
-        }
-        if let Some(c) = self.clock.measured.get() {
-            return Ok(*c);
-        }
-        let c = self.measure_clock_offset(MEASURE_TRIES)?;
-        Ok(*self.clock.measured.get_or_init(|| c))
-    }
-
-    /// How this device's timestamps are put on the host clock.
-    pub fn clock_source(&self) -> ClockSource {
-        self.clock.source()
-    }
-
-    /// Measures the device-clock ↔ host-clock offset with `tries` one-shot submissions (the
-    /// fallback of calibrated timestamps; public so that tests can compare the two). Blocks
-    /// on each submission: call while the device is idle for a tight bracket.
-    pub fn measure_clock_offset(self: &Arc<Self>, tries: u32) -> GpuResult<Calibration> {
-        let role = QueueRole::ALL
-            .into_iter()
-            .find(|&r| self.queue(r).timestamp_valid_bits > 0)
-            .ok_or(GpuError::NoTimestamps(
-                "no queue family has timestampValidBits > 0",
-            ))?;
-        let tries = tries.max(1);
-        let pool = create_timestamp_pool(self, "clock calibration", tries)?;
-        let mut best: Option<Calibration> = None;
-        let mut result = Ok(());
-        for query in 0..tries {
-            let attempt = (|| {
-                let rec = self.record(role, "clock calibration", None)?;
-                write_timestamp(&rec.cmd(), pool, query);
-                let before = now_ns();
-                let point = self.submit(rec, &[])?;
-                self.wait(point)?;
-                let after = now_ns();
-                let ticks = read_ticks(self, pool, query, 1)?[0];
-                Ok::<_, GpuError>(ticks.map(|device_ticks| Calibration {
-                    device_ticks,
-                    host_ns: before + (after - before) / 2,
-                    uncertainty_ns: (after - before).div_ceil(2),
-                    source: ClockSource::MeasuredOffset,
-                }))
-            })();
-            match attempt {
-                Ok(Some(c)) if best.is_none_or(|b| c.uncertainty_ns < b.uncertainty_ns) => {
-                    best = Some(c)
-                }
-                Ok(_) => {}
-                Err(e) => {
-                    result = Err(e);
-                    break;
-                }
-            }
-        }
-        self.retire(Retired::QueryPool(pool));
-        result?;
-        best.ok_or(GpuError::NoTimestamps("no calibration timestamp came back"))
-    }
 }
 
 #[cfg(test)]

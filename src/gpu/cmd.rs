@@ -269,8 +269,13 @@ pub struct Scope<'c, 'a> {
 
 impl Drop for Scope<'_, '_> {
     fn drop(&mut self) {
-        if let (Some(t), Some(i)) = (self.cmd.timestamps, self.index) {
-            t.write_end(self.cmd, i);
+        if let Some((pool, query)) = self
+            .cmd
+            .timestamps
+            .zip(self.index)
+            .and_then(|(t, i)| t.end(i))
+        {
+            self.cmd.write_timestamp(pool, query);
         }
         self.cmd.depth.fetch_sub(1, Ordering::Relaxed);
         // SAFETY: the label was opened by `Cmd::scope` on this command buffer.
@@ -306,8 +311,26 @@ impl<'a> Cmd<'a> {
         let depth = self.depth.fetch_add(1, Ordering::Relaxed);
         let index = self
             .timestamps
-            .and_then(|t| t.write_begin(self, self.role, name, depth));
+            .and_then(|t| t.begin(self.role, name, depth))
+            .map(|(index, pool, query)| {
+                self.write_timestamp(pool, query);
+                index
+            });
         Scope { cmd: self, index }
+    }
+
+    /// Records a timestamp into `query` of `pool` once all earlier commands have completed.
+    pub(super) fn write_timestamp(&self, pool: vk::QueryPool, query: u32) {
+        // SAFETY: recording state; the caller owns `query` of `pool`, reset on the host since its
+        // last use, on a queue whose family has timestampValidBits > 0; synchronization2 is on.
+        unsafe {
+            self.device().cmd_write_timestamp2(
+                self.raw,
+                vk::PipelineStageFlags2::ALL_COMMANDS,
+                pool,
+                query,
+            )
+        };
     }
 
     /// Makes the next use of each resource in `uses` wait for what came before it (and

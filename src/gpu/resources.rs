@@ -382,7 +382,7 @@ impl Sampler {
             .address_mode_w(mode)
             .max_lod(0.0);
         if filter == Filter::LinearCompare {
-            // Shadow maps have reversed depth (`lighting.rs`): a point is lit where its depth
+            // Shadow maps have reversed depth (`plan/lighting.rs`): a point is lit where its depth
             // is at least the stored one, and beyond the map's border (depth 0, the far end).
             info = info
                 .compare_enable(true)

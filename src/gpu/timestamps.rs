@@ -6,8 +6,8 @@
 //! 1. [`Timestamps::reset`]`(frame)` on the host (host query reset), once the GPU has finished
 //!    the pool's previous use;
 //! 2. recordings made with `Gpu::record(role, name, Some(pool))` on any queue: every
-//!    [`Cmd::scope`](super::Cmd::scope) writes a begin and an end timestamp and remembers the
-//!    recording's queue and its nesting depth;
+//!    [`Cmd::scope`](super::Cmd::scope) writes a begin and an end timestamp into the queries
+//!    this pool hands out, which remembers the recording's queue and its nesting depth;
 //! 3. [`Timestamps::read`] once that work has completed: the spans, mapped from device ticks
 //!    to the host clock (`gpu/clock.rs`), tagged with queue, depth and frame; while a
 //!    [`crate::timing`] capture runs they join it too (once per reset).
@@ -15,7 +15,6 @@
 //! Queues whose family has `timestampValidBits == 0` write no timestamps (their scopes are
 //! debug labels only; logged once).
 
-use super::cmd::Cmd;
 use super::device::{Gpu, QueueRole, Retired};
 use super::error::{vk_err, GpuResult};
 use crate::timing::{self, ClockNote, Span, Track};
@@ -63,20 +62,6 @@ pub(super) fn create_timestamp_pool(gpu: &Gpu, name: &str, count: u32) -> GpuRes
     // SAFETY: hostQueryReset is enabled; the pool is new, so no GPU work uses it.
     unsafe { gpu.raw().reset_query_pool(pool, 0, count) };
     Ok(pool)
-}
-
-/// Records a timestamp into `query` of `pool` once all earlier commands have completed.
-pub(super) fn write_timestamp(cmd: &Cmd, pool: vk::QueryPool, query: u32) {
-    // SAFETY: recording state; the caller owns `query` of `pool`, reset on the host since its
-    // last use, on a queue whose family has timestampValidBits > 0; synchronization2 is on.
-    unsafe {
-        cmd.device().cmd_write_timestamp2(
-            cmd.raw(),
-            vk::PipelineStageFlags2::ALL_COMMANDS,
-            pool,
-            query,
-        )
-    };
 }
 
 /// The ticks of queries `[first, first + count)` of `pool`; `None` for one not yet written.
@@ -140,15 +125,15 @@ impl Timestamps {
         state.reported = false;
     }
 
-    /// Writes the begin timestamp of scope `name` at nesting `depth` of a recording for
-    /// `role`; `None` when the scope goes untimed.
-    pub(super) fn write_begin(
+    /// Opens scope `name` at nesting `depth` of a recording for `role`: its index and the
+    /// query its begin timestamp goes to (`Cmd::scope` writes it); `None` when the scope goes
+    /// untimed.
+    pub(super) fn begin(
         &self,
-        cmd: &Cmd,
         role: QueueRole,
         name: &str,
         depth: u32,
-    ) -> Option<usize> {
+    ) -> Option<(usize, vk::QueryPool, u32)> {
         if self.gpu.queue(role).timestamp_valid_bits == 0 {
             if !NO_TIMESTAMPS_LOGGED.swap(true, Ordering::Relaxed) {
                 log::warn!(
@@ -163,7 +148,6 @@ impl Timestamps {
             log::warn!("timestamp pool full: scope {name} is not timed");
             return None;
         }
-        write_timestamp(cmd, self.pool, first);
         let mut state = self.state();
         state.scopes.push(ScopeRecord {
             name: name.to_string(),
@@ -171,14 +155,13 @@ impl Timestamps {
             role,
             depth,
         });
-        Some(state.scopes.len() - 1)
+        Some((state.scopes.len() - 1, self.pool, first))
     }
 
-    pub(super) fn write_end(&self, cmd: &Cmd, scope: usize) {
-        let first = self.state().scopes.get(scope).map(|s| s.first);
-        if let Some(first) = first {
-            write_timestamp(cmd, self.pool, first + 1);
-        }
+    /// The query the end timestamp of `scope` goes to.
+    pub(super) fn end(&self, scope: usize) -> Option<(vk::QueryPool, u32)> {
+        let first = self.state().scopes.get(scope).map(|s| s.first)?;
+        Some((self.pool, first + 1))
     }
 
     /// The spans written since the last reset, on the host clock. Call after the GPU work

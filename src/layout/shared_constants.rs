@@ -43,7 +43,7 @@ pub const SPEC_ID_GLOSSY_LOBE: u32 = 0;
 // Delta lobes: perfect mirror and refraction.
 pub const SPEC_ID_DELTA_LOBES: u32 = 1;
 
-// Kinds of light (`GpuLight.shadow.x`, `BounceView.kind.x`; `lighting.rs`).
+// Kinds of light (`GpuLight.shadow.x`, `BounceView.kind.x`; `plan/lighting.rs`).
 pub const LIGHT_POINT: u32 = 0;
 // KHR_lights_punctual spot: falloff between the inner and outer cone.
 pub const LIGHT_SPOT: u32 = 1;
@@ -64,12 +64,12 @@ pub const BOUNCE_VIEW_CAUSTIC: u32 = 2;
 
 // Depth of the near and far planes in the light views the photons start from (light G-buffers,
 // bounce map, `BouncePlan`): reversed Z, so that the near plane can lie a millionth of the
-// scene's size from the light (a light touching a surface still sees it, `lighting.rs`) and a
+// scene's size from the light (a light touching a surface still sees it, `plan/lighting.rs`) and a
 // D32F depth buffer keeps its relative precision to the far plane.
 pub const LIGHT_VIEW_NEAR_Z: f32 = 1.0;
 pub const LIGHT_VIEW_FAR_Z: f32 = 0.0;
 
-// Where inside its texel a light-view photon passes (`ispm::texel_jitter`, `bounce_map.comp`):
+// Where inside its texel a light-view photon passes (`bounce_plan::texel_jitter`, `bounce_map.comp`):
 // a per-texel random offset (two hashes of the texel's key with these salts) rotated by point
 // `sample` of the R2 sequence, in 32-bit fixed point: `JITTER_R2_X/Y` are 2^32/g and 2^32/g²,
 // g = 1.3247179572 the plastic number (Roberts 2018), so a texel's offsets over the frames of
@@ -79,7 +79,7 @@ pub const JITTER_STREAM_Y: u32 = 0x2b5d_06f7;
 pub const JITTER_R2_X: u32 = 3242174890;
 pub const JITTER_R2_Y: u32 = 2447445414;
 
-// Whether a light-view texel sends its photon this frame (`ispm::texel_kept`, `bounce_map.comp`):
+// Whether a light-view texel sends its photon this frame (`bounce_plan::texel_kept`, `bounce_map.comp`):
 // a per-texel random number (a hash of the texel's key with this salt) rotated by `sample` times
 // 2^32/φ (the golden ratio: the R1 sequence), in 32-bit fixed point, below the view's keep
 // probability. Over the frames of an accumulation each texel is kept in that fraction of them,

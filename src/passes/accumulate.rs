@@ -9,7 +9,7 @@
 //!  accumulation (n frames)─┘                                         └─► radiance ──► tonemap
 //! ```
 //!
-//! The renderer decides `n` (`frame.rs`: 0 after anything but the exposure or tonemap changed)
+//! The renderer decides `n` (`render/frame.rs`: 0 after anything but the exposure or tonemap changed)
 //! and gives each accumulated frame a new photon sample and a smaller kernel
 //! (`photon_frame.rs`, `PhotonFrame::set_sample`), so the mean converges (docs/accuracy.md,
 //! "Progressive accumulation").

@@ -44,7 +44,7 @@ struct Push {
     /// counts from it).
     first_row: u32,
     /// The frame's photon sample: where in its texel each photon passes
-    /// (`ispm::texel_jitter`).
+    /// (`bounce_plan::texel_jitter`).
     sample: u32,
     pad: u32,
 }

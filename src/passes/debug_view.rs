@@ -10,10 +10,10 @@
 //! | `photon-positions` | photon map (every buffer of it) | one pixel per visible photon, power on a log scale, over the dimmed frame |
 //! | `photon-overdraw` | indirect image's alpha (volumes that shaded a pixel) | count, log scale (Turbo) |
 //! | `indirect-only` | indirect image (before composite) | tonemapped like the frame |
-//! | `direct-only` | — | the frame without the composite step (`frame.rs`), no pass here |
+//! | `direct-only` | — | the frame without the composite step (`render/frame.rs`), no pass here |
 //!
 //! Each view is its own shader (`glsl/debug/`) with only the bindings it reads, so a
-//! [`DebugViewPass`] is made for one view and one set of inputs; `frame.rs` makes a new one when
+//! [`DebugViewPass`] is made for one view and one set of inputs; `render/frame.rs` makes a new one when
 //! the view or the photon buffers change (the old one retires through the graveyard). The
 //! views of a map split over several buffers (`photon_frame/buffers.rs`) have one descriptor
 //! set per buffer and a dispatch for each.

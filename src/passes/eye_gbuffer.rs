@@ -8,7 +8,7 @@
 //!   albedo    RGBA16F   Lambertian reflectance × base-colour texture (linear)
 //!   material  R32_UINT  index into the material buffer
 //!   depth     D32F      reversed-Z (1 at the near plane, 0 at infinity; the light views: 0 at
-//!                       their far plane, `lighting.rs`)
+//!                       their far plane, `plan/lighting.rs`)
 //! ```
 
 use crate::gpu::scene::{Draw, GpuScene};
@@ -106,7 +106,7 @@ pub type EyeGBufferPass = GBufferPass;
 impl GBufferPass {
     /// A raster named `name` with one view per buffer in `frames` (each a `FrameUniforms`).
     /// Every view's projection reverses depth: the near plane at depth 1 (the eye's infinite
-    /// reversed-Z projection, the photon light views' finite one, `lighting.rs`), so the depth
+    /// reversed-Z projection, the photon light views' finite one, `plan/lighting.rs`), so the depth
     /// test keeps the greater depth and the attachment is cleared to 0.
     pub fn new(
         gpu: &Arc<Gpu>,

@@ -1,6 +1,6 @@
 //! Light G-buffers: the scene rasterised from every light view (spot: one frustum, point: six
 //! cube faces, directional: an orthographic box; and the caustic views, windows of those around
-//! the delta instances, `ispm.rs`), each into one layer of an array G-buffer, at the resolution
+//! the delta instances, `plan/bounce_plan.rs`), each into one layer of an array G-buffer, at the resolution
 //! the light's share of the photon budget asks for (drawn into the layer's top-left texels).
 //! Texel (x, y) of a view is where the photon through that texel first hits the scene: the
 //! bounce map starts from it.
@@ -31,7 +31,7 @@ impl LightGBufferPass {
             })
             .collect::<Result<Vec<_>, _>>()?;
         let refs: Vec<&Buffer> = frames.iter().collect();
-        // The light views reverse depth as the eye's does (`lighting.rs`).
+        // The light views reverse depth as the eye's does (`plan/lighting.rs`).
         let raster = GBufferPass::new(gpu, PassId::LightGbuffer, scene, &refs)?;
         Ok(Self { raster, frames })
     }

@@ -1,5 +1,5 @@
 //! Shadow maps: the scene's depth seen from every light view, one layer of the shadow atlas
-//! each (see `lighting.rs` for which views a light gets).
+//! each (see `plan/lighting.rs` for which views a light gets).
 
 use crate::gpu::scene::{Draw, GpuScene};
 use crate::gpu::{
@@ -49,7 +49,7 @@ impl ShadowMapPass {
                     format: FORMAT,
                     test: true,
                     write: true,
-                    // Reversed depth (`lighting.rs`): nearer is larger, and the bias pushes the
+                    // Reversed depth (`plan/lighting.rs`): nearer is larger, and the bias pushes the
                     // stored depth away from the light, towards 0.
                     compare: vk::CompareOp::GREATER_OR_EQUAL,
                     bias: Some((-1.0, -1.5)),

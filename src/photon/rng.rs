@@ -10,7 +10,7 @@
 //! the light's position bits and its index ([`seed_bounce_map_texel`]) and a path from the bits
 //! of where it starts ([`seed_from_position`]). The renderer's bounce map seeds a texel from its
 //! light's *index* and the texel index, and the CPU path that continues it from the same pair
-//! (`ispm::BouncePlan::photon_starts`): a moving light keeps its random numbers, so its photons
+//! (`bounce_plan::BouncePlan::photon_starts`): a moving light keeps its random numbers, so its photons
 //! move with it rather than flicker (docs/stability.md). Static light and geometry give the same
 //! photons every frame either way. `-0.0` is canonicalised to `+0.0` before hashing, on both
 //! sides.

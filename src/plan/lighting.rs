@@ -127,7 +127,7 @@ impl LightSetup {
         )
     }
 
-    /// The views photons start from (the bounce map's light views, `ispm.rs`): [`LightSetup::new`]
+    /// The views photons start from (the bounce map's light views, `plan/bounce_plan.rs`): [`LightSetup::new`]
     /// with one texel (each view's texel parameter is its whole window) and no margin (a cube's
     /// faces tile the sphere exactly once), with reversed depth and a near plane 10⁻⁶ of the
     /// scene's diagonal from the light (module docs).

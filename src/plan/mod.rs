@@ -1,6 +1,6 @@
 //! Scene analysis → the effects plan (issue #9): which light-transport effects a scene and
 //! view call for, and so which passes, shader variants, lights and bounces a frame needs, each
-//! with the reason (the material or light that caused it). No Vulkan: `frame.rs` reads the
+//! with the reason (the material or light that caused it). No Vulkan: `render/frame.rs` reads the
 //! plan; `ispm plan` prints it. Every rule and why it is safe: `docs/effects.md`.
 //!
 //! ```text
@@ -219,7 +219,7 @@ impl EffectsPlan {
     /// Per light: the photons it emits, `None` where it emits none ([`Self::photon_mask`]
     /// off). The frame's one split of `--photons` over the lights, made in
     /// [`SceneAnalysis::plan`] by power; the bounce plan takes it as it is
-    /// (`ispm::BouncePlan::with_budget`).
+    /// (`bounce_plan::BouncePlan::with_budget`).
     pub fn photon_budget(&self) -> Vec<Option<usize>> {
         self.lights
             .iter()

@@ -27,7 +27,7 @@
 //! slot comes round again (or in [`Renderer::finish`]). [`Schedule::Serial`](crate::config::settings::Schedule::Serial) waits after every
 //! submission: the same work strictly in order, the baseline `ispm bench` compares against.
 //!
-//! The effects plan (`plan.rs`, issue #9) decides which of these steps exist, which lights they
+//! The effects plan (`plan/mod.rs`, issue #9) decides which of these steps exist, which lights they
 //! cover and which BSDF lobes their shaders compile; while no light changes and no instance
 //! moves, frames after the first reuse its photon map (no light G-buffers, bounce map, readback,
 //! trace or upload), and a camera move ([`Renderer::set_camera`]) keeps it: the photon map does

@@ -5,7 +5,8 @@
 //! - [`photon_frame`]: the photon part (bounce map, readback, CPU trace, density estimate).
 //! - [`translucent_frame`]: the translucency part (the translucent pass and its environment).
 //! - [`stats`]: what a frame reports (`FrameImage`, `FrameStats`, the stats JSON), filled in by
-//!   the three above; the two parts never call the frame back.
+//!   the frame and its photon part. The parts never call the frame back (translucency reads
+//!   only the photon part's cube size).
 
 pub mod frame;
 pub mod photon_frame;

@@ -98,7 +98,7 @@ pub struct PhotonFrame {
     /// derived ([`Self::set_sample`]).
     base_seed: u32,
     /// The photon sample of the next traced map: its bounce-map seed, CPU path seed and the
-    /// texels' jittered points (`ispm::texel_jitter`).
+    /// texels' jittered points (`bounce_plan::texel_jitter`).
     sample: u32,
     kernel: KernelSettings,
     light_gbuffer: GBuffer,

@@ -87,7 +87,7 @@ pub struct FrameStats {
     /// `RenderSettings::storage_buffer_range`).
     pub bounce_map_buffers: usize,
     /// The lights whose photon budget asked for light views larger than
-    /// `ispm::MAX_RESOLUTION`² texels: they emit fewer photons than their share of `--photons`.
+    /// `bounce_plan::MAX_RESOLUTION`² texels: they emit fewer photons than their share of `--photons`.
     pub lights_at_max_resolution: Vec<usize>,
     /// The NaN, ±Inf and negative values in the frame's buffers, counted on the GPU
     /// (`RenderSettings::check_values`; `None` when off).

@@ -22,7 +22,7 @@
 //! so the irradiance at the aim point, on a surface facing the light, is π W/m²: a Lambertian
 //! surface of albedo ρ there has radiance ρ W/(m²·sr), which the default tonemap (PBR Neutral)
 //! at 0 EV shows at about ρ, the way an unlit material of base colour ρ is shown. A 60° cone is
-//! the widest one shadow view covers (`lighting.rs`), so the light costs one shadow map and one
+//! the widest one shadow view covers (`plan/lighting.rs`), so the light costs one shadow map and one
 //! light G-buffer, like a file's spot light.
 
 use super::{Aabb, Camera, Light, LightKind, Scene};

@@ -23,6 +23,10 @@
 //! [`Capture`]: the CPU spans, the GPU spans that `gpu::Timestamps::read` adds with
 //! [`record_gpu`], the GPU tracks' names and how their clock was mapped. `chrome.rs` writes it
 //! as Chrome Trace Event JSON.
+//!
+//! # Names
+//! [`pass_id::PassId`] names every stage of the frame once: the GPU scopes, the stats JSON's
+//! stages, the plan's pass list, the sweep's and the bench's columns all take it from there.
 
 mod chrome;
 mod clock;

@@ -48,7 +48,7 @@ pub const DEFAULT_SUBSAMPLE: u32 = 1;
 pub const DEFAULT_DENOISE: u32 = 0;
 
 /// The share of a light's photons that its caustic views get when its views see delta
-/// instances (the default of `--caustic-share`; `ispm` module docs, "Budget").
+/// instances (the default of `--caustic-share`; `plan::bounce_plan` module docs, "Budget").
 pub const CAUSTIC_SHARE: f32 = 0.5;
 
 /// Points sampled on the emissive surfaces per frame, each a light (`--emitter-lights`;

@@ -14,7 +14,7 @@ use glam::{DMat4, DVec2, DVec3, DVec4, Vec4};
 /// Salt of a light's bounce-map seed ([`light_seed`]).
 const LIGHT_SEED_STREAM: u32 = 0x6c1e_5eed;
 
-/// Depth of a light view's near and far planes (reversed: `lighting.rs`).
+/// Depth of a light view's near and far planes (reversed: `plan/lighting.rs`).
 pub(super) const NEAR: f64 = LIGHT_VIEW_NEAR_Z as f64;
 pub(super) const FAR: f64 = LIGHT_VIEW_FAR_Z as f64;
 

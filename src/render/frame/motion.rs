@@ -13,7 +13,7 @@
 //!    └─ set_lights (when a light moved): as before
 //! ```
 //!
-//! A frame after which nothing moved and no light changed reuses the photon map (`frame.rs`).
+//! A frame after which nothing moved and no light changed reuses the photon map (`render/frame.rs`).
 
 use super::Renderer;
 use crate::plan::{EffectsPlan, SceneAnalysis, StaticEnclosures};

@@ -1,4 +1,4 @@
-//! Issuing a frame: [`Renderer::submit_frame`] (the script of boxes A–D in `frame.rs`'s docs),
+//! Issuing a frame: [`Renderer::submit_frame`] (the script of boxes A–D in `render/frame.rs`'s docs),
 //! the serial schedule's waits, and retiring a frame slot: its timestamps read as spans and its
 //! stats completed ([`Renderer::finish`], [`Renderer::drain`]).
 
