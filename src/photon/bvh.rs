@@ -121,7 +121,12 @@ impl Blas {
     }
 
     /// Closest (or, with `any`, first found) hit with `0 < t < t_max`: leaf index and hit.
-    fn trace(
+    /// `AVX2` selects the node test's eight-wide AVX2 variant.
+    ///
+    /// # Safety
+    /// With `AVX2`, the CPU must support AVX2.
+    #[inline(always)]
+    unsafe fn trace<const AVX2: bool>(
         &self,
         origin: Vec3,
         dir: Vec3,
@@ -139,7 +144,8 @@ impl Blas {
                 self.bvh,
                 node,
                 state,
-                intersect_node(node, &box_ray, state.oct_inv4),
+                // SAFETY: with `AVX2`, our caller guarantees the CPU supports it.
+                unsafe { intersect_node::<AVX2>(node, &box_ray, state.oct_inv4) },
                 {
                     let i = state.primitive_id as usize;
                     let [p0, p1, p2] = self.triangles[i];
@@ -156,6 +162,17 @@ impl Blas {
         }
         best
     }
+}
+
+/// Whether this CPU has the features of [`SceneBvh::intersect_x86_64_v3`] (detected once,
+/// cached).
+#[cfg(target_arch = "x86_64")]
+fn x86_64_v3() -> bool {
+    std::is_x86_feature_detected!("avx2")
+        && std::is_x86_feature_detected!("bmi1")
+        && std::is_x86_feature_detected!("bmi2")
+        && std::is_x86_feature_detected!("lzcnt")
+        && std::is_x86_feature_detected!("popcnt")
 }
 
 /// An instance's placement and what is derived from it.
@@ -344,11 +361,40 @@ impl SceneBvh {
 
     /// The closest hit with `0 < t < ray.t_max`.
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        #[cfg(target_arch = "x86_64")]
+        if x86_64_v3() {
+            // SAFETY: `intersect_x86_64_v3` needs the CPU features `x86_64_v3` has just found.
+            return unsafe { self.intersect_x86_64_v3(ray) };
+        }
+        // SAFETY: without AVX2 the node test uses no instruction beyond the build's.
+        unsafe { self.intersect_with::<false>(ray) }
+    }
+
+    /// [`Self::intersect`] compiled with AVX2, BMI, LZCNT and POPCNT (x86-64-v3 without FMA,
+    /// so that the arithmetic rounds exactly as in the portable build): the node test takes
+    /// the eight children at once, and the traversal's bit scans and population counts become
+    /// single instructions.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt")]
+    fn intersect_x86_64_v3(&self, ray: &Ray) -> Option<Hit> {
+        // SAFETY: this function runs only where the CPU has AVX2 (see `intersect`).
+        unsafe { self.intersect_with::<true>(ray) }
+    }
+
+    /// [`Self::intersect`]'s body, with the node test of [`Blas::trace`]`::<AVX2>`.
+    ///
+    /// # Safety
+    /// With `AVX2`, the CPU must support AVX2.
+    #[inline(always)]
+    unsafe fn intersect_with<const AVX2: bool>(&self, ray: &Ray) -> Option<Hit> {
         let mut closest = ray.t_max;
         // (instance, the BLAS it was hit in, its leaf-order triangle, hit).
         let mut best: Option<(usize, &Blas, usize, TriangleHit)> = None;
         if let Some(blas) = &self.static_part {
-            if let Some((leaf, hit)) = blas.trace(ray.origin, ray.dir, closest, false) {
+            // SAFETY: with `AVX2`, our caller guarantees the CPU supports it.
+            if let Some((leaf, hit)) =
+                unsafe { blas.trace::<AVX2>(ray.origin, ray.dir, closest, false) }
+            {
                 closest = hit.t;
                 best = Some((blas.attributes[leaf].instance as usize, blas, leaf, hit));
             }
@@ -362,7 +408,8 @@ impl SceneBvh {
                 continue;
             }
             let (origin, dir) = to_instance_space(&inst.placement, ray);
-            if let Some((leaf, hit)) = blas.trace(origin, dir, closest, false) {
+            // SAFETY: with `AVX2`, our caller guarantees the CPU supports it.
+            if let Some((leaf, hit)) = unsafe { blas.trace::<AVX2>(origin, dir, closest, false) } {
                 closest = hit.t;
                 best = Some((i, blas, leaf, hit));
             }
@@ -372,8 +419,32 @@ impl SceneBvh {
 
     /// True when anything is hit with `0 < t < ray.t_max` (shadow rays).
     pub fn occluded(&self, ray: &Ray) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if x86_64_v3() {
+            // SAFETY: `occluded_x86_64_v3` needs the CPU features `x86_64_v3` has just found.
+            return unsafe { self.occluded_x86_64_v3(ray) };
+        }
+        // SAFETY: without AVX2 the node test uses no instruction beyond the build's.
+        unsafe { self.occluded_with::<false>(ray) }
+    }
+
+    /// [`Self::occluded`] compiled as [`Self::intersect_x86_64_v3`] is.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt")]
+    fn occluded_x86_64_v3(&self, ray: &Ray) -> bool {
+        // SAFETY: this function runs only where the CPU has AVX2 (see `occluded`).
+        unsafe { self.occluded_with::<true>(ray) }
+    }
+
+    /// [`Self::occluded`]'s body, with the node test of [`Blas::trace`]`::<AVX2>`.
+    ///
+    /// # Safety
+    /// With `AVX2`, the CPU must support AVX2.
+    #[inline(always)]
+    unsafe fn occluded_with<const AVX2: bool>(&self, ray: &Ray) -> bool {
         if let Some(blas) = &self.static_part {
-            if blas.trace(ray.origin, ray.dir, ray.t_max, true).is_some() {
+            // SAFETY: with `AVX2`, our caller guarantees the CPU supports it.
+            if unsafe { blas.trace::<AVX2>(ray.origin, ray.dir, ray.t_max, true) }.is_some() {
                 return true;
             }
         }
@@ -386,7 +457,8 @@ impl SceneBvh {
                 return false;
             }
             let (origin, dir) = to_instance_space(&inst.placement, ray);
-            blas.trace(origin, dir, ray.t_max, true).is_some()
+            // SAFETY: with `AVX2`, our caller guarantees the CPU supports it.
+            unsafe { blas.trace::<AVX2>(origin, dir, ray.t_max, true) }.is_some()
         })
     }
 
@@ -402,6 +474,7 @@ impl SceneBvh {
     }
 
     /// The hit record of `hit` on leaf-order triangle `leaf` of `blas`, seen in `instance`.
+    #[inline(always)]
     fn hit_record(
         &self,
         ray: &Ray,

@@ -33,8 +33,9 @@ pub struct TriangleHit {
 #[derive(Clone, Copy, Debug)]
 pub struct WatertightRay {
     origin: Vec3,
-    kx: usize,
-    ky: usize,
+    /// The permutation `(kx, ky, kz)` is a rotation of `(x, y, z)` (`kx = kz + 1`,
+    /// `ky = kz + 2`, mod 3): `kz` picks one of three copies of the test, each with its
+    /// permutation fixed at compile time (a branch per ray rather than per vertex component).
     kz: usize,
     shear_x: f32,
     shear_y: f32,
@@ -63,8 +64,6 @@ impl WatertightRay {
         let valid = dz != 0.0 && dir.is_finite() && origin.is_finite();
         Self {
             origin,
-            kx,
-            ky,
             kz,
             shear_x: -dir[kx] / dz,
             shear_y: -dir[ky] / dz,
@@ -80,10 +79,30 @@ impl WatertightRay {
         if !self.valid {
             return None;
         }
+        match self.kz {
+            0 => self.intersect_permuted::<0>(p0, p1, p2, t_max),
+            1 => self.intersect_permuted::<1>(p0, p1, p2, t_max),
+            _ => self.intersect_permuted::<2>(p0, p1, p2, t_max),
+        }
+    }
+
+    /// [`Self::intersect`] for a valid ray whose dominant axis is `KZ`.
+    #[inline(always)]
+    fn intersect_permuted<const KZ: usize>(
+        &self,
+        p0: Vec3,
+        p1: Vec3,
+        p2: Vec3,
+        t_max: f32,
+    ) -> Option<TriangleHit> {
         // Translate to the ray origin, permute so the dominant direction axis is z.
         let permute = |p: Vec3| {
             let q = p - self.origin;
-            Vec3::new(q[self.kx], q[self.ky], q[self.kz])
+            match KZ {
+                0 => Vec3::new(q.y, q.z, q.x),
+                1 => Vec3::new(q.z, q.x, q.y),
+                _ => q,
+            }
         };
         let (mut a, mut b, mut c) = (permute(p0), permute(p1), permute(p2));
         // Shear x and y so the ray direction becomes +z (z is scaled later, only if needed).
