@@ -52,14 +52,15 @@ mod node;
 use node::{intersect_node, BoxRay};
 
 use super::ray::{gamma, Hit, Ray};
-use super::triangle::{TriangleHit, WatertightRay};
+use super::triangle::{transpose, TriangleHit, WatertightRay};
 use crate::scene::{Mesh, Scene};
 
 /// A CWBVH over triangles, with the triangles stored in the BVH's leaf order.
 struct Blas {
     bvh: CwBvh,
-    /// Triangle vertices, in leaf order.
-    triangles: Vec<[Vec3; 3]>,
+    /// Triangle vertices, in leaf order, transposed (`triangle::transpose`: the x, y and z
+    /// coordinates of the three vertices), as the watertight test takes them in SIMD lanes.
+    rows: Vec<[Vec3A; 3]>,
     /// What the hit record needs of each leaf-order triangle besides its vertices, in one
     /// record: read once per hit, where the mesh's index, normal and uv arrays cost a cache
     /// miss each (they were ~15 % of a photon bounce).
@@ -110,14 +111,23 @@ impl Blas {
             &mut Duration::default(),
         );
         let order = &bvh.primitive_indices;
-        let triangles_in_order = order.iter().map(|&i| triangles[i as usize]).collect();
+        let rows = order
+            .iter()
+            .map(|&i| transpose(triangles[i as usize]))
+            .collect();
         let attributes_in_order = order.iter().map(|&i| attributes[i as usize]).collect();
         Some(Self {
             bvh,
-            triangles: triangles_in_order,
+            rows,
             attributes: attributes_in_order,
             build_time: start.elapsed(),
         })
+    }
+
+    /// The vertices of leaf-order triangle `leaf`.
+    fn vertices(&self, leaf: usize) -> [Vec3; 3] {
+        let [x, y, z] = self.rows[leaf];
+        [0, 1, 2].map(|v| Vec3::new(x[v], y[v], z[v]))
     }
 
     /// Closest (or, with `any`, first found) hit with `0 < t < t_max`: leaf index and hit.
@@ -148,8 +158,7 @@ impl Blas {
                 unsafe { intersect_node::<AVX2>(node, &box_ray, state.oct_inv4) },
                 {
                     let i = state.primitive_id as usize;
-                    let [p0, p1, p2] = self.triangles[i];
-                    if let Some(hit) = watertight.intersect(p0, p1, p2, closest) {
+                    if let Some(hit) = watertight.intersect_transposed(&self.rows[i], closest) {
                         best = Some((i, hit));
                         if any {
                             break 'traversal;
@@ -496,7 +505,7 @@ impl SceneBvh {
         let [p0, p1, p2] = if inst.placement.moving {
             self.world_triangle(instance, primitive)
         } else {
-            blas.triangles[leaf]
+            blas.vertices(leaf)
         };
         let (b0, b1, b2) = (hit.b0, hit.b1, hit.b2);
         let position = b0 * p0 + b1 * p1 + b2 * p2;
@@ -504,7 +513,7 @@ impl SceneBvh {
         if inst.placement.moving {
             // The ray was intersected in object space: add the error of transforming the
             // object-space point to the world and a spawned origin back (pbrt-v4 §6.8.5).
-            let [o0, o1, o2] = blas.triangles[leaf];
+            let [o0, o1, o2] = blas.vertices(leaf);
             let object_point = b0 * o0 + b1 * o1 + b2 * o2;
             let m = inst.placement.transform;
             let abs3 = Mat3::from_cols(
