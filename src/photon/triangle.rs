@@ -234,8 +234,8 @@ impl WatertightRay {
     }
 }
 
-/// A triangle's vertices as the rows [`WatertightRay::intersect_rows`] takes: their x, y and z
-/// coordinates (lane i: vertex i).
+/// A triangle's vertices as the rows [`WatertightRay::intersect_transposed`] takes: their x, y
+/// and z coordinates (lane i: vertex i).
 pub fn transpose([p0, p1, p2]: [Vec3; 3]) -> [Vec3A; 3] {
     [
         Vec3A::new(p0.x, p1.x, p2.x),
