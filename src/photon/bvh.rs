@@ -586,3 +586,68 @@ fn ray_hits_box(ray: &Ray, world_box: Option<(Vec3, Vec3)>, t_max: f32) -> bool 
     }
     near <= far * (1.0 + 2.0 * gamma(3))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::photon::rng::Rng;
+    use crate::photon::sampling::uniform_sphere;
+
+    /// The x86-64-v3 copy and the portable build give the same hits, bit for bit, static and
+    /// moving (the tests elsewhere run the copy the CPU picks; this one runs both).
+    #[test]
+    fn portable_and_avx2_queries_agree_bit_for_bit() {
+        #[cfg(target_arch = "x86_64")]
+        if !x86_64_v3() {
+            return;
+        }
+        let scene = crate::reference::scenes::cornell(3);
+        let last = scene.instances.len() - 1;
+        for bvh in [
+            SceneBvh::new(&scene),
+            SceneBvh::with_moving_instances(&scene, &[last]),
+        ] {
+            let mut rng = Rng::new(11);
+            let mut hits = 0;
+            for i in 0..20_000 {
+                let o = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.4 - 1.2;
+                let d = uniform_sphere(rng.next_2());
+                let t_max = if i % 4 == 0 {
+                    rng.next_f32()
+                } else {
+                    f32::INFINITY
+                };
+                let ray = Ray::with_t_max(o, d, t_max);
+                // SAFETY: the portable build needs nothing; the AVX2 one was checked above.
+                let (portable, avx2) = unsafe {
+                    (
+                        bvh.intersect_with::<false>(&ray),
+                        bvh.intersect_with::<true>(&ray),
+                    )
+                };
+                let bits = |h: Option<Hit>| {
+                    h.map(|h| {
+                        (
+                            h.t.to_bits(),
+                            h.position.to_array().map(f32::to_bits),
+                            h.triangle,
+                        )
+                    })
+                };
+                assert_eq!(bits(portable), bits(avx2), "{ray:?}");
+                assert_eq!(portable, avx2);
+                // SAFETY: as above.
+                let occluded = unsafe {
+                    (
+                        bvh.occluded_with::<false>(&ray),
+                        bvh.occluded_with::<true>(&ray),
+                    )
+                };
+                assert_eq!(occluded.0, occluded.1, "{ray:?}");
+                assert_eq!(occluded.0, portable.is_some(), "{ray:?}");
+                hits += portable.is_some() as u32;
+            }
+            assert!(hits > 10_000, "{hits} hits");
+        }
+    }
+}
