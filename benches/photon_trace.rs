@@ -32,6 +32,27 @@ const PHOTONS: usize = 8192;
 const RAYS: usize = 8192;
 
 fn main() {
+    // `PHOTON_MAP_DIGEST=1`: print a digest of the benchmark's photon map and exit, to check
+    // that a change to the tracer leaves the map the same bit for bit.
+    if std::env::var_os("PHOTON_MAP_DIGEST").is_some() {
+        use std::hash::{DefaultHasher, Hasher};
+        let map = trace_from_lights(&SCENE, &BVH, &EMITTED, &SETTINGS);
+        let mut h = DefaultHasher::new();
+        h.write(bytemuck::cast_slice(&map.photons));
+        for a in &map.attrition {
+            h.write_u64(*a);
+        }
+        for p in &map.stored_power {
+            h.write(bytemuck::bytes_of(p));
+        }
+        println!(
+            "photon map: {} photons, {} rays, digest {:016x}",
+            map.photons.len(),
+            map.attrition.iter().sum::<u64>(),
+            h.finish()
+        );
+        return;
+    }
     divan::main();
 }
 

@@ -253,6 +253,7 @@ impl Bsdf {
         self.exponent.is_infinite()
     }
 
+    #[inline(always)]
     fn orient(&self, wo: Vec3, n_s: Vec3, n_g: Vec3) -> Option<Oriented> {
         let (wo, mut ns, mut ng) = (unit(wo)?, unit(n_s)?, unit(n_g)?);
         let cos_g = wo.dot(ng);
@@ -281,6 +282,7 @@ impl Bsdf {
 
     /// [`Self::lobe_reflectances`] in the variant `GLOSSY`, `DELTA` ([`BsdfVariant`]): a lobe
     /// compiled out has c = 0, as in `glsl/common/bsdf.glsl`'s `bsdf_lobe_reflectances`.
+    #[inline(always)]
     fn variant_reflectances<const GLOSSY: bool, const DELTA: bool>(
         &self,
         o: &Oriented,
@@ -412,6 +414,7 @@ impl Bsdf {
     /// Samples the direction of `lobe` alone; returns the direction and the η crossed (for
     /// refraction; 1 otherwise and under TIR). `None` for a lobe the variant `GLOSSY`, `DELTA`
     /// compiles out: its code is not in the function.
+    #[inline(always)]
     fn sample_direction<const GLOSSY: bool, const DELTA: bool>(
         &self,
         lobe: Lobe,
@@ -466,6 +469,7 @@ impl Bsdf {
 
     /// [`Self::sample_lobe`] at an oriented `wo`, with the lobe's reflectance `c` given, in the
     /// variant `GLOSSY`, `DELTA`.
+    #[inline(always)]
     fn sample_oriented<const GLOSSY: bool, const DELTA: bool>(
         &self,
         lobe: Lobe,
@@ -591,6 +595,7 @@ impl Bsdf {
         self.roulette::<GLOSSY, DELTA>(wo, n_s, n_g, u, Some(power))
     }
 
+    #[inline(always)]
     fn roulette<const GLOSSY: bool, const DELTA: bool>(
         &self,
         wo: Vec3,

@@ -35,11 +35,23 @@
 //! its slab test rounds, so a ray through a point where node boxes meet (a vertex on a box
 //! corner) can miss every box around it; the `grid_box` test found such leaks. We therefore
 //! run obvhs's traversal (`obvhs::traverse!`: its stack, child ordering and leaf decoding) with
-//! our own node test, `node::intersect_node`: the same quantized slab test, four children at a time
-//! in SIMD (glam's `Vec4`), with every slab widened by a bound on its rounding error (as in
-//! pbrt-v4's robust box test, Ize 2013), entry clamped at 0 and `|1/dir|` capped at 2⁴⁰ (a
-//! direction component below 2⁻⁴⁰ is treated as ±2⁻⁴⁰, which can cull a hit only farther than
-//! 2⁴⁰ times the origin's distance to the box face).
+//! our own node test, `node::intersect_node`: the same quantized slab test, four children at a
+//! time in SIMD (glam's `Vec4`; all eight at once with AVX2, see "Speed"), with every slab
+//! widened by a bound on its rounding error (as in pbrt-v4's robust box test, Ize 2013), with
+//! the near and far planes picked by the ray's direction signs, entry clamped at 0 and
+//! `|1/dir|` capped at 2⁴⁰ (a direction component below 2⁻⁴⁰ is treated as ±2⁻⁴⁰, which can
+//! cull a hit only farther than 2⁴⁰ times the origin's distance to the box face).
+//!
+//! # Speed
+//!
+//! On x86-64 CPUs with AVX2, BMI, LZCNT and POPCNT (detected at run time, once) the queries run
+//! a copy of themselves compiled for those features, FMA left out so that every result rounds
+//! as in the portable build, bit for bit: the node test takes the eight children in one
+//! 256-bit register, bit scans and population counts are single instructions, and the hit
+//! record is inlined into the traversal. Triangles are stored transposed (the x, y and z of
+//! their three vertices), so that the watertight test translates, shears and computes its edge
+//! functions for the three vertices at once. `docs/performance.md` ("CPU photon tracing") has
+//! the profile and the measurements.
 
 use std::time::{Duration, Instant};
 
@@ -52,14 +64,15 @@ mod node;
 use node::{intersect_node, BoxRay};
 
 use super::ray::{gamma, Hit, Ray};
-use super::triangle::{TriangleHit, WatertightRay};
+use super::triangle::{transpose, TriangleHit, WatertightRay};
 use crate::scene::{Mesh, Scene};
 
 /// A CWBVH over triangles, with the triangles stored in the BVH's leaf order.
 struct Blas {
     bvh: CwBvh,
-    /// Triangle vertices, in leaf order.
-    triangles: Vec<[Vec3; 3]>,
+    /// Triangle vertices, in leaf order, transposed (`triangle::transpose`: the x, y and z
+    /// coordinates of the three vertices), as the watertight test takes them in SIMD lanes.
+    rows: Vec<[Vec3A; 3]>,
     /// What the hit record needs of each leaf-order triangle besides its vertices, in one
     /// record: read once per hit, where the mesh's index, normal and uv arrays cost a cache
     /// miss each (they were ~15 % of a photon bounce).
@@ -110,18 +123,32 @@ impl Blas {
             &mut Duration::default(),
         );
         let order = &bvh.primitive_indices;
-        let triangles_in_order = order.iter().map(|&i| triangles[i as usize]).collect();
+        let rows = order
+            .iter()
+            .map(|&i| transpose(triangles[i as usize]))
+            .collect();
         let attributes_in_order = order.iter().map(|&i| attributes[i as usize]).collect();
         Some(Self {
             bvh,
-            triangles: triangles_in_order,
+            rows,
             attributes: attributes_in_order,
             build_time: start.elapsed(),
         })
     }
 
+    /// The vertices of leaf-order triangle `leaf`.
+    fn vertices(&self, leaf: usize) -> [Vec3; 3] {
+        let [x, y, z] = self.rows[leaf];
+        [0, 1, 2].map(|v| Vec3::new(x[v], y[v], z[v]))
+    }
+
     /// Closest (or, with `any`, first found) hit with `0 < t < t_max`: leaf index and hit.
-    fn trace(
+    /// `AVX2` selects the node test's eight-wide AVX2 variant.
+    ///
+    /// # Safety
+    /// With `AVX2`, the CPU must support AVX2.
+    #[inline(always)]
+    unsafe fn trace<const AVX2: bool>(
         &self,
         origin: Vec3,
         dir: Vec3,
@@ -139,11 +166,11 @@ impl Blas {
                 self.bvh,
                 node,
                 state,
-                intersect_node(node, &box_ray, state.oct_inv4),
+                // SAFETY: with `AVX2`, our caller guarantees the CPU supports it.
+                unsafe { intersect_node::<AVX2>(node, &box_ray, state.oct_inv4) },
                 {
                     let i = state.primitive_id as usize;
-                    let [p0, p1, p2] = self.triangles[i];
-                    if let Some(hit) = watertight.intersect(p0, p1, p2, closest) {
+                    if let Some(hit) = watertight.intersect_transposed(&self.rows[i], closest) {
                         best = Some((i, hit));
                         if any {
                             break 'traversal;
@@ -156,6 +183,17 @@ impl Blas {
         }
         best
     }
+}
+
+/// Whether this CPU has the features of [`SceneBvh::intersect_x86_64_v3`] (detected once,
+/// cached).
+#[cfg(target_arch = "x86_64")]
+fn x86_64_v3() -> bool {
+    std::is_x86_feature_detected!("avx2")
+        && std::is_x86_feature_detected!("bmi1")
+        && std::is_x86_feature_detected!("bmi2")
+        && std::is_x86_feature_detected!("lzcnt")
+        && std::is_x86_feature_detected!("popcnt")
 }
 
 /// An instance's placement and what is derived from it.
@@ -344,11 +382,40 @@ impl SceneBvh {
 
     /// The closest hit with `0 < t < ray.t_max`.
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        #[cfg(target_arch = "x86_64")]
+        if x86_64_v3() {
+            // SAFETY: `intersect_x86_64_v3` needs the CPU features `x86_64_v3` has just found.
+            return unsafe { self.intersect_x86_64_v3(ray) };
+        }
+        // SAFETY: without AVX2 the node test uses no instruction beyond the build's.
+        unsafe { self.intersect_with::<false>(ray) }
+    }
+
+    /// [`Self::intersect`] compiled with AVX2, BMI, LZCNT and POPCNT (x86-64-v3 without FMA,
+    /// so that the arithmetic rounds exactly as in the portable build): the node test takes
+    /// the eight children at once, and the traversal's bit scans and population counts become
+    /// single instructions.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt")]
+    fn intersect_x86_64_v3(&self, ray: &Ray) -> Option<Hit> {
+        // SAFETY: this function runs only where the CPU has AVX2 (see `intersect`).
+        unsafe { self.intersect_with::<true>(ray) }
+    }
+
+    /// [`Self::intersect`]'s body, with the node test of [`Blas::trace`]`::<AVX2>`.
+    ///
+    /// # Safety
+    /// With `AVX2`, the CPU must support AVX2.
+    #[inline(always)]
+    unsafe fn intersect_with<const AVX2: bool>(&self, ray: &Ray) -> Option<Hit> {
         let mut closest = ray.t_max;
         // (instance, the BLAS it was hit in, its leaf-order triangle, hit).
         let mut best: Option<(usize, &Blas, usize, TriangleHit)> = None;
         if let Some(blas) = &self.static_part {
-            if let Some((leaf, hit)) = blas.trace(ray.origin, ray.dir, closest, false) {
+            // SAFETY: with `AVX2`, our caller guarantees the CPU supports it.
+            if let Some((leaf, hit)) =
+                unsafe { blas.trace::<AVX2>(ray.origin, ray.dir, closest, false) }
+            {
                 closest = hit.t;
                 best = Some((blas.attributes[leaf].instance as usize, blas, leaf, hit));
             }
@@ -362,7 +429,8 @@ impl SceneBvh {
                 continue;
             }
             let (origin, dir) = to_instance_space(&inst.placement, ray);
-            if let Some((leaf, hit)) = blas.trace(origin, dir, closest, false) {
+            // SAFETY: with `AVX2`, our caller guarantees the CPU supports it.
+            if let Some((leaf, hit)) = unsafe { blas.trace::<AVX2>(origin, dir, closest, false) } {
                 closest = hit.t;
                 best = Some((i, blas, leaf, hit));
             }
@@ -372,8 +440,32 @@ impl SceneBvh {
 
     /// True when anything is hit with `0 < t < ray.t_max` (shadow rays).
     pub fn occluded(&self, ray: &Ray) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if x86_64_v3() {
+            // SAFETY: `occluded_x86_64_v3` needs the CPU features `x86_64_v3` has just found.
+            return unsafe { self.occluded_x86_64_v3(ray) };
+        }
+        // SAFETY: without AVX2 the node test uses no instruction beyond the build's.
+        unsafe { self.occluded_with::<false>(ray) }
+    }
+
+    /// [`Self::occluded`] compiled as [`Self::intersect_x86_64_v3`] is.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt")]
+    fn occluded_x86_64_v3(&self, ray: &Ray) -> bool {
+        // SAFETY: this function runs only where the CPU has AVX2 (see `occluded`).
+        unsafe { self.occluded_with::<true>(ray) }
+    }
+
+    /// [`Self::occluded`]'s body, with the node test of [`Blas::trace`]`::<AVX2>`.
+    ///
+    /// # Safety
+    /// With `AVX2`, the CPU must support AVX2.
+    #[inline(always)]
+    unsafe fn occluded_with<const AVX2: bool>(&self, ray: &Ray) -> bool {
         if let Some(blas) = &self.static_part {
-            if blas.trace(ray.origin, ray.dir, ray.t_max, true).is_some() {
+            // SAFETY: with `AVX2`, our caller guarantees the CPU supports it.
+            if unsafe { blas.trace::<AVX2>(ray.origin, ray.dir, ray.t_max, true) }.is_some() {
                 return true;
             }
         }
@@ -386,7 +478,8 @@ impl SceneBvh {
                 return false;
             }
             let (origin, dir) = to_instance_space(&inst.placement, ray);
-            blas.trace(origin, dir, ray.t_max, true).is_some()
+            // SAFETY: with `AVX2`, our caller guarantees the CPU supports it.
+            unsafe { blas.trace::<AVX2>(origin, dir, ray.t_max, true) }.is_some()
         })
     }
 
@@ -402,6 +495,7 @@ impl SceneBvh {
     }
 
     /// The hit record of `hit` on leaf-order triangle `leaf` of `blas`, seen in `instance`.
+    #[inline(always)]
     fn hit_record(
         &self,
         ray: &Ray,
@@ -423,7 +517,7 @@ impl SceneBvh {
         let [p0, p1, p2] = if inst.placement.moving {
             self.world_triangle(instance, primitive)
         } else {
-            blas.triangles[leaf]
+            blas.vertices(leaf)
         };
         let (b0, b1, b2) = (hit.b0, hit.b1, hit.b2);
         let position = b0 * p0 + b1 * p1 + b2 * p2;
@@ -431,7 +525,7 @@ impl SceneBvh {
         if inst.placement.moving {
             // The ray was intersected in object space: add the error of transforming the
             // object-space point to the world and a spawned origin back (pbrt-v4 §6.8.5).
-            let [o0, o1, o2] = blas.triangles[leaf];
+            let [o0, o1, o2] = blas.vertices(leaf);
             let object_point = b0 * o0 + b1 * o1 + b2 * o2;
             let m = inst.placement.transform;
             let abs3 = Mat3::from_cols(
@@ -491,4 +585,69 @@ fn ray_hits_box(ray: &Ray, world_box: Option<(Vec3, Vec3)>, t_max: f32) -> bool 
         far = far.min(t0.max(t1));
     }
     near <= far * (1.0 + 2.0 * gamma(3))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::photon::rng::Rng;
+    use crate::photon::sampling::uniform_sphere;
+
+    /// The x86-64-v3 copy and the portable build give the same hits, bit for bit, static and
+    /// moving (the tests elsewhere run the copy the CPU picks; this one runs both).
+    #[test]
+    fn portable_and_avx2_queries_agree_bit_for_bit() {
+        #[cfg(target_arch = "x86_64")]
+        if !x86_64_v3() {
+            return;
+        }
+        let scene = crate::reference::scenes::cornell(3);
+        let last = scene.instances.len() - 1;
+        for bvh in [
+            SceneBvh::new(&scene),
+            SceneBvh::with_moving_instances(&scene, &[last]),
+        ] {
+            let mut rng = Rng::new(11);
+            let mut hits = 0;
+            for i in 0..20_000 {
+                let o = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.4 - 1.2;
+                let d = uniform_sphere(rng.next_2());
+                let t_max = if i % 4 == 0 {
+                    rng.next_f32()
+                } else {
+                    f32::INFINITY
+                };
+                let ray = Ray::with_t_max(o, d, t_max);
+                // SAFETY: the portable build needs nothing; the AVX2 one was checked above.
+                let (portable, avx2) = unsafe {
+                    (
+                        bvh.intersect_with::<false>(&ray),
+                        bvh.intersect_with::<true>(&ray),
+                    )
+                };
+                let bits = |h: Option<Hit>| {
+                    h.map(|h| {
+                        (
+                            h.t.to_bits(),
+                            h.position.to_array().map(f32::to_bits),
+                            h.triangle,
+                        )
+                    })
+                };
+                assert_eq!(bits(portable), bits(avx2), "{ray:?}");
+                assert_eq!(portable, avx2);
+                // SAFETY: as above.
+                let occluded = unsafe {
+                    (
+                        bvh.occluded_with::<false>(&ray),
+                        bvh.occluded_with::<true>(&ray),
+                    )
+                };
+                assert_eq!(occluded.0, occluded.1, "{ray:?}");
+                assert_eq!(occluded.0, portable.is_some(), "{ray:?}");
+                hits += portable.is_some() as u32;
+            }
+            assert!(hits > 10_000, "{hits} hits");
+        }
+    }
 }

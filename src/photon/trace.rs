@@ -273,6 +273,7 @@ pub fn has_finite_lobe(bsdf: &Bsdf) -> bool {
 
 /// Scatters a photon arriving at `hit` along `dir` with the BSDF variant `GLOSSY`, `DELTA`:
 /// its next state and the lobe it took; `None` when absorbed.
+#[inline(always)]
 fn scatter<const GLOSSY: bool, const DELTA: bool>(
     bsdf: &Bsdf,
     hit: &Hit,

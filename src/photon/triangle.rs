@@ -15,7 +15,7 @@
 //! floating point gives exactly the negated value: no ray slips between them. Both faces are
 //! hit; the caller decides which side was hit from the geometric normal.
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A, Vec3Swizzles};
 
 use super::ray::gamma;
 
@@ -33,8 +33,9 @@ pub struct TriangleHit {
 #[derive(Clone, Copy, Debug)]
 pub struct WatertightRay {
     origin: Vec3,
-    kx: usize,
-    ky: usize,
+    /// The permutation `(kx, ky, kz)` is a rotation of `(x, y, z)` (`kx = kz + 1`,
+    /// `ky = kz + 2`, mod 3): `kz` picks one of three copies of the test, each with its
+    /// permutation fixed at compile time (a branch per ray rather than per vertex component).
     kz: usize,
     shear_x: f32,
     shear_y: f32,
@@ -63,8 +64,6 @@ impl WatertightRay {
         let valid = dz != 0.0 && dir.is_finite() && origin.is_finite();
         Self {
             origin,
-            kx,
-            ky,
             kz,
             shear_x: -dir[kx] / dz,
             shear_y: -dir[ky] / dz,
@@ -80,10 +79,44 @@ impl WatertightRay {
         if !self.valid {
             return None;
         }
+        match self.kz {
+            0 => self.intersect_permuted::<0>(p0, p1, p2, t_max),
+            1 => self.intersect_permuted::<1>(p0, p1, p2, t_max),
+            _ => self.intersect_permuted::<2>(p0, p1, p2, t_max),
+        }
+    }
+
+    /// [`Self::intersect`] of the triangle whose vertices' x, y and z coordinates are `rows`
+    /// ([`transpose`]): the same hit, bit for bit, with the three vertices in SIMD lanes.
+    #[inline(always)]
+    pub fn intersect_transposed(&self, rows: &[Vec3A; 3], t_max: f32) -> Option<TriangleHit> {
+        if !self.valid {
+            return None;
+        }
+        match self.kz {
+            0 => self.intersect_rows::<0>(rows, t_max),
+            1 => self.intersect_rows::<1>(rows, t_max),
+            _ => self.intersect_rows::<2>(rows, t_max),
+        }
+    }
+
+    /// [`Self::intersect`] for a valid ray whose dominant axis is `KZ`.
+    #[inline(always)]
+    fn intersect_permuted<const KZ: usize>(
+        &self,
+        p0: Vec3,
+        p1: Vec3,
+        p2: Vec3,
+        t_max: f32,
+    ) -> Option<TriangleHit> {
         // Translate to the ray origin, permute so the dominant direction axis is z.
         let permute = |p: Vec3| {
             let q = p - self.origin;
-            Vec3::new(q[self.kx], q[self.ky], q[self.kz])
+            match KZ {
+                0 => Vec3::new(q.y, q.z, q.x),
+                1 => Vec3::new(q.z, q.x, q.y),
+                _ => q,
+            }
         };
         let (mut a, mut b, mut c) = (permute(p0), permute(p1), permute(p2));
         // Shear x and y so the ray direction becomes +z (z is scaled later, only if needed).
@@ -95,9 +128,55 @@ impl WatertightRay {
         c.y += self.shear_y * c.z;
 
         // Edge functions; e0 is opposite p0 and weighs it.
-        let mut e0 = b.x * c.y - b.y * c.x;
-        let mut e1 = c.x * a.y - c.y * a.x;
-        let mut e2 = a.x * b.y - a.y * b.x;
+        let e0 = b.x * c.y - b.y * c.x;
+        let e1 = c.x * a.y - c.y * a.x;
+        let e2 = a.x * b.y - a.y * b.x;
+        self.finish(a, b, c, [e0, e1, e2], t_max)
+    }
+
+    /// [`Self::intersect`] of the triangle whose vertices' x, y and z coordinates are `rows`
+    /// (lane i: vertex i; [`transpose`]), for a valid ray whose dominant axis is `KZ`: the
+    /// translation, shear and edge functions of the three vertices at once, the same operations
+    /// as [`Self::intersect_permuted`]'s in the same order, so the same hit bit for bit.
+    #[inline(always)]
+    fn intersect_rows<const KZ: usize>(
+        &self,
+        rows: &[Vec3A; 3],
+        t_max: f32,
+    ) -> Option<TriangleHit> {
+        let [x, y, z] = *rows;
+        let o = self.origin;
+        let ((px, ox), (py, oy), (pz, oz)) = match KZ {
+            0 => ((y, o.y), (z, o.z), (x, o.x)),
+            1 => ((z, o.z), (x, o.x), (y, o.y)),
+            _ => ((x, o.x), (y, o.y), (z, o.z)),
+        };
+        // (a.z, b.z, c.z), then the sheared (a.x, b.x, c.x) and (a.y, b.y, c.y).
+        let qz = pz - Vec3A::splat(oz);
+        let sx = (px - Vec3A::splat(ox)) + Vec3A::splat(self.shear_x) * qz;
+        let sy = (py - Vec3A::splat(oy)) + Vec3A::splat(self.shear_y) * qz;
+        let e = sx.yzx() * sy.zxy() - sy.yzx() * sx.zxy();
+        // The common miss, decided here; zeros and hits go on in `finish`.
+        if !e.cmpeq(Vec3A::ZERO).any() && e.cmplt(Vec3A::ZERO).any() && e.cmpgt(Vec3A::ZERO).any() {
+            return None;
+        }
+        let a = Vec3::new(sx.x, sy.x, qz.x);
+        let b = Vec3::new(sx.y, sy.y, qz.y);
+        let c = Vec3::new(sx.z, sy.z, qz.z);
+        self.finish(a, b, c, e.to_array(), t_max)
+    }
+
+    /// The permuted, sheared vertices' test from their edge functions on: the exact recompute
+    /// of zeros, the sign test, `t` and its error bound.
+    #[inline(always)]
+    fn finish(
+        &self,
+        mut a: Vec3,
+        mut b: Vec3,
+        mut c: Vec3,
+        [mut e0, mut e1, mut e2]: [f32; 3],
+        t_max: f32,
+    ) -> Option<TriangleHit> {
         if e0 == 0.0 || e1 == 0.0 || e2 == 0.0 {
             let dop = |px: f32, qy: f32, py: f32, qx: f32| {
                 (f64::from(px) * f64::from(qy) - f64::from(py) * f64::from(qx)) as f32
@@ -153,6 +232,16 @@ impl WatertightRay {
             b2: e2 * inv_det,
         })
     }
+}
+
+/// A triangle's vertices as the rows [`WatertightRay::intersect_transposed`] takes: their x, y
+/// and z coordinates (lane i: vertex i).
+pub fn transpose([p0, p1, p2]: [Vec3; 3]) -> [Vec3A; 3] {
+    [
+        Vec3A::new(p0.x, p1.x, p2.x),
+        Vec3A::new(p0.y, p1.y, p2.y),
+        Vec3A::new(p0.z, p1.z, p2.z),
+    ]
 }
 
 /// One-off watertight intersection of `origin + t · dir` (`0 < t < t_max`) with a triangle.
@@ -248,6 +337,44 @@ mod tests {
             assert!(hit.t.is_finite() && hit.b0.is_finite() && hit.b1.is_finite());
         }
         assert!(intersect_triangle(Vec3::Z, Vec3::ZERO, f32::INFINITY, TRI).is_none());
+    }
+
+    #[test]
+    fn transposed_test_gives_the_same_hits_bit_for_bit() {
+        let mut rng = crate::photon::rng::Rng::new(5);
+        let mut point = |scale: f32| {
+            Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 * scale - scale
+        };
+        let mut hits = 0;
+        for i in 0..20_000 {
+            // Some triangles share a vertex with the ray's target, some are degenerate.
+            let tri = [point(1.0), point(1.0), point(1.0)];
+            let target = match i % 4 {
+                0 => tri[0],
+                1 => 0.5 * (tri[1] + tri[2]),
+                _ => point(0.5),
+            };
+            let tri = if i % 97 == 0 {
+                [tri[0], tri[0], tri[1]]
+            } else {
+                tri
+            };
+            let origin = point(3.0);
+            let dir = if i % 13 == 0 {
+                Vec3::new(0.0, target.y - origin.y, 0.0)
+            } else {
+                target - origin
+            };
+            let ray = WatertightRay::new(origin, dir);
+            let t_max = if i % 3 == 0 { 0.7 } else { f32::INFINITY };
+            let scalar = ray.intersect(tri[0], tri[1], tri[2], t_max);
+            let rows = ray.intersect_transposed(&transpose(tri), t_max);
+            let bits =
+                |h: Option<TriangleHit>| h.map(|h| [h.t, h.b0, h.b1, h.b2].map(f32::to_bits));
+            assert_eq!(bits(scalar), bits(rows), "{tri:?} {origin} {dir}");
+            hits += scalar.is_some() as u32;
+        }
+        assert!(hits > 5000, "{hits} hits");
     }
 
     #[test]
