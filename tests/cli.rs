@@ -71,24 +71,31 @@ fn render_to_an_unknown_format_or_missing_folder_fails_cleanly() {
     assert!(!no_dir.exists());
 }
 
+/// `ispm render ARGS` into `dir`, which must succeed: its stats JSON.
+fn render_stats(dir: &std::path::Path, args: &[&str]) -> serde_json::Value {
+    let (png, json) = (dir.join("render.png"), dir.join("render.json"));
+    let mut all = vec!["render"];
+    all.extend_from_slice(args);
+    all.extend(["-o", png.to_str().expect("utf8")]);
+    all.extend(["--stats", json.to_str().expect("utf8")]);
+    let out = ispm(&all);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_str(&std::fs::read_to_string(&json).expect("stats")).expect("json")
+}
+
 #[test]
 fn quality_none_drops_the_default_preset_and_an_unknown_preset_fails_cleanly() {
     let dir = tempfile::tempdir().expect("tempdir");
     let emitted = |quality: &[&str]| {
-        let (png, json) = (dir.path().join("q.png"), dir.path().join("q.json"));
-        let mut args = vec!["render", "--size", "32x24", "--frames", "1"];
+        let mut args = vec!["--size", "32x24", "--frames", "1"];
         args.extend_from_slice(quality);
-        args.extend(["-o", png.to_str().expect("utf8")]);
-        args.extend(["--stats", json.to_str().expect("utf8")]);
-        let out = ispm(&args);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let stats: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(&json).expect("stats")).expect("json");
-        stats["emitted_photons"].as_u64().expect("emitted_photons")
+        render_stats(dir.path(), &args)["emitted_photons"]
+            .as_u64()
+            .expect("emitted_photons")
     };
     // `render`'s default preset (`high`: 10k photons) against no preset (100k, the flag's own
     // default), each to within the light views' rounding.
@@ -117,9 +124,7 @@ fn quality_none_drops_the_default_preset_and_an_unknown_preset_fails_cleanly() {
 fn caustic_share_multiplies_the_rings_stored_photons_and_rejects_out_of_range_values() {
     let dir = tempfile::tempdir().expect("tempdir");
     let stored = |share: &str| {
-        let (png, json) = (dir.path().join("ring.png"), dir.path().join("ring.json"));
-        let out = ispm(&[
-            "render",
+        let args = [
             "caustic-ring",
             "--size",
             "32x32",
@@ -127,19 +132,10 @@ fn caustic_share_multiplies_the_rings_stored_photons_and_rejects_out_of_range_va
             "20000",
             "--caustic-share",
             share,
-            "-o",
-            png.to_str().expect("utf8"),
-            "--stats",
-            json.to_str().expect("utf8"),
-        ]);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let stats: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(&json).expect("stats")).expect("json");
-        stats["stored_photons"].as_u64().expect("stored_photons")
+        ];
+        render_stats(dir.path(), &args)["stored_photons"]
+            .as_u64()
+            .expect("stored_photons")
     };
     let (off, on) = (stored("0"), stored("0.5"));
     assert!(

@@ -35,8 +35,8 @@
 //! its slab test rounds, so a ray through a point where node boxes meet (a vertex on a box
 //! corner) can miss every box around it; the `grid_box` test found such leaks. We therefore
 //! run obvhs's traversal (`obvhs::traverse!`: its stack, child ordering and leaf decoding) with
-//! our own node test, `node::intersect_node`: the same quantized slab test, four children at a
-//! time in SIMD (glam's `Vec4`; all eight at once with AVX2, see "Speed"), with every slab
+//! our own node test, `node::intersect_node`: the same quantized slab test, the eight children
+//! as the lanes of one vectorised loop (eight wide with AVX2, see "Speed"), with every slab
 //! widened by a bound on its rounding error (as in pbrt-v4's robust box test, Ize 2013), with
 //! the near and far planes picked by the ray's direction signs, entry clamped at 0 and
 //! `|1/dir|` capped at 2⁴⁰ (a direction component below 2⁻⁴⁰ is treated as ±2⁻⁴⁰, which can
@@ -44,10 +44,11 @@
 //!
 //! # Speed
 //!
-//! On x86-64 CPUs with AVX2, BMI, LZCNT and POPCNT (detected at run time, once) the queries run
-//! a copy of themselves compiled for those features, FMA left out so that every result rounds
-//! as in the portable build, bit for bit: the node test takes the eight children in one
-//! 256-bit register, bit scans and population counts are single instructions, and the hit
+//! On x86-64 CPUs with AVX2, BMI, LZCNT and POPCNT (detected at run time, once, by the
+//! `multiversion` crate: no `unsafe` here) the queries run a copy of themselves compiled for
+//! those features, FMA left out so that every result rounds as in the portable build, bit for
+//! bit: the node test's loop over the eight children becomes 256-bit instructions, bit scans
+//! and population counts are single instructions, and the hit
 //! record is inlined into the traversal. Triangles are stored transposed (the x, y and z of
 //! their three vertices), so that the watertight test translates, shears and computes its edge
 //! functions for the three vertices at once. `docs/performance.md` ("CPU photon tracing") has
@@ -56,6 +57,7 @@
 use std::time::{Duration, Instant};
 
 use glam::{Mat3, Mat4, UVec2, Vec2, Vec3, Vec3A};
+use multiversion::multiversion;
 use obvhs::BvhBuildParams;
 use obvhs::{cwbvh::builder::build_cwbvh_from_tris, cwbvh::CwBvh, triangle::Triangle};
 
@@ -143,12 +145,8 @@ impl Blas {
     }
 
     /// Closest (or, with `any`, first found) hit with `0 < t < t_max`: leaf index and hit.
-    /// `AVX2` selects the node test's eight-wide AVX2 variant.
-    ///
-    /// # Safety
-    /// With `AVX2`, the CPU must support AVX2.
     #[inline(always)]
-    unsafe fn trace<const AVX2: bool>(
+    fn trace(
         &self,
         origin: Vec3,
         dir: Vec3,
@@ -166,8 +164,7 @@ impl Blas {
                 self.bvh,
                 node,
                 state,
-                // SAFETY: with `AVX2`, our caller guarantees the CPU supports it.
-                unsafe { intersect_node::<AVX2>(node, &box_ray, state.oct_inv4) },
+                intersect_node(node, &box_ray, state.oct_inv4),
                 {
                     let i = state.primitive_id as usize;
                     if let Some(hit) = watertight.intersect_transposed(&self.rows[i], closest) {
@@ -185,15 +182,20 @@ impl Blas {
     }
 }
 
-/// Whether this CPU has the features of [`SceneBvh::intersect_x86_64_v3`] (detected once,
-/// cached).
-#[cfg(target_arch = "x86_64")]
-fn x86_64_v3() -> bool {
-    std::is_x86_feature_detected!("avx2")
-        && std::is_x86_feature_detected!("bmi1")
-        && std::is_x86_feature_detected!("bmi2")
-        && std::is_x86_feature_detected!("lzcnt")
-        && std::is_x86_feature_detected!("popcnt")
+/// [`SceneBvh::intersect`], compiled once for any x86-64 and once more for x86-64-v3 without
+/// FMA (AVX2, BMI, LZCNT, POPCNT; `multiversion` picks the copy by the CPU, detected once), so
+/// that the node test's four-wide halves become one eight-wide instruction stream and the
+/// traversal's bit scans and population counts single instructions, while every floating-point
+/// operation rounds as in the portable copy (no FMA contraction).
+#[multiversion(targets("x86_64+avx2+bmi1+bmi2+lzcnt+popcnt"))]
+fn intersect_fastest(bvh: &SceneBvh, ray: &Ray) -> Option<Hit> {
+    bvh.intersect_portable(ray)
+}
+
+/// [`SceneBvh::occluded`], compiled as [`intersect_fastest`] is.
+#[multiversion(targets("x86_64+avx2+bmi1+bmi2+lzcnt+popcnt"))]
+fn occluded_fastest(bvh: &SceneBvh, ray: &Ray) -> bool {
+    bvh.occluded_portable(ray)
 }
 
 /// An instance's placement and what is derived from it.
@@ -382,40 +384,17 @@ impl SceneBvh {
 
     /// The closest hit with `0 < t < ray.t_max`.
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        #[cfg(target_arch = "x86_64")]
-        if x86_64_v3() {
-            // SAFETY: `intersect_x86_64_v3` needs the CPU features `x86_64_v3` has just found.
-            return unsafe { self.intersect_x86_64_v3(ray) };
-        }
-        // SAFETY: without AVX2 the node test uses no instruction beyond the build's.
-        unsafe { self.intersect_with::<false>(ray) }
+        intersect_fastest(self, ray)
     }
 
-    /// [`Self::intersect`] compiled with AVX2, BMI, LZCNT and POPCNT (x86-64-v3 without FMA,
-    /// so that the arithmetic rounds exactly as in the portable build): the node test takes
-    /// the eight children at once, and the traversal's bit scans and population counts become
-    /// single instructions.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt")]
-    fn intersect_x86_64_v3(&self, ray: &Ray) -> Option<Hit> {
-        // SAFETY: this function runs only where the CPU has AVX2 (see `intersect`).
-        unsafe { self.intersect_with::<true>(ray) }
-    }
-
-    /// [`Self::intersect`]'s body, with the node test of [`Blas::trace`]`::<AVX2>`.
-    ///
-    /// # Safety
-    /// With `AVX2`, the CPU must support AVX2.
+    /// [`Self::intersect`]'s body, inlined into each copy [`intersect_fastest`] compiles.
     #[inline(always)]
-    unsafe fn intersect_with<const AVX2: bool>(&self, ray: &Ray) -> Option<Hit> {
+    fn intersect_portable(&self, ray: &Ray) -> Option<Hit> {
         let mut closest = ray.t_max;
         // (instance, the BLAS it was hit in, its leaf-order triangle, hit).
         let mut best: Option<(usize, &Blas, usize, TriangleHit)> = None;
         if let Some(blas) = &self.static_part {
-            // SAFETY: with `AVX2`, our caller guarantees the CPU supports it.
-            if let Some((leaf, hit)) =
-                unsafe { blas.trace::<AVX2>(ray.origin, ray.dir, closest, false) }
-            {
+            if let Some((leaf, hit)) = blas.trace(ray.origin, ray.dir, closest, false) {
                 closest = hit.t;
                 best = Some((blas.attributes[leaf].instance as usize, blas, leaf, hit));
             }
@@ -429,8 +408,7 @@ impl SceneBvh {
                 continue;
             }
             let (origin, dir) = to_instance_space(&inst.placement, ray);
-            // SAFETY: with `AVX2`, our caller guarantees the CPU supports it.
-            if let Some((leaf, hit)) = unsafe { blas.trace::<AVX2>(origin, dir, closest, false) } {
+            if let Some((leaf, hit)) = blas.trace(origin, dir, closest, false) {
                 closest = hit.t;
                 best = Some((i, blas, leaf, hit));
             }
@@ -440,32 +418,14 @@ impl SceneBvh {
 
     /// True when anything is hit with `0 < t < ray.t_max` (shadow rays).
     pub fn occluded(&self, ray: &Ray) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        if x86_64_v3() {
-            // SAFETY: `occluded_x86_64_v3` needs the CPU features `x86_64_v3` has just found.
-            return unsafe { self.occluded_x86_64_v3(ray) };
-        }
-        // SAFETY: without AVX2 the node test uses no instruction beyond the build's.
-        unsafe { self.occluded_with::<false>(ray) }
+        occluded_fastest(self, ray)
     }
 
-    /// [`Self::occluded`] compiled as [`Self::intersect_x86_64_v3`] is.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt")]
-    fn occluded_x86_64_v3(&self, ray: &Ray) -> bool {
-        // SAFETY: this function runs only where the CPU has AVX2 (see `occluded`).
-        unsafe { self.occluded_with::<true>(ray) }
-    }
-
-    /// [`Self::occluded`]'s body, with the node test of [`Blas::trace`]`::<AVX2>`.
-    ///
-    /// # Safety
-    /// With `AVX2`, the CPU must support AVX2.
+    /// [`Self::occluded`]'s body, inlined into each copy [`occluded_fastest`] compiles.
     #[inline(always)]
-    unsafe fn occluded_with<const AVX2: bool>(&self, ray: &Ray) -> bool {
+    fn occluded_portable(&self, ray: &Ray) -> bool {
         if let Some(blas) = &self.static_part {
-            // SAFETY: with `AVX2`, our caller guarantees the CPU supports it.
-            if unsafe { blas.trace::<AVX2>(ray.origin, ray.dir, ray.t_max, true) }.is_some() {
+            if blas.trace(ray.origin, ray.dir, ray.t_max, true).is_some() {
                 return true;
             }
         }
@@ -478,8 +438,7 @@ impl SceneBvh {
                 return false;
             }
             let (origin, dir) = to_instance_space(&inst.placement, ray);
-            // SAFETY: with `AVX2`, our caller guarantees the CPU supports it.
-            unsafe { blas.trace::<AVX2>(origin, dir, ray.t_max, true) }.is_some()
+            blas.trace(origin, dir, ray.t_max, true).is_some()
         })
     }
 
@@ -593,14 +552,11 @@ mod tests {
     use crate::photon::rng::Rng;
     use crate::photon::sampling::uniform_sphere;
 
-    /// The x86-64-v3 copy and the portable build give the same hits, bit for bit, static and
-    /// moving (the tests elsewhere run the copy the CPU picks; this one runs both).
+    /// The queries as dispatched (the x86-64-v3 copy on a CPU that has it, as on every
+    /// machine this project measures on) give the same hits, bit for bit, as their bodies
+    /// compiled for any x86-64, static and moving.
     #[test]
-    fn portable_and_avx2_queries_agree_bit_for_bit() {
-        #[cfg(target_arch = "x86_64")]
-        if !x86_64_v3() {
-            return;
-        }
+    fn dispatched_queries_equal_their_portable_bodies_bit_for_bit() {
         let scene = crate::reference::scenes::cornell(3);
         let last = scene.instances.len() - 1;
         for bvh in [
@@ -618,13 +574,9 @@ mod tests {
                     f32::INFINITY
                 };
                 let ray = Ray::with_t_max(o, d, t_max);
-                // SAFETY: the portable build needs nothing; the AVX2 one was checked above.
-                let (portable, avx2) = unsafe {
-                    (
-                        bvh.intersect_with::<false>(&ray),
-                        bvh.intersect_with::<true>(&ray),
-                    )
-                };
+                // The query as dispatched (the x86-64-v3 copy where the CPU has it) against
+                // its body compiled here, for any x86-64.
+                let (portable, avx2) = (bvh.intersect_portable(&ray), bvh.intersect(&ray));
                 let bits = |h: Option<Hit>| {
                     h.map(|h| {
                         (
@@ -636,13 +588,7 @@ mod tests {
                 };
                 assert_eq!(bits(portable), bits(avx2), "{ray:?}");
                 assert_eq!(portable, avx2);
-                // SAFETY: as above.
-                let occluded = unsafe {
-                    (
-                        bvh.occluded_with::<false>(&ray),
-                        bvh.occluded_with::<true>(&ray),
-                    )
-                };
+                let occluded = (bvh.occluded_portable(&ray), bvh.occluded(&ray));
                 assert_eq!(occluded.0, occluded.1, "{ray:?}");
                 assert_eq!(occluded.0, portable.is_some(), "{ray:?}");
                 hits += portable.is_some() as u32;
