@@ -65,19 +65,23 @@ mod setup;
 
 use buffers::{BounceBuffers, PhotonBuffers};
 
-/// `traced`'s photon map as the GPU draws it: light after light, each normal packed with its
-/// kNN radius from `radii` (photon-map order), `offset` added to each position.
+/// Photons `range` of `traced`'s photon map as the GPU draws it: light after light, each normal
+/// packed with its kNN radius from `radii` (photon-map order), `offset` added to each position.
 fn drawn_photons<'a>(
     traced: &'a Traced,
     radii: &'a [f32],
     offset: glam::Vec3,
+    range: std::ops::Range<usize>,
 ) -> impl Iterator<Item = Photon> + 'a {
     debug_assert_eq!(traced.photon_count(), radii.len());
-    traced.photons().zip(radii).map(move |(p, &r)| Photon {
-        position: p.position + offset,
-        normal: pack_normal(p.normal, r),
-        ..*p
-    })
+    let end = range.end.min(radii.len());
+    (traced.photons().skip(range.start))
+        .zip(&radii[range.start.min(end)..end])
+        .map(move |(p, &r)| Photon {
+            position: p.position + offset,
+            normal: pack_normal(p.normal, r),
+            ..*p
+        })
 }
 
 pub struct PhotonFrame {
@@ -344,7 +348,13 @@ impl PhotonFrame {
     /// `origin − eye`, in f32), and normals packed with the photons' kNN radii, as uploaded
     /// (`photon::types::pack_normal`; [`Self::kernel`] turns a radius into the kernel's).
     pub fn photon_map(&self) -> Vec<Photon> {
-        drawn_photons(&self.traced, &self.radii, self.eye_offset()).collect()
+        drawn_photons(
+            &self.traced,
+            &self.radii,
+            self.eye_offset(),
+            0..self.radii.len(),
+        )
+        .collect()
     }
 
     /// Light `light`'s share of the last photon map: its photons (positions relative to the

@@ -12,8 +12,9 @@
 #
 # Stages (arguments, run in the order given): `render` (the README's render with stats and a
 # trace), `shadows` (direct light alone at several shadow-map sizes), `bench` (`ispm bench` on
-# every bundled scene), `tests` (the test suite, validation on), `crashes` (the binaries that crashed, again and again, with and without validation), `sweep`
-# (the 160x120 accuracy-vs-time sweep of docs/tools/headline.py). BUDGET seconds in all; each
+# every bundled scene), `cargobench` (the `cargo bench` targets pack.sh was given), `tests` (the test suite, validation on), `crashes` (the binaries that crashed, again and again, with and without validation), `sweep`
+# (the 160x120 accuracy-vs-time sweep of docs/tools/headline.py), `sweep640` (the same at
+# 640x480, against references made here beforehand). BUDGET seconds in all; each
 # stage stops at it, and everything lands in one $OUT/results.tgz (the tool returns few files),
 # also when the run is cut short.
 set -uo pipefail
@@ -146,6 +147,20 @@ stage_tests() {
   grep -v 'rc=0$' "$OUT/tests/summary.txt"
 }
 
+# The `cargo bench` targets pack.sh carried (BENCHES), one after the other, each alone on the
+# machine.
+stage_cargobench() {
+  mkdir -p "$OUT/cargobench"
+  for b in .device/benches/*; do
+    [ -x "$b" ] || continue
+    local t=$(($(left) - 5))
+    if [ "$t" -lt 10 ]; then break; fi
+    log "cargo bench $(basename "$b")"
+    timeout "$t" "$b" --bench >"$OUT/cargobench/$(basename "$b").txt" 2>&1 || log "$(basename "$b"): rc $?"
+    cat "$OUT/cargobench/$(basename "$b").txt"
+  done
+}
+
 # Binaries that crashed (SIGSEGV) once under the parallel suite: each of CRASHERS, REPEAT times,
 # four at a time, alternately with and without the validation layer.
 stage_crashes() {
@@ -179,6 +194,31 @@ stage_sweep() {
     [ "$t" -ge 10 ] && timeout "$t" $R sweep "$scene" "${common[@]}" \
       --grid 'method=photon-gather;photons=10k,40k,160k;radius=1;subsample=1' \
       >>"$OUT/sweep/$scene.log" 2>&1
+  done
+}
+
+# The same at 640x480 (references made here by `ispm sweep --size 640x480` and carried in the
+# cache), each scene given a quarter of SWEEP_BUDGET seconds (default: what is left): the
+# baseline's gather grows with the pixels, ISPM's GPU estimate hardly.
+stage_sweep640() {
+  mkdir -p "$OUT/sweep640"
+  local budget=${SWEEP_BUDGET:-$(left)}
+  [ "$budget" -gt "$(left)" ] && budget=$(left)
+  local share=$((budget / 4))
+  for scene in cornell-box caustic-ring glass-sphere diffuse-box; do
+    local end=$(($(date +%s) + share)) t
+    local common=(--out "$OUT/sweep640/$scene" --size 640x480 --frames 3)
+    t=$((end - $(date +%s)))
+    [ "$t" -gt $(($(left) - 5)) ] && t=$(($(left) - 5))
+    if [ "$t" -lt 10 ]; then break; fi
+    log "sweep640 $scene"
+    timeout "$t" $R sweep "$scene" "${common[@]}" \
+      --grid 'photons=10k,40k,160k;radius=1,2;subsample=1,4' \
+      >>"$OUT/sweep640/$scene.log" 2>&1
+    t=$((end - $(date +%s)))
+    [ "$t" -ge 10 ] && timeout "$t" $R sweep "$scene" "${common[@]}" \
+      --grid 'method=photon-gather;photons=10k,40k,160k,640k;radius=1;subsample=1' \
+      >>"$OUT/sweep640/$scene.log" 2>&1
   done
 }
 

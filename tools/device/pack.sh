@@ -29,12 +29,30 @@ while read -r exe; do
   # The library's and the binary's unit tests are both `ispm-HASH`: keep the hash on those.
   case ${name%-*} in ispm) cp "$exe" ".device/stage/tests/$name" ;; *) cp "$exe" ".device/stage/tests/${name%-*}" ;; esac
 done </tmp/ispm-test-bins.txt
+# TESTS="a b …": carry only these test binaries (the whole suite is ~45 MB packed; a call
+# carries 64 MiB in all, references included).
+if [ -n "${TESTS:-}" ]; then
+  for t in .device/stage/tests/*; do
+    case " $TESTS " in *" $(basename "$t") "*) ;; *) rm "$t" ;; esac
+  done
+fi
+# BENCHES="a b …": the `cargo bench` targets to carry too (run by gpu-run.sh's `cargobench`).
+mkdir -p .device/stage/benches
+for bench in ${BENCHES:-}; do
+  cargo bench --bench "$bench" --no-run --message-format=json | python3 -c '
+import json, sys
+for line in sys.stdin:
+    m = json.loads(line)
+    if m.get("reason") == "compiler-artifact" and m.get("executable") and m["target"]["kind"] == ["bench"]:
+        print(m["executable"])
+' | while read -r exe; do cp "$exe" ".device/stage/benches/$bench"; done
+done
 cp target/debug/ispm .device/stage/bin/ispm-test
 cp target/release/ispm .device/stage/bin/ispm-release
-strip .device/stage/bin/* .device/stage/tests/*
+strip .device/stage/bin/* .device/stage/tests/* .device/stage/benches/* 2>/dev/null || true
 cache=${XDG_CACHE_HOME:-$HOME/.cache}/ispm/references
 if [ -d "$cache" ]; then cp -r "$cache" .device/cache/ispm/; fi
 pwd >.device/built_at
-tar -C .device/stage -cf - bin tests | xz -T0 -6 >.device/payload.tar.xz
+tar -C .device/stage -cf - bin tests benches | xz -T0 -6 >.device/payload.tar.xz
 rm -rf .device/stage
 du -sh .device .gl

@@ -30,6 +30,14 @@ pub struct DeviceProperties {
     pub compute_subgroup_gather: bool,
 }
 
+impl DeviceProperties {
+    /// Whether the device runs on the host's own cores (lavapipe): its "GPU" work and the
+    /// host's threads then share the same cores.
+    pub fn is_cpu(&self) -> bool {
+        self.device_type == vk::PhysicalDeviceType::CPU
+    }
+}
+
 /// The order devices are preferred in (lower first) when none is named.
 pub fn device_type_rank(t: vk::PhysicalDeviceType) -> u32 {
     match t {

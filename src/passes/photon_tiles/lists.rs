@@ -21,12 +21,30 @@
 //! left out, as the volumes' vertex stage collapses them. At `--subsample N > 1` the target
 //! pixels are the low-resolution ones, each shading the G-buffer pixel at the centre of its N×N
 //! block.
+//!
+//! # In parallel
+//! [`bin`] works in three steps, each split over threads where it is given more than one:
+//!
+//! ```text
+//!   1. runs of the map ──► per photon: sphere, tile rectangle      (runs in map order)
+//!   2. bands of tile rows ──► each band counts its tiles' entries  (every rectangle, in order)
+//!      prefix sum ──► offsets                                      (one thread: tiles × buffers)
+//!   3. bands of tile rows ──► each band writes its tiles' lists    (its own share of `indices`)
+//! ```
+//!
+//! A band reads every rectangle, in map order, and writes only its own rows: the lists do not
+//! depend on the number of threads (tested), and every list is in map order. The renderer bins on
+//! every core where the device has cores of its own, and on one thread on a CPU device
+//! (lavapipe), whose "GPU" passes run on the cores the other threads would take
+//! (docs/performance.md, "Where the frame goes").
 
 use crate::layout::shared_constants::PHOTON_TILE;
 use crate::passes::photon_volumes::billboard_half_size;
 use crate::photon::kernel::{kernel_radius, KernelSettings};
 use crate::photon::types::{unpack_normal, Photon};
 use glam::{Mat4, Vec3, Vec4};
+use rayon::prelude::*;
+use std::ops::Range;
 
 /// The host span (`timing::timed`) of binning the lists: `cpu.photon tiles` among `ispm
 /// bench`'s stage times.
@@ -166,84 +184,169 @@ impl TileLists {
     }
 }
 
-/// Lists the drawn photons (`photons`: positions relative to the photon map's origin, normals
-/// packed with their kNN radii, in photon-map order, `counts[b]` of them in buffer b) in the
-/// tiles of `screen` their kernels (`kernel`, after `offset` = origin − eye is added) may reach.
-pub fn bin(
-    photons: impl Iterator<Item = Photon>,
+/// A kept photon's buffer, index in it and inclusive tile rectangle `[x0, y0, x1, y1]`.
+type Rect = (u32, u32, [u32; 4]);
+
+/// `f` over `items`, in order, on `threads` threads (rayon) or, for one, on the calling thread.
+fn map_in_order<T: Send, R: Send>(
+    items: Vec<T>,
+    threads: usize,
+    f: impl Fn(T) -> R + Sync + Send,
+) -> Vec<R> {
+    if threads > 1 {
+        items.into_par_iter().map(f).collect()
+    } else {
+        items.into_iter().map(f).collect()
+    }
+}
+
+/// Lists the drawn photons in the tiles of `screen` their kernels (`kernel`, after `offset` =
+/// origin − eye is added) may reach. `photons(range)` yields the photons of the map's index
+/// range `range` (positions relative to the photon map's origin, normals packed with their kNN
+/// radii, in photon-map order), `counts[b]` of them in buffer b.
+///
+/// On `threads` threads (module docs, "In parallel"); the lists are the same for any number.
+pub fn bin<I: Iterator<Item = Photon>>(
+    photons: impl Fn(Range<usize>) -> I + Sync,
     counts: &[u32],
     (kernel, offset): (&KernelSettings, Vec3),
     screen: &Screen,
+    threads: usize,
 ) -> TileLists {
     let (columns, rows) = screen.tiles();
     let tiles = (columns * rows) as usize;
-    // Each kept photon's buffer, index in it and tile rectangle.
-    let mut rects: Vec<(u32, u32, [u32; 4])> = Vec::new();
-    let mut buffers = counts
-        .iter()
-        .enumerate()
-        .flat_map(|(b, &n)| (0..n).map(move |i| (b as u32, i)));
-    let mut spheres = Vec::with_capacity(counts.iter().map(|&n| n as usize).sum());
-    for photon in photons {
-        let Some((b, i)) = buffers.next() else {
-            break;
-        };
-        let centre = photon.position + offset;
-        if !photon.power.cmpgt(Vec3::ZERO).any() || !centre.is_finite() {
-            spheres.push([0.0; 4]);
-            continue;
-        }
-        let (_, r_knn) = unpack_normal(photon.normal);
-        let (r, _) = kernel_radius(r_knn, kernel, centre.length());
-        let r = r * RADIUS_MARGIN;
-        spheres.push(centre.extend(r).to_array());
-        if let Some([x0, y0, x1, y1]) = screen.pixels(centre, r) {
-            let t = PHOTON_TILE;
-            rects.push((b, i, [x0 / t, y0 / t, x1 / t, y1 / t]));
-        }
-    }
-    let area = |r: &[u32; 4]| ((r[2] - r[0] + 1) * (r[3] - r[1] + 1)) as usize;
+    let buffers = counts.len().max(1);
     let stride = tiles + 1;
-    let mut offsets = vec![0u32; counts.len().max(1) * stride];
-    for (b, _, rect) in &rects {
-        for y in rect[1]..=rect[3] {
-            for x in rect[0]..=rect[2] {
-                offsets[*b as usize * stride + (y * columns + x) as usize + 1] += 1;
+    // Where each buffer's photons begin in the map.
+    let firsts: Vec<usize> = counts
+        .iter()
+        .scan(0usize, |at, &n| {
+            let first = *at;
+            *at += n as usize;
+            Some(first)
+        })
+        .collect();
+    let total = counts.iter().map(|&n| n as usize).sum::<usize>();
+
+    // 1. Each photon's bounding sphere and tile rectangle, runs of the map on every thread.
+    let run = total
+        .div_ceil(if threads > 1 { threads * 4 } else { 1 })
+        .max(1);
+    let runs: Vec<usize> = (0..total).step_by(run).collect();
+    let parts: Vec<(Vec<[f32; 4]>, Vec<Rect>)> = map_in_order(runs, threads, |start| {
+        let range = start..(start + run).min(total);
+        let mut spheres = Vec::with_capacity(range.len());
+        let mut rects = Vec::with_capacity(range.len());
+        for (k, photon) in range.clone().zip(photons(range)) {
+            let b = firsts.partition_point(|&f| f <= k) - 1;
+            let i = (k - firsts[b]) as u32;
+            let centre = photon.position + offset;
+            if !photon.power.cmpgt(Vec3::ZERO).any() || !centre.is_finite() {
+                spheres.push([0.0; 4]);
+                continue;
             }
+            let (_, r_knn) = unpack_normal(photon.normal);
+            let (r, _) = kernel_radius(r_knn, kernel, centre.length());
+            let r = r * RADIUS_MARGIN;
+            spheres.push(centre.extend(r).to_array());
+            if let Some([x0, y0, x1, y1]) = screen.pixels(centre, r) {
+                let t = PHOTON_TILE;
+                rects.push((b as u32, i, [x0 / t, y0 / t, x1 / t, y1 / t]));
+            }
+        }
+        (spheres, rects)
+    });
+    let rects = || parts.iter().flat_map(|(_, rects)| rects);
+
+    // 2. Bands of tile rows, each counting and then writing its own tiles' lists: a band reads
+    // every rectangle in map order, so each list is in map order whatever the bands.
+    let band_rows = rows
+        .div_ceil(if threads > 1 { threads as u32 * 4 } else { 1 })
+        .max(1);
+    let bands: Vec<(u32, u32)> = (0..rows)
+        .step_by(band_rows as usize)
+        .map(|r0| (r0, (r0 + band_rows).min(rows)))
+        .collect();
+    // The part of `rect` in rows `r0..r1`, as tile indices relative to the band's first tile.
+    let band_tiles = move |rect: [u32; 4], (r0, r1): (u32, u32)| {
+        (rect[1].max(r0)..=rect[3].min(r1 - 1))
+            .flat_map(move |y| (rect[0]..=rect[2]).map(move |x| ((y - r0) * columns + x) as usize))
+    };
+    let band_counts = map_in_order(bands.clone(), threads, |band| {
+        let size = ((band.1 - band.0) * columns) as usize;
+        let mut count = vec![0u32; buffers * size];
+        for (b, _, rect) in rects() {
+            for t in band_tiles(*rect, band) {
+                count[*b as usize * size + t] += 1;
+            }
+        }
+        count
+    });
+    let mut offsets = vec![0u32; buffers * stride];
+    for (&(r0, r1), count) in bands.iter().zip(&band_counts) {
+        let (first, size) = ((r0 * columns) as usize, ((r1 - r0) * columns) as usize);
+        for b in 0..buffers {
+            offsets[b * stride + first + 1..][..size].copy_from_slice(&count[b * size..][..size]);
         }
     }
     // Exclusive prefix sum over every buffer's tiles in turn; each buffer's last entry is the
     // next one's first (so every buffer's tiles + 1 offsets are complete).
-    let mut total = 0u32;
-    for b in 0..counts.len().max(1) {
+    let mut sum = 0u32;
+    for b in 0..buffers {
         let row = &mut offsets[b * stride..(b + 1) * stride];
-        row[0] = total;
+        row[0] = sum;
         for entry in &mut row[1..] {
-            total += *entry;
-            *entry = total;
+            sum += *entry;
+            *entry = sum;
         }
     }
     debug_assert_eq!(
-        total as usize,
-        rects.iter().map(|r| area(&r.2)).sum::<usize>()
+        sum as usize,
+        rects()
+            .map(|(_, _, r)| ((r[2] - r[0] + 1) * (r[3] - r[1] + 1)) as usize)
+            .sum::<usize>()
     );
-    let mut cursor: Vec<u32> = offsets.clone();
-    let mut indices = vec![0u32; total as usize];
-    for (b, i, rect) in &rects {
-        for y in rect[1]..=rect[3] {
-            for x in rect[0]..=rect[2] {
-                let slot = &mut cursor[*b as usize * stride + (y * columns + x) as usize];
-                indices[*slot as usize] = *i;
+    // 3. Each band's share of `indices`, per buffer: one range, as buffer b's lists are its
+    // tiles' in row order.
+    let mut indices = vec![0u32; sum as usize];
+    let mut shares: Vec<Vec<&mut [u32]>> = bands.iter().map(|_| Vec::new()).collect();
+    let mut rest = &mut indices[..];
+    for b in 0..buffers {
+        for (share, &(r0, r1)) in shares.iter_mut().zip(&bands) {
+            let at = |row: u32| offsets[b * stride + (row * columns) as usize] as usize;
+            let (mine, after) = std::mem::take(&mut rest).split_at_mut(at(r1) - at(r0));
+            share.push(mine);
+            rest = after;
+        }
+    }
+    let jobs: Vec<_> = bands.iter().copied().zip(shares).collect();
+    map_in_order(jobs, threads, |(band, mut share)| {
+        let first = (band.0 * columns) as usize;
+        let size = ((band.1 - band.0) * columns) as usize;
+        // Per buffer and tile of the band, the next free slot of its list in the share.
+        let mut cursor: Vec<u32> = (0..buffers)
+            .flat_map(|b| {
+                let base = offsets[b * stride + first];
+                offsets[b * stride + first..][..size]
+                    .iter()
+                    .map(move |&o| o - base)
+            })
+            .collect();
+        for (b, i, rect) in rects() {
+            let b = *b as usize;
+            for t in band_tiles(*rect, band) {
+                let slot = &mut cursor[b * size + t];
+                share[b][*slot as usize] = *i;
                 *slot += 1;
             }
         }
-    }
+    });
     TileLists {
         columns,
         rows,
         offsets,
         indices,
-        spheres,
+        spheres: parts.into_iter().flat_map(|(spheres, _)| spheres).collect(),
     }
 }
 
@@ -316,10 +419,11 @@ mod tests {
             }
             let counts = [photons.len() as u32];
             let lists = bin(
-                photons.iter().copied(),
+                |r| photons[r].iter().copied(),
                 &counts,
                 (&kernel, Vec3::ZERO),
                 &screen,
+                1,
             );
             let mut hits = 0;
             for (i, p) in photons.iter().enumerate() {
@@ -372,7 +476,13 @@ mod tests {
             photon(f32::NAN, 1.0),
         ];
         let screen = screen(1);
-        let lists = bin(photons.into_iter(), &[3, 2], (&kernel, Vec3::ZERO), &screen);
+        let lists = bin(
+            |r| photons[r].iter().copied(),
+            &[3, 2],
+            (&kernel, Vec3::ZERO),
+            &screen,
+            1,
+        );
         let tiles = lists.tiles();
         assert_eq!(lists.offsets.len(), 2 * (tiles + 1));
         assert!(lists.offsets.windows(2).all(|w| w[0] <= w[1]));
@@ -389,6 +499,58 @@ mod tests {
             "buffer 1: its first photon, by its index there"
         );
         assert_eq!(*lists.offsets.last().unwrap() as usize, lists.indices.len());
+    }
+
+    #[test]
+    fn the_lists_are_the_same_on_any_number_of_threads_and_in_map_order() {
+        let kernel = KernelSettings {
+            r_min: 0.001,
+            r_max: 2.0,
+            scale: 1.0,
+            footprint: 0.0,
+            footprint_max: 2.0,
+        };
+        let mut rng = crate::photon::rng::Rng::new(11);
+        let photons: Vec<Photon> = (0..5000)
+            .map(|k| Photon {
+                power: Vec3::splat(if k % 17 == 0 { 0.0 } else { 1.0 }),
+                direction: Vec3::Y,
+                position: Vec3::new(
+                    rng.next_f32() * 8.0 - 4.0,
+                    rng.next_f32() * 6.0 - 3.0,
+                    -0.5 - rng.next_f32() * 6.0,
+                ),
+                normal: pack_normal(Vec3::Y, 0.01 + rng.next_f32() * 0.5),
+            })
+            .collect();
+        // Four buffers, one of them empty; the last shorter than the rest.
+        let counts = [2000, 0, 1800, 1200];
+        for subsample in [1, 2] {
+            let screen = screen(subsample);
+            let lists = |threads| {
+                bin(
+                    |r| photons[r].iter().copied(),
+                    &counts,
+                    (&kernel, Vec3::new(0.1, 0.0, 0.0)),
+                    &screen,
+                    threads,
+                )
+            };
+            let one = lists(1);
+            assert!(one.indices.len() > photons.len(), "{}", one.indices.len());
+            for b in 0..counts.len() {
+                for t in 0..one.tiles() {
+                    let list = one.list(b, t);
+                    assert!(list.windows(2).all(|w| w[0] < w[1]), "buffer {b} tile {t}");
+                }
+            }
+            for threads in [2, 3, 8, 64] {
+                assert!(
+                    lists(threads) == one,
+                    "subsample {subsample}: {threads} threads differ from one"
+                );
+            }
+        }
     }
 
     #[test]

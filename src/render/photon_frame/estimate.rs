@@ -102,12 +102,18 @@ impl PhotonFrame {
                     size,
                     subsample,
                 };
+                // Every core where the device has its own (module docs of `tiles`).
+                let threads = match self.gpu.properties.is_cpu() {
+                    true => 1,
+                    false => rayon::current_num_threads(),
+                };
                 let lists = timing::timed(tiles::SPAN, || {
                     tiles::bin(
-                        drawn_photons(traced, radii, glam::Vec3::ZERO),
+                        |range| drawn_photons(traced, radii, glam::Vec3::ZERO, range),
                         &self.buffers.counts,
                         (&self.kernel, offset),
                         &screen,
+                        threads,
                     )
                 });
                 let stats = pass.record(cmd, &inputs, volumes, (&lists, slot), &targets)?;

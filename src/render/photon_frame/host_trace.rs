@@ -70,7 +70,8 @@ impl PhotonFrame {
         }
         // Light after light, each light's photons where a fresh map has them, normals packed
         // with their radii, a chunk at a time.
-        let mut drawn = drawn_photons(&self.traced, &self.radii, glam::Vec3::ZERO);
+        let all = 0..self.radii.len();
+        let mut drawn = drawn_photons(&self.traced, &self.radii, glam::Vec3::ZERO, all);
         let chunks = std::iter::from_fn(|| {
             let chunk: Vec<Photon> = drawn.by_ref().take(WRITE_CHUNK).collect();
             (!chunk.is_empty()).then_some(chunk)

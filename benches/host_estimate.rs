@@ -1,0 +1,105 @@
+//! The host's share of a frame's radiance estimate on a GPU (docs/performance.md, "Where the
+//! frame goes"): the photons' kNN radii (`photon::density::knn_radii`, every core) and the tiled
+//! estimator's lists (`passes::photon_tiles::lists::bin`) on one thread and on every core, in
+//! the same run. `cargo bench --bench host_estimate`; results in `docs/performance.md`.
+//!
+//! Photon map: the Cornell-like closed box of `reference::scenes::cornell` (its sphere
+//! subdivided 4 times), 100 000 photons emitted from its point light, traced by the CPU tracer
+//! (all lobes, up to 16 bounces; about 190 000 stored). Screen: 640×480 from the scene's camera,
+//! the kernel of 100 000 photons at radius ×1.
+
+use std::sync::LazyLock;
+
+use divan::Bencher;
+use glam::{Mat3, Mat4};
+use ispm::passes::photon_tiles::lists::{bin, Screen};
+use ispm::photon::bsdf::BsdfVariant;
+use ispm::photon::bvh::SceneBvh;
+use ispm::photon::density::{knn_radii, Neighbours};
+use ispm::photon::emit::emit_photons;
+use ispm::photon::kernel::KernelSettings;
+use ispm::photon::trace::{trace_from_lights, StoreOn, TraceSettings};
+use ispm::photon::types::{pack_normal, Photon};
+use ispm::reference::scenes::cornell;
+use ispm::scene::Scene;
+
+const PHOTONS: usize = 100_000;
+const SIZE: (u32, u32) = (640, 480);
+
+fn main() {
+    divan::main();
+}
+
+static SCENE: LazyLock<Scene> = LazyLock::new(|| cornell(4));
+
+/// The traced photon map.
+static MAP: LazyLock<Vec<Photon>> = LazyLock::new(|| {
+    let bvh = SceneBvh::new(&SCENE);
+    let emitted = emit_photons(&SCENE, PHOTONS, 1);
+    let settings = TraceSettings {
+        max_bounces: 16,
+        seed: 3,
+        variant: BsdfVariant::ALL,
+        store_on: StoreOn::FiniteLobes,
+    };
+    trace_from_lights(&SCENE, &bvh, &emitted, &settings).photons
+});
+
+/// The map as the tiled estimator bins it: normals packed with the kNN radii.
+static DRAWN: LazyLock<Vec<Photon>> = LazyLock::new(|| {
+    let radii = knn_radii(MAP.iter(), Neighbours::for_photons(PHOTONS));
+    MAP.iter()
+        .zip(radii)
+        .map(|(p, r)| Photon {
+            normal: pack_normal(p.normal, r),
+            ..*p
+        })
+        .collect()
+});
+
+/// Threads: 0 stands for every core rayon has.
+fn threads(n: usize) -> usize {
+    if n == 0 {
+        rayon::current_num_threads()
+    } else {
+        n
+    }
+}
+
+#[divan::bench(sample_count = 20)]
+fn knn_radii_every_core(bencher: Bencher) {
+    let neighbours = Neighbours::for_photons(PHOTONS);
+    bencher.bench(|| knn_radii(MAP.iter(), neighbours));
+}
+
+/// The tile lists of the 640×480 screen on `n` threads (0: every core).
+#[divan::bench(args = [1, 2, 0], sample_count = 20)]
+fn tile_lists(bencher: Bencher, n: usize) {
+    let camera = &SCENE.camera;
+    let rotation = Mat4::from_mat3(Mat3::from_mat4(camera.view()));
+    let aspect = SIZE.0 as f32 / SIZE.1 as f32;
+    let proj = glam::camera::rh::proj::vulkan::perspective_infinite_reverse(
+        camera.yfov,
+        aspect,
+        camera.znear,
+    );
+    let screen = Screen {
+        view_proj: proj * rotation,
+        size: SIZE,
+        subsample: 1,
+    };
+    let kernel = KernelSettings::scene_relative(&SCENE.bounds(), PHOTONS, None)
+        .for_view(camera.yfov, SIZE.1);
+    let offset = -camera.position();
+    let counts = [DRAWN.len() as u32];
+    let threads = threads(n);
+    bencher.bench(|| {
+        bin(
+            |range| DRAWN[range].iter().copied(),
+            &counts,
+            (&kernel, offset),
+            &screen,
+            threads,
+        )
+    });
+}
