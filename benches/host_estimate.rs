@@ -2,10 +2,12 @@
 //! frame goes"): the photons' kNN radii (`photon::density::knn_radii`, every core) and the tiled
 //! estimator's lists (`passes::photon_tiles::lists::bin`) on one thread and on every core, in
 //! the same run. `cargo bench --bench host_estimate`; results in `docs/performance.md`.
+//! `RAYON_NUM_THREADS=N` sets "every core".
 //!
 //! Photon map: the Cornell-like closed box of `reference::scenes::cornell` (its sphere
 //! subdivided 4 times), 100 000 photons emitted from its point light, traced by the CPU tracer
-//! (all lobes, up to 16 bounces; about 190 000 stored). Screen: 640×480 from the scene's camera,
+//! (all lobes, up to 16 bounces; about 190 000 stored); the kNN radii also of 10 000 emitted
+//! (the default preset's). Screen: 640×480 from the scene's camera,
 //! the kernel of 100 000 photons at radius ×1.
 
 use std::sync::LazyLock;
@@ -32,10 +34,10 @@ fn main() {
 
 static SCENE: LazyLock<Scene> = LazyLock::new(|| cornell(4));
 
-/// The traced photon map.
-static MAP: LazyLock<Vec<Photon>> = LazyLock::new(|| {
+/// The photon map traced from `emitted` photons.
+fn traced(emitted: usize) -> Vec<Photon> {
     let bvh = SceneBvh::new(&SCENE);
-    let emitted = emit_photons(&SCENE, PHOTONS, 1);
+    let emitted = emit_photons(&SCENE, emitted, 1);
     let settings = TraceSettings {
         max_bounces: 16,
         seed: 3,
@@ -43,7 +45,13 @@ static MAP: LazyLock<Vec<Photon>> = LazyLock::new(|| {
         store_on: StoreOn::FiniteLobes,
     };
     trace_from_lights(&SCENE, &bvh, &emitted, &settings).photons
-});
+}
+
+/// The traced photon map of [`PHOTONS`] photons.
+static MAP: LazyLock<Vec<Photon>> = LazyLock::new(|| traced(PHOTONS));
+
+/// The same of the default preset's 10 000 photons.
+static MAP_10K: LazyLock<Vec<Photon>> = LazyLock::new(|| traced(10_000));
 
 /// The map as the tiled estimator bins it: normals packed with the kNN radii.
 static DRAWN: LazyLock<Vec<Photon>> = LazyLock::new(|| {
@@ -66,10 +74,12 @@ fn threads(n: usize) -> usize {
     }
 }
 
-#[divan::bench(sample_count = 20)]
-fn knn_radii_every_core(bencher: Bencher) {
-    let neighbours = Neighbours::for_photons(PHOTONS);
-    bencher.bench(|| knn_radii(MAP.iter(), neighbours));
+/// The kNN radii of the map of `emitted` photons, on every core.
+#[divan::bench(args = [10_000, PHOTONS], sample_count = 20)]
+fn knn_radii_every_core(bencher: Bencher, emitted: usize) {
+    let map = if emitted == PHOTONS { &*MAP } else { &*MAP_10K };
+    let neighbours = Neighbours::for_photons(emitted);
+    bencher.bench(|| knn_radii(map.iter(), neighbours));
 }
 
 /// The tile lists of the 640×480 screen on `n` threads (0: every core).

@@ -7,7 +7,7 @@ use super::{LEAF, MAX_K};
 use glam::Vec3;
 
 /// Ranges at least this large are built on two threads (`rayon::join`).
-const PARALLEL_BUILD: usize = 16_384;
+const PARALLEL_BUILD: usize = 2_048;
 
 /// Deepest pending-subtree stack of a query: one entry per level, and a tree over 2³² points of
 /// leaves of [`LEAF`] has fewer than 32 levels.
@@ -21,6 +21,9 @@ pub struct KdTree {
     ids: Vec<u32>,
     /// The split axis of the node whose middle point is at `j` (unused at leaves).
     axes: Vec<u8>,
+    /// The points' coordinates by axis, in tree order, followed by [`LEAF`] points at infinity:
+    /// a leaf's distances are computed [`LEAF`] lanes at a time ([`Self::leaf_distances`]).
+    xyz: [Vec<f32>; 3],
 }
 
 /// The axis of `entries`' widest extent.
@@ -74,8 +77,33 @@ impl KdTree {
             .collect();
         let mut axes = vec![0u8; points.len()];
         build(&mut entries, &mut axes);
-        let (points, ids) = entries.into_iter().unzip();
-        Self { points, ids, axes }
+        let (points, ids): (Vec<Vec3>, Vec<u32>) = entries.into_iter().unzip();
+        let xyz = [0, 1, 2].map(|axis| {
+            (points.iter().map(|p| p[axis]))
+                .chain([f32::INFINITY; LEAF])
+                .collect()
+        });
+        Self {
+            points,
+            ids,
+            axes,
+            xyz,
+        }
+    }
+
+    /// The squared distances from `q` of the points `lo..lo + LEAF` (tree order; points past
+    /// the end at infinity), each computed as `Vec3::distance_squared` does, so bit for bit
+    /// the same; lanes `n..` are set to infinity.
+    #[inline(always)]
+    fn leaf_distances(&self, q: Vec3, lo: usize, n: usize) -> [f32; LEAF] {
+        let [x, y, z] = [0, 1, 2].map(|axis| &self.xyz[axis][lo..lo + LEAF]);
+        let mut d2 = [0.0; LEAF];
+        for j in 0..LEAF {
+            let (dx, dy, dz) = (x[j] - q.x, y[j] - q.y, z[j] - q.z);
+            let d = dx * dx + dy * dy + dz * dz;
+            d2[j] = if j < n { d } else { f32::INFINITY };
+        }
+        d2
     }
 
     pub fn len(&self) -> usize {
@@ -109,9 +137,7 @@ impl KdTree {
         let (mut lo, mut hi, mut offset) = (0usize, self.points.len(), Vec3::ZERO);
         loop {
             if hi - lo <= LEAF {
-                for p in &self.points[lo..hi] {
-                    found.offer(p.distance_squared(q));
-                }
+                found.offer_leaf(&self.leaf_distances(q, lo, hi - lo));
             } else {
                 let mid = lo + (hi - lo) / 2;
                 let axis = self.axes[mid] as usize;

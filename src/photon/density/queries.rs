@@ -3,7 +3,7 @@
 //! give every point of a class its kNN radius (module docs of [`crate::photon::density`],
 //! "Radius" and "The k-d tree").
 
-use super::{KdTree, MAX_K, NO_NEIGHBOURS, QUERY_RUN};
+use super::{KdTree, LEAF, MAX_K, NO_NEIGHBOURS, QUERY_RUN};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -15,6 +15,14 @@ const WITHIN_CAPACITY: usize = 4 * MAX_K;
 pub(super) trait Collect {
     fn offer(&mut self, d2: f32);
     fn bound(&self) -> f32;
+
+    /// Offers a leaf's squared distances (infinity for a lane without a point).
+    #[inline(always)]
+    fn offer_leaf(&mut self, d2: &[f32; LEAF]) {
+        for &d in d2 {
+            self.offer(d);
+        }
+    }
 }
 
 /// The k smallest squared distances offered: a max-heap in a fixed buffer.
@@ -135,6 +143,22 @@ impl Collect for Within {
         self.limit
     }
 
+    /// Appends every distance below the limit without a branch per lane (the buffer keeps
+    /// [`LEAF`] spare slots for the lanes written past its length).
+    #[inline(always)]
+    fn offer_leaf(&mut self, d2: &[f32; LEAF]) {
+        if self.len + LEAF > WITHIN_CAPACITY {
+            for &d in d2 {
+                self.offer(d);
+            }
+            return;
+        }
+        for &d in d2 {
+            self.d2[self.len] = d;
+            self.len += usize::from(d < self.limit);
+        }
+    }
+
     fn offer(&mut self, d2: f32) {
         if d2 < self.limit {
             if self.len == WITHIN_CAPACITY {
@@ -153,41 +177,45 @@ impl Collect for Within {
 pub(super) fn class_radii(tree: &KdTree, k: usize) -> Vec<f32> {
     // The point itself is its own nearest: its k + 1 nearest hold k neighbours.
     let k = k.clamp(1, MAX_K - 1);
-    let wanted = (k + 1).min(tree.len());
     let mut out = vec![0.0; tree.len()];
     out.par_chunks_mut(QUERY_RUN)
         .zip(tree.points().par_chunks(QUERY_RUN))
-        .for_each(|(out, points)| {
-            let mut within = Within::new();
-            let mut last: Option<(Vec3, f32)> = None;
-            for (r, &p) in out.iter_mut().zip(points) {
-                // The last query's `wanted` points lie within d + |p − q| of p (widened for
-                // rounding: a bound that holds too few is searched again with a heap).
-                let bounded = last.and_then(|(q, d)| {
-                    let bound = (d + p.distance(q)) * (1.0 + 1e-5) + 1e-30;
-                    within.reset(bound * bound);
-                    tree.search(p, &mut within);
-                    within.nth(wanted)
-                });
-                let (d2, found) = bounded.map_or_else(
-                    || {
-                        let mut nearest = Nearest::new(wanted);
-                        tree.search(p, &mut nearest);
-                        (nearest.kth(), nearest.len)
-                    },
-                    |d2| (d2, wanted),
-                );
-                let d = d2.sqrt();
-                last = d.is_finite().then_some((p, d));
-                let m = found.saturating_sub(1);
-                *r = if m == 0 {
-                    NO_NEIGHBOURS
-                } else if m < k {
-                    d * (k as f32 / m as f32).sqrt()
-                } else {
-                    d
-                };
-            }
-        });
+        .for_each(|(out, points)| run_radii(tree, k, points, out));
     out
+}
+
+/// The kNN radii of a run of `points` (consecutive in tree order) into `out`, each query bounded
+/// by the last one's answer (module docs, "The k-d tree").
+fn run_radii(tree: &KdTree, k: usize, points: &[Vec3], out: &mut [f32]) {
+    let wanted = (k + 1).min(tree.len());
+    let mut within = Within::new();
+    let mut last: Option<(Vec3, f32)> = None;
+    for (r, &p) in out.iter_mut().zip(points) {
+        // The last query's `wanted` points lie within d + |p − q| of p (widened for
+        // rounding: a bound that holds too few is searched again with a heap).
+        let bounded = last.and_then(|(q, d)| {
+            let bound = (d + p.distance(q)) * (1.0 + 1e-5) + 1e-30;
+            within.reset(bound * bound);
+            tree.search(p, &mut within);
+            within.nth(wanted)
+        });
+        let (d2, found) = bounded.map_or_else(
+            || {
+                let mut nearest = Nearest::new(wanted);
+                tree.search(p, &mut nearest);
+                (nearest.kth(), nearest.len)
+            },
+            |d2| (d2, wanted),
+        );
+        let d = d2.sqrt();
+        last = d.is_finite().then_some((p, d));
+        let m = found.saturating_sub(1);
+        *r = if m == 0 {
+            NO_NEIGHBOURS
+        } else if m < k {
+            d * (k as f32 / m as f32).sqrt()
+        } else {
+            d
+        };
+    }
 }
