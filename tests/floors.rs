@@ -173,12 +173,116 @@ fn paths_in(code: &str, roots: &[&str]) -> Vec<(String, usize, Vec<String>)> {
     out
 }
 
+/// The names a module's code re-exports (`pub use …;`, `pub(crate) use …;`), each as the
+/// module's path plus the name, mapped to the path it stands for from the crate's root. A
+/// path without `crate`, `super` or `self` is relative to the module (`pub use cmd::Cmd` in
+/// `gpu` is `gpu::cmd::Cmd`); a rename (`a as b`) re-exports `b`; globs (`pub use x::*`) are
+/// not followed.
+fn reexports_in(module: &[String], code: &str) -> BTreeMap<Vec<String>, Vec<String>> {
+    let mut out = BTreeMap::new();
+    for statement in code.split(';') {
+        let statement = statement.trim();
+        let Some(rest) = ["pub use ", "pub(crate) use ", "pub(super) use "]
+            .iter()
+            .find_map(|p| statement.strip_prefix(p))
+        else {
+            continue;
+        };
+        let rest = rest.trim_start();
+        let rooted = ["crate::", "super::", "self::"]
+            .iter()
+            .any(|r| rest.starts_with(r));
+        let text = if rooted {
+            rest.to_string()
+        } else {
+            format!("self::{rest}")
+        };
+        for (root, climbs, path) in paths_in(&text, &["crate", "super", "self"]) {
+            let Some(leaf) = path.last() else { continue };
+            // `leaf as alias` re-exports it as `alias`.
+            let renamed = text.split(&format!("{leaf} as ")).nth(1).map(|after| {
+                let end = after
+                    .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+                    .unwrap_or(after.len());
+                after[..end].to_string()
+            });
+            let name = renamed.as_ref().unwrap_or(leaf);
+            let target: Vec<String> = match root.as_str() {
+                "crate" => path.clone(),
+                "self" => module.iter().cloned().chain(path.clone()).collect(),
+                _ => {
+                    let keep = module.len().saturating_sub(climbs);
+                    module[..keep].iter().cloned().chain(path.clone()).collect()
+                }
+            };
+            let alias: Vec<String> = module.iter().cloned().chain([name.clone()]).collect();
+            if alias != target {
+                out.insert(alias, target);
+            }
+        }
+    }
+    out
+}
+
+/// `path` with every re-exported prefix replaced by what it stands for, until none is left
+/// (a chain of re-exports is followed to its end; at most 16 steps).
+fn through_reexports(
+    mut path: Vec<String>,
+    reexports: &BTreeMap<Vec<String>, Vec<String>>,
+) -> Vec<String> {
+    for _ in 0..16 {
+        let found = (1..=path.len())
+            .rev()
+            .find_map(|n| reexports.get(&path[..n]).map(|to| (n, to)));
+        let Some((n, to)) = found else { break };
+        path = to
+            .iter()
+            .cloned()
+            .chain(path[n..].iter().cloned())
+            .collect();
+    }
+    path
+}
+
+#[test]
+fn re_exports_are_read_and_followed_to_the_defining_module() {
+    let gpu = vec!["gpu".to_string()];
+    let code = "pub use cmd::{Cmd, Shaders};\npub use crate::gpu::device::Gpu;\n\
+                pub(crate) use super::timing::Clock; pub use tracker::*; pub use uses::Use as U;\n\
+                use private::Hidden;";
+    let map = reexports_in(&gpu, code);
+    let shown: Vec<String> = map
+        .iter()
+        .map(|(a, t)| format!("{} = {}", a.join("::"), t.join("::")))
+        .collect();
+    assert_eq!(
+        shown,
+        [
+            "gpu::Clock = timing::Clock",
+            "gpu::Cmd = gpu::cmd::Cmd",
+            "gpu::Gpu = gpu::device::Gpu",
+            "gpu::Shaders = gpu::cmd::Shaders",
+            "gpu::U = gpu::uses::Use",
+        ]
+    );
+    let path = |p: &str| p.split("::").map(str::to_string).collect::<Vec<_>>();
+    assert_eq!(
+        through_reexports(path("gpu::Cmd::new"), &map),
+        path("gpu::cmd::Cmd::new")
+    );
+    assert_eq!(
+        through_reexports(path("gpu::other"), &map),
+        path("gpu::other")
+    );
+}
+
 /// `node → nodes it imports` over `src/` (`lib.rs` and `main.rs` excluded: they sit above every
 /// floor). With `depth` 1 the nodes are the rooms, the root's folders (`render`, `gpu`, …);
 /// with `depth` 2 they are the modules inside them (`render::frame`, `gpu::scene`, …: a room's
 /// `mod.rs` is the room itself). A path (`crate::…`, `super::…` resolved against the file's
-/// module, or `ispm::…` in the commands of `cli/`) names the deepest node it reaches; a name a
-/// room re-exports (`crate::gpu::Cmd`) names the room.
+/// module, or `ispm::…` in the commands of `cli/`) names the deepest node it reaches, after
+/// re-exports are followed ([`through_reexports`]: `crate::gpu::Cmd` names `gpu::cmd`, where
+/// `Cmd` is defined, not the room that re-exports it).
 fn import_graph(depth: usize) -> BTreeMap<String, BTreeSet<String>> {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let mut files = Vec::new();
@@ -209,11 +313,14 @@ fn import_graph(depth: usize) -> BTreeMap<String, BTreeSet<String>> {
         nodes.iter().map(|m| (m.clone(), BTreeSet::new())).collect();
     let mut code = Vec::new();
     let mut test_files = BTreeSet::new();
+    let mut reexports = BTreeMap::new();
     for file in &files {
         let text = std::fs::read_to_string(file).expect("read source");
         let (lines, tests) = code_lines(file, &text);
         test_files.extend(tests);
-        code.push((file, lines.join("\n")));
+        let lines = lines.join("\n");
+        reexports.extend(reexports_in(&module_of(file), &lines));
+        code.push((file, lines));
     }
     for (file, text) in code {
         let Some(node) = node_of(file) else {
@@ -238,6 +345,7 @@ fn import_graph(depth: usize) -> BTreeMap<String, BTreeSet<String>> {
                     module[..keep].iter().cloned().chain(path).collect()
                 }
             };
+            let absolute = through_reexports(absolute, &reexports);
             let target = (1..=absolute.len().min(depth))
                 .rev()
                 .map(|n| absolute[..n].join("::"))
@@ -366,6 +474,15 @@ fn the_root_holds_only_rooms_each_importing_only_from_the_floors_below() {
 fn no_import_circle_forms_between_the_modules_beyond_the_known_ones() {
     let graph = import_graph(2);
     assert!(graph.contains_key("render::frame") && graph.contains_key("plan::bounce_plan"));
+    // Re-exports are followed: `passes/direct.rs` imports `crate::gpu::{Cmd, Gpu, …}`, which
+    // `gpu/mod.rs` re-exports from `gpu::cmd` and `gpu::device`.
+    for defining in ["gpu::cmd", "gpu::device"] {
+        assert!(
+            graph["passes::direct"].contains(defining),
+            "{:?}",
+            graph["passes::direct"]
+        );
+    }
     let found = circles(&graph);
     let known: BTreeSet<Vec<String>> = KNOWN_CIRCLES
         .iter()
