@@ -20,9 +20,11 @@ use ispm::photon::bvh::SceneBvh;
 use ispm::photon::density::{knn_radii, Neighbours};
 use ispm::photon::emit::emit_photons;
 use ispm::photon::kernel::KernelSettings;
-use ispm::photon::trace::{trace_from_lights, StoreOn, TraceSettings};
+use ispm::photon::trace::{trace_from_lights, PhotonMap, StoreOn, TraceSettings};
 use ispm::photon::types::{pack_normal, Photon};
+use ispm::reference::gather::GatherMap;
 use ispm::reference::scenes::cornell;
+use ispm::render::photon_frame::environment::indirect_cube;
 use ispm::scene::Scene;
 
 const PHOTONS: usize = 100_000;
@@ -112,4 +114,21 @@ fn tile_lists(bencher: Bencher, n: usize) {
             threads,
         )
     });
+}
+
+/// The environment cube's indirect light (6 × 32² texels, each a ray and a gather of the
+/// photon map) at the box's centre, from the map of `emitted` photons, on every core.
+#[divan::bench(args = [10_000, PHOTONS], sample_count = 10)]
+fn environment_cube(bencher: Bencher, emitted: usize) {
+    let map = if emitted == PHOTONS { &*MAP } else { &*MAP_10K };
+    let bvh = SceneBvh::new(&SCENE);
+    let radii = knn_radii(map.iter(), Neighbours::for_photons(emitted));
+    let kernel = KernelSettings::scene_relative(&SCENE.bounds(), emitted, None);
+    let centre = glam::Vec3::ZERO;
+    let photon_map = PhotonMap {
+        photons: map.clone(),
+        ..Default::default()
+    };
+    let gather = GatherMap::with_knn_radii(photon_map, &radii, &kernel, centre);
+    bencher.bench(|| indirect_cube(&SCENE, &bvh, &gather, centre, kernel.gather_exponent_max()));
 }
