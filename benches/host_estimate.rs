@@ -2,7 +2,7 @@
 //! frame goes"): the photons' kNN radii (`photon::density::knn_radii`, every core) and the tiled
 //! estimator's lists (`passes::photon_tiles::lists::bin`) on one thread and on every core, in
 //! the same run. `cargo bench --bench host_estimate`; results in `docs/performance.md`.
-//! `RAYON_NUM_THREADS=N` sets "every core".
+//! `RAYON_NUM_THREADS=N` sets the threads of the benchmarks without an argument.
 //!
 //! Photon map: the Cornell-like closed box of `reference::scenes::cornell` (its sphere
 //! subdivided 4 times), 100 000 photons emitted from its point light, traced by the CPU tracer
@@ -67,13 +67,12 @@ static DRAWN: LazyLock<Vec<Photon>> = LazyLock::new(|| {
         .collect()
 });
 
-/// Threads: 0 stands for every core rayon has.
-fn threads(n: usize) -> usize {
-    if n == 0 {
-        rayon::current_num_threads()
-    } else {
-        n
-    }
+/// A rayon pool of `n` threads (0: one per core).
+fn pool(n: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build()
+        .expect("a thread pool")
 }
 
 /// The kNN radii of the map of `emitted` photons, on every core.
@@ -84,7 +83,8 @@ fn knn_radii_every_core(bencher: Bencher, emitted: usize) {
     bencher.bench(|| knn_radii(map.iter(), neighbours));
 }
 
-/// The tile lists of the 640×480 screen on `n` threads (0: every core).
+/// The tile lists of the 640×480 screen on a pool of `n` threads (0: one per core), split for
+/// as many (on the calling thread alone for one, as the renderer bins on a CPU device).
 #[divan::bench(args = [1, 2, 0], sample_count = 20)]
 fn tile_lists(bencher: Bencher, n: usize) {
     let camera = &SCENE.camera;
@@ -104,15 +104,18 @@ fn tile_lists(bencher: Bencher, n: usize) {
         .for_view(camera.yfov, SIZE.1);
     let offset = -camera.position();
     let counts = [DRAWN.len() as u32];
-    let threads = threads(n);
+    let pool = pool(n);
+    let threads = pool.current_num_threads();
     bencher.bench(|| {
-        bin(
-            |range| DRAWN[range].iter().copied(),
-            &counts,
-            (&kernel, offset),
-            &screen,
-            threads,
-        )
+        pool.install(|| {
+            bin(
+                |range| DRAWN[range].iter().copied(),
+                &counts,
+                (&kernel, offset),
+                &screen,
+                threads,
+            )
+        })
     });
 }
 

@@ -173,40 +173,51 @@ fn paths_in(code: &str, roots: &[&str]) -> Vec<(String, usize, Vec<String>)> {
     out
 }
 
-/// The names a module's code re-exports (`pub use …;`, `pub(crate) use …;`), each as the
-/// module's path plus the name, mapped to the path it stands for from the crate's root. A
-/// path without `crate`, `super` or `self` is relative to the module (`pub use cmd::Cmd` in
-/// `gpu` is `gpu::cmd::Cmd`); a rename (`a as b`) re-exports `b`; globs (`pub use x::*`) are
-/// not followed.
+/// The names a module's code re-exports (`pub use …;`, `pub(crate) use …;` starting a line),
+/// each as the module's path plus the name, mapped to the path it stands for from the crate's
+/// root. A path without `crate`, `super` or `self` is relative to the module (`pub use cmd::Cmd`
+/// in `gpu` is `gpu::cmd::Cmd`; an external crate's `pub use ash::vk` then names no module of
+/// ours and resolves to the re-exporting one); `a as b` re-exports `b`. Globs (`pub use x::*`),
+/// `self as b` and a name that re-exports its own module's item (`pub use m::m`, which would
+/// rewrite every path through it) are not followed.
 fn reexports_in(module: &[String], code: &str) -> BTreeMap<Vec<String>, Vec<String>> {
+    let ident = |c: char| c.is_ascii_alphanumeric() || c == '_';
     let mut out = BTreeMap::new();
-    for statement in code.split(';') {
-        let statement = statement.trim();
-        let Some(rest) = ["pub use ", "pub(crate) use ", "pub(super) use "]
+    let mut rest = code;
+    while let Some(line_start) = rest.find(|c: char| !c.is_whitespace()) {
+        rest = &rest[line_start..];
+        let line_end = rest.find('\n').unwrap_or(rest.len());
+        let Some(after) = ["pub use ", "pub(crate) use ", "pub(super) use "]
             .iter()
-            .find_map(|p| statement.strip_prefix(p))
+            .find_map(|p| rest.strip_prefix(p))
         else {
+            rest = &rest[line_end..];
             continue;
         };
-        let rest = rest.trim_start();
+        let end = after.find(';').unwrap_or(after.len());
+        let statement = after[..end].trim();
+        rest = &after[end..];
+        // `name as alias` pairs, whole identifiers.
+        let words: Vec<&str> = statement
+            .split(|c: char| !ident(c))
+            .filter(|w| !w.is_empty())
+            .collect();
+        let renames: BTreeMap<&str, &str> = words
+            .windows(3)
+            .filter(|w| w[1] == "as")
+            .map(|w| (w[0], w[2]))
+            .collect();
         let rooted = ["crate::", "super::", "self::"]
             .iter()
-            .any(|r| rest.starts_with(r));
+            .any(|r| statement.starts_with(r));
         let text = if rooted {
-            rest.to_string()
+            statement.to_string()
         } else {
-            format!("self::{rest}")
+            format!("self::{statement}")
         };
         for (root, climbs, path) in paths_in(&text, &["crate", "super", "self"]) {
             let Some(leaf) = path.last() else { continue };
-            // `leaf as alias` re-exports it as `alias`.
-            let renamed = text.split(&format!("{leaf} as ")).nth(1).map(|after| {
-                let end = after
-                    .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
-                    .unwrap_or(after.len());
-                after[..end].to_string()
-            });
-            let name = renamed.as_ref().unwrap_or(leaf);
+            let name = renames.get(leaf.as_str()).copied().unwrap_or(leaf);
             let target: Vec<String> = match root.as_str() {
                 "crate" => path.clone(),
                 "self" => module.iter().cloned().chain(path.clone()).collect(),
@@ -215,8 +226,8 @@ fn reexports_in(module: &[String], code: &str) -> BTreeMap<Vec<String>, Vec<Stri
                     module[..keep].iter().cloned().chain(path.clone()).collect()
                 }
             };
-            let alias: Vec<String> = module.iter().cloned().chain([name.clone()]).collect();
-            if alias != target {
+            let alias: Vec<String> = module.iter().cloned().chain([name.to_string()]).collect();
+            if !target.starts_with(&alias) {
                 out.insert(alias, target);
             }
         }
@@ -247,9 +258,11 @@ fn through_reexports(
 #[test]
 fn re_exports_are_read_and_followed_to_the_defining_module() {
     let gpu = vec!["gpu".to_string()];
-    let code = "pub use cmd::{Cmd, Shaders};\npub use crate::gpu::device::Gpu;\n\
-                pub(crate) use super::timing::Clock; pub use tracker::*; pub use uses::Use as U;\n\
-                use private::Hidden;";
+    let code =
+        "pub use cmd::{Cmd, SubCmd as Sub,\n    Shaders};\npub use crate::gpu::device::Gpu;\n\
+                }\n#[cfg(unix)]\npub(crate) use super::timing::Clock;\npub use tracker::*;\n\
+                pub use uses::Use as U;\npub use own::own;\nuse private::Hidden;\n\
+                // pub use commented::Out;";
     let map = reexports_in(&gpu, code);
     let shown: Vec<String> = map
         .iter()
@@ -262,6 +275,7 @@ fn re_exports_are_read_and_followed_to_the_defining_module() {
             "gpu::Cmd = gpu::cmd::Cmd",
             "gpu::Gpu = gpu::device::Gpu",
             "gpu::Shaders = gpu::cmd::Shaders",
+            "gpu::Sub = gpu::cmd::SubCmd",
             "gpu::U = gpu::uses::Use",
         ]
     );
@@ -319,7 +333,10 @@ fn import_graph(depth: usize) -> BTreeMap<String, BTreeSet<String>> {
         let (lines, tests) = code_lines(file, &text);
         test_files.extend(tests);
         let lines = lines.join("\n");
-        reexports.extend(reexports_in(&module_of(file), &lines));
+        // `lib.rs` and `main.rs` are the crate's root module.
+        let module = module_of(file);
+        let root = module.len() == 1 && (module[0] == "lib" || module[0] == "main");
+        reexports.extend(reexports_in(if root { &[] } else { &module }, &lines));
         code.push((file, lines));
     }
     for (file, text) in code {

@@ -41,8 +41,9 @@
 //! [`KdTree`] is a compact, implicit tree over the points: the points are permuted so that the
 //! node of a range `lo..hi` is its middle point, split on the axis of the range's widest extent
 //! (`select_nth_unstable_by`, so the build is O(n log n)), with its left range `lo..mid` and its
-//! right range `mid+1..hi`; ranges of at most [`LEAF`] points are leaves, scanned linearly. One
-//! byte per point (the split axis) is all it adds to the points. A search visits the near side
+//! right range `mid+1..hi`; ranges of at most [`LEAF`] points are leaves, scanned whole (below).
+//! It adds one byte per point (the split axis) and a second copy of the coordinates, by axis.
+//! A search visits the near side
 //! first and skips a subtree whose region lies farther than the current bound (its distance from
 //! the query accumulated axis by axis, Arya and Mount's incremental distance); pending subtrees
 //! wait on a fixed stack, and the distances found go into a fixed buffer: no allocation per

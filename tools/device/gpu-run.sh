@@ -216,6 +216,7 @@ stage_sweep640() {
       --grid 'photons=10k,40k,160k;radius=1,2;subsample=1,4' \
       >>"$OUT/sweep640/$scene.log" 2>&1
     t=$((end - $(date +%s)))
+    [ "$t" -gt $(($(left) - 5)) ] && t=$(($(left) - 5))
     [ "$t" -ge 10 ] && timeout "$t" $R sweep "$scene" "${common[@]}" \
       --grid 'method=photon-gather;photons=10k,40k,160k,640k;radius=1;subsample=1' \
       >>"$OUT/sweep640/$scene.log" 2>&1

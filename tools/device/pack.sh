@@ -29,8 +29,9 @@ while read -r exe; do
   # The library's and the binary's unit tests are both `ispm-HASH`: keep the hash on those.
   case ${name%-*} in ispm) cp "$exe" ".device/stage/tests/$name" ;; *) cp "$exe" ".device/stage/tests/${name%-*}" ;; esac
 done </tmp/ispm-test-bins.txt
-# TESTS="a b …": carry only these test binaries (the whole suite is ~45 MB packed; a call
-# carries 64 MiB in all, references included).
+# TESTS="a b …": carry only these test binaries, by the names they get under .device/tests (the
+# integration tests' file names; the unit tests' `ispm-HASH`). The whole suite is ~45 MB packed;
+# a call carries 64 MiB in all, references included.
 if [ -n "${TESTS:-}" ]; then
   for t in .device/stage/tests/*; do
     case " $TESTS " in *" $(basename "$t") "*) ;; *) rm "$t" ;; esac
@@ -49,7 +50,8 @@ for line in sys.stdin:
 done
 cp target/debug/ispm .device/stage/bin/ispm-test
 cp target/release/ispm .device/stage/bin/ispm-release
-strip .device/stage/bin/* .device/stage/tests/* .device/stage/benches/* 2>/dev/null || true
+strip .device/stage/bin/* .device/stage/tests/*
+if [ -n "$(ls .device/stage/benches)" ]; then strip .device/stage/benches/*; fi
 cache=${XDG_CACHE_HOME:-$HOME/.cache}/ispm/references
 if [ -d "$cache" ]; then cp -r "$cache" .device/cache/ispm/; fi
 pwd >.device/built_at

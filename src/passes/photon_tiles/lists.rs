@@ -26,13 +26,14 @@
 //! [`bin`] works in three steps, each split over threads where it is given more than one:
 //!
 //! ```text
-//!   1. runs of the map ──► per photon: sphere, tile rectangle      (runs in map order)
-//!   2. bands of tile rows ──► each band counts its tiles' entries  (every rectangle, in order)
+//!   1. runs of the map ──► per photon: sphere; its tile rectangle into the bucket of each band
+//!                          of tile rows it reaches                 (each run in map order)
+//!   2. bands of tile rows ──► each band counts its tiles' entries  (its buckets, run by run)
 //!      prefix sum ──► offsets                                      (one thread: tiles × buffers)
 //!   3. bands of tile rows ──► each band writes its tiles' lists    (its own share of `indices`)
 //! ```
 //!
-//! A band reads every rectangle, in map order, and writes only its own rows: the lists do not
+//! A band reads its rectangles in map order and writes only its own rows: the lists do not
 //! depend on the number of threads (tested), and every list is in map order. The renderer bins on
 //! every core where the device has cores of its own, and on one thread on a CPU device
 //! (lavapipe), whose "GPU" passes run on the cores the other threads would take
@@ -187,13 +188,14 @@ impl TileLists {
 /// A kept photon's buffer, index in it and inclusive tile rectangle `[x0, y0, x1, y1]`.
 type Rect = (u32, u32, [u32; 4]);
 
-/// `f` over `items`, in order, on `threads` threads (rayon) or, for one, on the calling thread.
+/// `f` over `items`, in order: on the current rayon pool when `split` (the threads the work is
+/// split for) is more than one, else on the calling thread.
 fn map_in_order<T: Send, R: Send>(
     items: Vec<T>,
-    threads: usize,
+    split: usize,
     f: impl Fn(T) -> R + Sync + Send,
 ) -> Vec<R> {
-    if threads > 1 {
+    if split > 1 {
         items.into_par_iter().map(f).collect()
     } else {
         items.into_iter().map(f).collect()
@@ -205,7 +207,8 @@ fn map_in_order<T: Send, R: Send>(
 /// range `range` (positions relative to the photon map's origin, normals packed with their kNN
 /// radii, in photon-map order), `counts[b]` of them in buffer b.
 ///
-/// On `threads` threads (module docs, "In parallel"); the lists are the same for any number.
+/// The work is split for `threads` threads and runs on the current rayon pool (on the calling
+/// thread alone for one; module docs, "In parallel"); the lists are the same for any number.
 pub fn bin<I: Iterator<Item = Photon>>(
     photons: impl Fn(Range<usize>) -> I + Sync,
     counts: &[u32],
@@ -227,16 +230,26 @@ pub fn bin<I: Iterator<Item = Photon>>(
         })
         .collect();
     let total = counts.iter().map(|&n| n as usize).sum::<usize>();
+    // Bands of tile rows: each counts and writes its own tiles' lists (steps 2 and 3).
+    let band_rows = rows
+        .div_ceil(if threads > 1 { threads as u32 * 4 } else { 1 })
+        .max(1);
+    let bands: Vec<(u32, u32)> = (0..rows)
+        .step_by(band_rows as usize)
+        .map(|r0| (r0, (r0 + band_rows).min(rows)))
+        .collect();
 
-    // 1. Each photon's bounding sphere and tile rectangle, runs of the map on every thread.
+    // 1. Each photon's bounding sphere, and its tile rectangle in the bucket of every band it
+    // reaches: runs of the map, each in map order.
     let run = total
         .div_ceil(if threads > 1 { threads * 4 } else { 1 })
         .max(1);
     let runs: Vec<usize> = (0..total).step_by(run).collect();
-    let parts: Vec<(Vec<[f32; 4]>, Vec<Rect>)> = map_in_order(runs, threads, |start| {
+    type Part = (Vec<[f32; 4]>, Vec<Vec<Rect>>);
+    let parts: Vec<Part> = map_in_order(runs, threads, |start| {
         let range = start..(start + run).min(total);
         let mut spheres = Vec::with_capacity(range.len());
-        let mut rects = Vec::with_capacity(range.len());
+        let mut buckets: Vec<Vec<Rect>> = vec![Vec::new(); bands.len()];
         for (k, photon) in range.clone().zip(photons(range)) {
             let b = firsts.partition_point(|&f| f <= k) - 1;
             let i = (k - firsts[b]) as u32;
@@ -251,31 +264,30 @@ pub fn bin<I: Iterator<Item = Photon>>(
             spheres.push(centre.extend(r).to_array());
             if let Some([x0, y0, x1, y1]) = screen.pixels(centre, r) {
                 let t = PHOTON_TILE;
-                rects.push((b as u32, i, [x0 / t, y0 / t, x1 / t, y1 / t]));
+                let rect = [x0 / t, y0 / t, x1 / t, y1 / t];
+                for bucket in
+                    &mut buckets[(rect[1] / band_rows) as usize..=(rect[3] / band_rows) as usize]
+                {
+                    bucket.push((b as u32, i, rect));
+                }
             }
         }
-        (spheres, rects)
+        (spheres, buckets)
     });
-    let rects = || parts.iter().flat_map(|(_, rects)| rects);
+    // Band `band`'s rectangles, in map order.
+    let rects = |band: usize| parts.iter().flat_map(move |(_, buckets)| &buckets[band]);
 
-    // 2. Bands of tile rows, each counting and then writing its own tiles' lists: a band reads
-    // every rectangle in map order, so each list is in map order whatever the bands.
-    let band_rows = rows
-        .div_ceil(if threads > 1 { threads as u32 * 4 } else { 1 })
-        .max(1);
-    let bands: Vec<(u32, u32)> = (0..rows)
-        .step_by(band_rows as usize)
-        .map(|r0| (r0, (r0 + band_rows).min(rows)))
-        .collect();
-    // The part of `rect` in rows `r0..r1`, as tile indices relative to the band's first tile.
+    // 2. Each band counts its tiles' entries. The part of `rect` in rows `r0..r1`, as tile
+    // indices relative to the band's first tile:
     let band_tiles = move |rect: [u32; 4], (r0, r1): (u32, u32)| {
         (rect[1].max(r0)..=rect[3].min(r1 - 1))
             .flat_map(move |y| (rect[0]..=rect[2]).map(move |x| ((y - r0) * columns + x) as usize))
     };
-    let band_counts = map_in_order(bands.clone(), threads, |band| {
+    let jobs: Vec<(usize, (u32, u32))> = bands.iter().copied().enumerate().collect();
+    let band_counts = map_in_order(jobs, threads, |(index, band)| {
         let size = ((band.1 - band.0) * columns) as usize;
         let mut count = vec![0u32; buffers * size];
-        for (b, _, rect) in rects() {
+        for (b, _, rect) in rects(index) {
             for t in band_tiles(*rect, band) {
                 count[*b as usize * size + t] += 1;
             }
@@ -300,10 +312,12 @@ pub fn bin<I: Iterator<Item = Photon>>(
             *entry = sum;
         }
     }
+    // Every rectangle's tiles, band by band.
     debug_assert_eq!(
         sum as usize,
-        rects()
-            .map(|(_, _, r)| ((r[2] - r[0] + 1) * (r[3] - r[1] + 1)) as usize)
+        (bands.iter().enumerate())
+            .flat_map(|(index, &band)| rects(index).map(move |rect| (band, rect)))
+            .map(|(band, (_, _, rect))| band_tiles(*rect, band).count())
             .sum::<usize>()
     );
     // 3. Each band's share of `indices`, per buffer: one range, as buffer b's lists are its
@@ -319,8 +333,8 @@ pub fn bin<I: Iterator<Item = Photon>>(
             rest = after;
         }
     }
-    let jobs: Vec<_> = bands.iter().copied().zip(shares).collect();
-    map_in_order(jobs, threads, |(band, mut share)| {
+    let jobs: Vec<_> = bands.iter().copied().enumerate().zip(shares).collect();
+    map_in_order(jobs, threads, |((index, band), mut share)| {
         let first = (band.0 * columns) as usize;
         let size = ((band.1 - band.0) * columns) as usize;
         // Per buffer and tile of the band, the next free slot of its list in the share.
@@ -332,7 +346,7 @@ pub fn bin<I: Iterator<Item = Photon>>(
                     .map(move |&o| o - base)
             })
             .collect();
-        for (b, i, rect) in rects() {
+        for (b, i, rect) in rects(index) {
             let b = *b as usize;
             for t in band_tiles(*rect, band) {
                 let slot = &mut cursor[b * size + t];

@@ -143,8 +143,10 @@ impl Collect for Within {
         self.limit
     }
 
-    /// Appends every distance below the limit without a branch per lane (the buffer keeps
-    /// [`LEAF`] spare slots for the lanes written past its length).
+    /// Appends every distance below the limit without a branch per lane: each lane is written
+    /// at the current length, which only a distance below the limit advances. A leaf that
+    /// might not fit goes through [`Collect::offer`] one by one, so the buffer's overflow is
+    /// the same as before.
     #[inline(always)]
     fn offer_leaf(&mut self, d2: &[f32; LEAF]) {
         if self.len + LEAF > WITHIN_CAPACITY {

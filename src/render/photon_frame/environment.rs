@@ -32,7 +32,10 @@ use crate::scene::Scene;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
-/// Texels per side of a face of the indirect cube.
+/// Texels per side of a face of the indirect cube. 16 would make the cube 4× cheaper (it is
+/// 2.5 ms of the default 14 ms frame on an H100), but the metal ring of `caustic-ring` reflects
+/// the cube directly: at 640×480, 10k photons, its relMSE went 0.0345 → 0.0477 (cornell-box
+/// 0.0122 → 0.0116, glass-sphere 0.0121 → 0.0121; lavapipe, 2026-11-27).
 pub const FACE_SIZE: u32 = 32;
 /// Most delta surfaces a texel's ray passes through before it gives up (black).
 const MAX_PASS_THROUGH: u32 = 8;
