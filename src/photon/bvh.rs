@@ -45,7 +45,7 @@
 //! # Speed
 //!
 //! On x86-64 CPUs with AVX2, BMI, LZCNT and POPCNT (detected at run time, once, by the
-//! `multiversion` crate: no `unsafe` here) the queries run a copy of themselves compiled for
+//! `multiversion` crate, which needs no unchecked code of ours) the queries run a copy of themselves compiled for
 //! those features, FMA left out so that every result rounds as in the portable build, bit for
 //! bit: the node test's loop over the eight children becomes 256-bit instructions, bit scans
 //! and population counts are single instructions, and the hit

@@ -4,24 +4,18 @@
 /// Now on the host clock, in nanoseconds.
 #[cfg(unix)]
 pub fn now_ns() -> u64 {
-    read(libc::CLOCK_MONOTONIC)
+    read(rustix::time::ClockId::Monotonic)
 }
 
 /// Now on `CLOCK_MONOTONIC_RAW` (the clock some devices calibrate against), in nanoseconds.
 #[cfg(any(target_os = "linux", target_os = "android"))]
 pub fn raw_now_ns() -> u64 {
-    read(libc::CLOCK_MONOTONIC_RAW)
+    read(rustix::time::ClockId::MonotonicRaw)
 }
 
 #[cfg(unix)]
-fn read(clock: libc::clockid_t) -> u64 {
-    let mut t = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: `t` is a valid, writable timespec; the clock id is one the platform defines.
-    // clock_gettime cannot fail for these clocks, so `t` is always written.
-    unsafe { libc::clock_gettime(clock, &mut t) };
+fn read(clock: rustix::time::ClockId) -> u64 {
+    let t = rustix::time::clock_gettime(clock);
     (t.tv_sec as u64)
         .saturating_mul(1_000_000_000)
         .saturating_add(t.tv_nsec as u64)
