@@ -10,7 +10,6 @@
 //! CLI → [`Knobs::photons`] → [`RenderSettings::photons`] → the effects plan's split over the
 //! lights (`plan::LightPlan::photons`), which the bounce plan (`bounce_plan::BouncePlan`) takes as it is.
 
-use crate::gpu::vk;
 use crate::layout::shared_constants::{TONEMAP_ACES, TONEMAP_LINEAR, TONEMAP_PBR_NEUTRAL};
 use crate::photon::bsdf::BsdfVariant;
 use crate::timing::pass_id::PassId;
@@ -49,10 +48,11 @@ impl Schedule {
     /// 358 ms beside box B against 185 ms in the serial frame, the GPU passes 2285 against
     /// 2113 ms;
     /// docs/performance.md, "Overlap on a CPU device"). The host then waits for box B (the
-    /// trace's span `box B wait: CPU device` says why) and traces on idle cores.
-    pub fn trace_beside_box_b(self, device_type: vk::PhysicalDeviceType) -> bool {
+    /// trace's span `box B wait: CPU device` says why) and traces on idle cores. `cpu_device`:
+    /// the device runs on the host's cores (`gpu::DeviceProperties::is_cpu`).
+    pub fn trace_beside_box_b(self, cpu_device: bool) -> bool {
         match self {
-            Schedule::Auto => device_type != vk::PhysicalDeviceType::CPU,
+            Schedule::Auto => !cpu_device,
             Schedule::Overlapped => true,
             Schedule::Serial => false,
         }

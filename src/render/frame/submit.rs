@@ -93,7 +93,7 @@ impl Renderer {
         if !reuse
             && self.photons.is_some()
             && schedule != Schedule::Serial
-            && !schedule.trace_beside_box_b(gpu.properties.device_type)
+            && !schedule.trace_beside_box_b(gpu.properties.is_cpu())
         {
             // The span's name is the reason, in the trace and the stats.
             timing::timed("box B wait: CPU device", || gpu.wait(b_done))?;
