@@ -178,49 +178,41 @@ stage_crashes() {
   sort "$OUT/crashes/summary.txt"
 }
 
-# Accuracy against time at 160x120 against the cached references (the headline's sweep),
-# both estimators, and the CPU photon-gather baseline on this machine's cores.
-stage_sweep() {
-  mkdir -p "$OUT/sweep"
+# `sweeps NAME SIZE ISPM_GRID BASELINE_GRID SECONDS`: the headline's accuracy-vs-time sweep of
+# every bundled scene at SIZE against the cached references, ISPM's grid then the CPU
+# photon-gather baseline's on this machine's cores, into $OUT/NAME; each scene given a quarter
+# of SECONDS (never past BUDGET).
+sweeps() {
+  local name=$1 size=$2 ispm=$3 baseline=$4 seconds=$5
+  mkdir -p "$OUT/$name"
+  [ "$seconds" -gt "$(left)" ] && seconds=$(left)
+  local share=$((seconds / 4))
   for scene in cornell-box caustic-ring glass-sphere diffuse-box; do
-    local t=$(($(left) - 5))
-    if [ "$t" -lt 10 ]; then break; fi
-    log "sweep $scene"
-    local common=(--out "$OUT/sweep/$scene" --size 160x120 --frames 3)
-    timeout "$t" $R sweep "$scene" "${common[@]}" \
-      --grid 'photons=10k,40k,160k;radius=1,2;subsample=1,2,4;density=volumes,tiled' \
-      >>"$OUT/sweep/$scene.log" 2>&1
-    t=$(($(left) - 5))
-    [ "$t" -ge 10 ] && timeout "$t" $R sweep "$scene" "${common[@]}" \
-      --grid 'method=photon-gather;photons=10k,40k,160k;radius=1;subsample=1' \
-      >>"$OUT/sweep/$scene.log" 2>&1
+    local end=$(($(date +%s) + share)) grid t
+    for grid in "$ispm" "$baseline"; do
+      t=$((end - $(date +%s)))
+      [ "$t" -gt $(($(left) - 5)) ] && t=$(($(left) - 5))
+      if [ "$t" -lt 10 ]; then break; fi
+      log "$name $scene: $grid"
+      timeout "$t" $R sweep "$scene" --out "$OUT/$name/$scene" --size "$size" --frames 3 \
+        --grid "$grid" >>"$OUT/$name/$scene.log" 2>&1
+    done
   done
 }
 
-# The same at 640x480 (references made here by `ispm sweep --size 640x480` and carried in the
-# cache), each scene given a quarter of SWEEP_BUDGET seconds (default: what is left): the
-# baseline's gather grows with the pixels, ISPM's GPU estimate hardly.
+# 160x120, both estimators (docs/tools/headline.py).
+stage_sweep() {
+  sweeps sweep 160x120 'photons=10k,40k,160k;radius=1,2;subsample=1,2,4;density=volumes,tiled' \
+    'method=photon-gather;photons=10k,40k,160k;radius=1;subsample=1' "$(left)"
+}
+
+# 640x480 (references made beforehand by `ispm sweep --size 640x480` and carried in the
+# cache), SWEEP_BUDGET seconds (default: what is left): the baseline's gather grows with the
+# pixels, ISPM's GPU estimate hardly.
 stage_sweep640() {
-  mkdir -p "$OUT/sweep640"
-  local budget=${SWEEP_BUDGET:-$(left)}
-  [ "$budget" -gt "$(left)" ] && budget=$(left)
-  local share=$((budget / 4))
-  for scene in cornell-box caustic-ring glass-sphere diffuse-box; do
-    local end=$(($(date +%s) + share)) t
-    local common=(--out "$OUT/sweep640/$scene" --size 640x480 --frames 3)
-    t=$((end - $(date +%s)))
-    [ "$t" -gt $(($(left) - 5)) ] && t=$(($(left) - 5))
-    if [ "$t" -lt 10 ]; then break; fi
-    log "sweep640 $scene"
-    timeout "$t" $R sweep "$scene" "${common[@]}" \
-      --grid 'photons=10k,40k,160k;radius=1,2;subsample=1,4' \
-      >>"$OUT/sweep640/$scene.log" 2>&1
-    t=$((end - $(date +%s)))
-    [ "$t" -gt $(($(left) - 5)) ] && t=$(($(left) - 5))
-    [ "$t" -ge 10 ] && timeout "$t" $R sweep "$scene" "${common[@]}" \
-      --grid 'method=photon-gather;photons=10k,40k,160k,640k;radius=1;subsample=1' \
-      >>"$OUT/sweep640/$scene.log" 2>&1
-  done
+  sweeps sweep640 640x480 'photons=10k,40k,160k;radius=1,2;subsample=1,4' \
+    'method=photon-gather;photons=10k,40k,160k,640k;radius=1;subsample=1' \
+    "${SWEEP_BUDGET:-$(left)}"
 }
 
 for stage in "$@"; do
