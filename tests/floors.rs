@@ -560,3 +560,29 @@ fn the_frames_parts_the_stats_and_the_pass_names_never_call_up() {
         assert!(found, "plan: {:?}", graph["plan"]);
     }
 }
+
+#[test]
+fn unsafe_code_lives_only_in_src_gpu() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    sources(&src, &mut files);
+    let mut found = Vec::new();
+    for file in files.iter().filter(|f| !f.starts_with(src.join("gpu"))) {
+        let text = std::fs::read_to_string(file).expect("read source");
+        // Every line but comments, tests included.
+        for (n, line) in text.lines().enumerate() {
+            let code = line.trim_start();
+            if code.starts_with("//") {
+                continue;
+            }
+            let words = code.split(|c: char| !(c.is_ascii_alphanumeric() || c == '_'));
+            if words.into_iter().any(|w| w == "unsafe") {
+                found.push(format!("{}:{}", file.display(), n + 1));
+            }
+        }
+    }
+    assert!(found.is_empty(), "unsafe outside src/gpu/: {found:?}");
+    // The reader sees the unsafe code there is inside src/gpu/.
+    let cmd = std::fs::read_to_string(src.join("gpu/cmd.rs")).expect("read gpu/cmd.rs");
+    assert!(cmd.contains("unsafe {"), "gpu/cmd.rs without unsafe?");
+}
