@@ -9,8 +9,10 @@
 // G-buffer pixel at the centre of its N×N block (as in support.comp). Level k convolves with
 // the 5×5 B3-spline kernel h = (1, 4, 6, 4, 1)/16 spread over taps 2^k pixels apart, each tap
 // q weighted against the centre p by
-//   h(i)·h(j) · max(0, n_p·n_q)^NORMAL_POWER · exp(−|n_p·(x_q − x_p)| / (PLANE_SIGMA·|x_p|))
-//             · exp(−|a_q − a_p|² / ALBEDO_SIGMA²)
+//   h(i)·h(j) · max(0, n_p·n_q)^NORMAL_POWER · exp(−|n_p·(x_q − x_p)| / (PLANE_SIGMA·|x_p|)
+//                                                 − |a_q − a_p|² / ALBEDO_SIGMA²)
+// (NORMAL_POWER = 2^DENOISE_NORMAL_POWER_LOG2, raised by squaring; both exponentials in one exp2:
+// together 1.26× cheaper than pow and two exp on llvmpipe)
 // (normal similarity, distance from p's tangent plane relative to p's distance from the eye,
 // albedo similarity), normalised. Background pixels (position.w = 0) are neither filtered nor
 // used, and a level filters a pixel only while its step is at most push.reach × the pixel's
@@ -39,7 +41,6 @@ layout(push_constant) uniform Push {
     int step;         // FILTER: 2^level, the distance between taps, in pixels
     uint subsample;
     uint mode;
-    float normal_power;
     float plane_sigma;
     float albedo_sigma;
     float pixel_angle;  // 2·tan(fov/2)/height: one image pixel's size per metre of distance
@@ -84,6 +85,9 @@ void main() {
     vec3 n = normalize(texelFetch(g_normal, gp, 0).xyz);
     vec3 albedo = texelFetch(g_albedo, gp, 0).rgb;
     ivec2 last = ivec2(push.size) - 1;
+    const float LOG2_E = 1.4426950408889634;
+    float k_plane = LOG2_E / (push.plane_sigma * dist);
+    float k_albedo = LOG2_E / (push.albedo_sigma * push.albedo_sigma);
 
     vec3 sum = vec3(0.0);
     float wsum = 0.0;
@@ -99,12 +103,14 @@ void main() {
                 continue;
             }
             vec3 n_q = normalize(texelFetch(g_normal, gq, 0).xyz);
-            float normal_w = pow(max(dot(n, n_q), 0.0), push.normal_power);
+            // max(0, n·n_q)^(2^DENOISE_NORMAL_POWER_LOG2), by squaring.
+            float normal_w = max(dot(n, n_q), 0.0);
+            for (uint s = 0u; s < DENOISE_NORMAL_POWER_LOG2; ++s) {
+                normal_w *= normal_w;
+            }
             float plane = abs(dot(n, pos_q.xyz - pos.xyz));
-            float plane_w = exp(-plane / (push.plane_sigma * dist));
             vec3 da = texelFetch(g_albedo, gq, 0).rgb - albedo;
-            float albedo_w = exp(-dot(da, da) / (push.albedo_sigma * push.albedo_sigma));
-            float w = H[abs(i)] * H[abs(j)] * normal_w * plane_w * albedo_w;
+            float w = H[abs(i)] * H[abs(j)] * normal_w * exp2(-(plane * k_plane + dot(da, da) * k_albedo));
             sum += w * imageLoad(src, q).rgb;
             wsum += w;
         }

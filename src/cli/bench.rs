@@ -46,7 +46,8 @@ pub struct BenchArgs {
     compare_density: bool,
     /// Also measure the overlapped frame with the indirect light estimated at 1/N resolution
     /// (`--subsample N`) in the same alternating chunks: `subsample_speedup` says how many
-    /// times cheaper its radiance estimate (density pass + upsample) and frame are.
+    /// times cheaper its radiance estimate (density, support, denoise and upsample passes) and
+    /// frame are.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=64))]
     compare_subsample: Option<u32>,
     /// Also measure the frame as the effects plan makes it (`--effects auto`) against the

@@ -96,6 +96,11 @@ pub const CAUSTIC_PATH_DENSITY: f32 = 1.0e-2;
 // not reach the surface (a photon on the other wall of a crease).
 pub const SUPPORT_FRACTION_MIN: f32 = 0.5;
 pub const SUPPORT_NORMAL_COS: f32 = 0.9;
+// The joint bilateral weights' normal term max(0, n·n')^(2^k) (`passes/denoise.rs`,
+// `passes/upsample.rs`): a power of two, raised by k squarings in a loop of constant count, which
+// llvmpipe unrolls (pow, or a loop whose count is a push constant, costs more there).
+pub const DENOISE_NORMAL_POWER_LOG2: u32 = 5;
+pub const UPSAMPLE_NORMAL_POWER_LOG2: u32 = 3;
 
 // Photon-volume billboards (`passes/photon_volumes.rs`, `photon_volumes.vert`): the eye counts
 // as inside a kernel's bounding sphere up to this multiple of its radius (the billboard's half

@@ -40,8 +40,10 @@ use crate::gpu::{vk, Cmd, Filter, Gpu, Image, ImageDesc, Sampler, Shaders, Use, 
 use crate::timing::pass_id::PassId;
 use std::sync::Arc;
 
-/// Exponent of the normal-similarity weight.
-pub const NORMAL_POWER: f32 = 32.0;
+/// Exponent of the normal-similarity weight: 2^`DENOISE_NORMAL_POWER_LOG2` (`layout::shared_constants`), which
+/// the shader raises by squaring.
+pub const NORMAL_POWER: f32 =
+    (1u32 << crate::layout::shared_constants::DENOISE_NORMAL_POWER_LOG2) as f32;
 /// Tangent-plane distance, relative to the distance from the camera, at which the plane weight
 /// falls to 1/e.
 pub const PLANE_SIGMA: f32 = 0.01;
@@ -62,7 +64,6 @@ struct Push {
     step: i32,
     subsample: u32,
     mode: u32,
-    normal_power: f32,
     plane_sigma: f32,
     albedo_sigma: f32,
     /// One image pixel's size per metre of distance at the image's centre, `2·tan(fov/2)/height`
@@ -189,7 +190,6 @@ impl DenoisePass {
             step,
             subsample: self.subsample,
             mode: mode as u32,
-            normal_power: NORMAL_POWER,
             plane_sigma: PLANE_SIGMA,
             albedo_sigma: ALBEDO_SIGMA,
             pixel_angle,

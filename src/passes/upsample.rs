@@ -41,8 +41,10 @@ use crate::photon::bsdf::BsdfVariant;
 use crate::timing::pass_id::PassId;
 use std::sync::Arc;
 
-/// Exponent of the normal-similarity weight.
-pub const NORMAL_POWER: f32 = 8.0;
+/// Exponent of the normal-similarity weight: 2^`UPSAMPLE_NORMAL_POWER_LOG2` (`layout::shared_constants`), which
+/// the shader raises by squaring.
+pub const NORMAL_POWER: f32 =
+    (1u32 << crate::layout::shared_constants::UPSAMPLE_NORMAL_POWER_LOG2) as f32;
 /// Tangent-plane distance, relative to the distance from the camera, at which the depth
 /// weight falls to 1/e.
 pub const DEPTH_SIGMA: f32 = 0.02;
@@ -53,7 +55,6 @@ struct Push {
     size: [u32; 2],
     low_size: [u32; 2],
     subsample: u32,
-    normal_power: f32,
     depth_sigma: f32,
     /// 1: joint bilateral weights; 0: bilinear only.
     joint: u32,
@@ -155,7 +156,6 @@ impl UpsamplePass {
                 size: [indirect.width, indirect.height],
                 low_size: [inputs.low[0].width, inputs.low[0].height],
                 subsample: self.subsample,
-                normal_power: NORMAL_POWER,
                 depth_sigma: DEPTH_SIGMA,
                 joint: u32::from(self.mode == Upsample::Joint),
             },
