@@ -8,9 +8,21 @@
 #include "material.glsl"
 
 float shadow_visibility(GpuLight light, vec3 p, vec3 n, vec3 wi) {
+    // A directional light's first view is fitted to what the eye sees, the second covers the
+    // whole scene (plan/lighting.rs, "Directional lights"): the first where p is inside it by
+    // 4 texels (the normal offset, the PCF footprint and its bilinear taps stay inside).
+    uint first_index = light.shadow.y;
+    if (light.shadow.x == LIGHT_DIRECTIONAL && light.shadow.z > 1u) {
+        vec4 c = shadow_views[first_index].view_proj * vec4(p, 1.0);
+        vec2 uv_p = c.xy / c.w * 0.5 + 0.5;
+        float m = 4.0 * frame.params.x;
+        if (any(lessThan(uv_p, vec2(m))) || any(greaterThan(uv_p, vec2(1.0 - m)))) {
+            first_index += 1u;
+        }
+    }
     // Normal offset: push the lookup point off the surface by about one shadow texel,
     // measured at the point's distance from the light (perspective) or absolutely (ortho).
-    ShadowView first = shadow_views[light.shadow.y];
+    ShadowView first = shadow_views[first_index];
     float dist = first.params.y > 0.5 ? 1.0 : length(light.position.xyz - p);
     float texel = first.params.x * dist;
     float cos_t = clamp(dot(n, wi), 0.0, 1.0);
@@ -18,7 +30,7 @@ float shadow_visibility(GpuLight light, vec3 p, vec3 n, vec3 wi) {
     vec3 q = p + n * (1.5 * texel * max(sin_t, 0.2));
     // The face is chosen for the point actually looked up (cube faces overlap by a margin
     // that covers the offset and the PCF footprint, see plan/lighting.rs).
-    uint vi = shadow_view_index(light, q);
+    uint vi = light.shadow.x == LIGHT_DIRECTIONAL ? first_index : shadow_view_index(light, q);
     ShadowView view = shadow_views[vi];
     vec4 clip = view.view_proj * vec4(q, 1.0);
     if (clip.w <= 0.0) {

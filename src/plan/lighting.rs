@@ -6,8 +6,27 @@
 //!   spot, outer cone ≤ 60°  → 1 perspective view along the axis (fov = 2·outer + margin)
 //!   point, or a wider spot  → 6 perspective views of 90°, the faces of a cube
 //!   emitter's area sample   → the same cube (its hemisphere needs 5 faces at most)
-//!   directional             → 1 orthographic view fitted around the scene's bounds
+//!   directional             → 2 orthographic views (shadow maps; the photons' views: 1)
 //! ```
+//!
+//! # Directional lights
+//! One orthographic view around the whole scene spreads its texels over all of it: on
+//! `caustic-ring`'s floor at 1024² a texel was about 5 pixels of a 640×480 image, and the ring's
+//! shadow showed the steps. A shadow-map light setup made for an eye ([`LightSetup::active`]
+//! with its view-projection) gives a directional light two views, as cascaded shadow maps do
+//! with two cascades:
+//!
+//! ```text
+//!   view first      fitted to what the eye sees of the scene (focus.rs: the scene's bounds
+//!                   clipped by the eye's frustum), square, in quarter-octave sizes, its centre
+//!                   on the texel grid; depth range that of the whole scene (casters outside
+//!                   the eye's view still cast into it)
+//!   view first + 1  around the whole scene (what the environment cube and reflections see)
+//! ```
+//!
+//! `shadows.glsl` uses the first where the point falls inside it with a margin of 4 texels, else
+//! the second. Without an eye (or when it sees none of the scene) both views are the whole
+//! scene's, so the count of views, and the atlas, does not depend on the camera.
 //!
 //! All matrices map *camera-relative* world space (world minus the camera position, computed
 //! in f64) to the light's clip space, so precision does not depend on the distance from the
@@ -29,6 +48,8 @@ use crate::layout::{
 use crate::scene::{Aabb, Light, LightKind};
 use glam::{DMat4, DVec3, UVec4, Vec3};
 
+mod focus;
+
 /// Above this outer-cone angle a spot light is covered by a cube of views, not one frustum.
 const MAX_SINGLE_VIEW_CONE: f32 = std::f32::consts::FRAC_PI_3;
 
@@ -49,20 +70,21 @@ fn any_perpendicular(d: DVec3) -> DVec3 {
     }
 }
 
-/// How a setup's views map depth.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Depth {
-    /// Near plane 10⁻⁴ of the scene's diagonal from the light (shadow maps).
-    Shadow,
-    /// Near plane 10⁻⁶ of the diagonal (photon views).
+/// What a setup's views are for, which sets how they map depth.
+#[derive(Clone, Copy, Debug)]
+enum Depth<'a> {
+    /// Shadow maps: near plane 10⁻⁴ of the scene's diagonal from the light; directional lights
+    /// get two views, the first fitted to what `eye` sees (module docs).
+    Shadow { eye: Option<&'a DMat4> },
+    /// Photon views: near plane 10⁻⁶ of the diagonal; one view per directional light.
     Photon,
 }
 
-impl Depth {
+impl Depth<'_> {
     /// The near plane's distance from the light, as a fraction of the scene's diagonal.
     fn near(self) -> f64 {
         match self {
-            Depth::Shadow => 1e-4,
+            Depth::Shadow { .. } => 1e-4,
             Depth::Photon => 1e-6,
         }
     }
@@ -109,7 +131,8 @@ impl LightSetup {
     /// with `bounds`, with shadow maps of `resolution`² texels. Cube faces are widened by
     /// `margin` texels on each side so that a lookup near a face's edge (normal offset, 3×3
     /// PCF, bilinear footprint) stays inside the face; photon emission passes 0, because its
-    /// faces must tile the sphere exactly once.
+    /// faces must tile the sphere exactly once. Directional lights' views are both the whole
+    /// scene's (no eye: module docs, "Directional lights").
     pub fn new(
         lights: &[Light],
         camera: DVec3,
@@ -120,7 +143,7 @@ impl LightSetup {
         Self::active(
             lights,
             &vec![true; lights.len()],
-            camera,
+            (camera, None),
             bounds,
             resolution,
             margin,
@@ -139,17 +162,26 @@ impl LightSetup {
     /// [`LightSetup::new`] for the lights with `active[i]` only (the effects plan's direct-light
     /// mask, `plan::EffectsPlan::direct_mask`): the others get no [`GpuLight`] and no shadow
     /// views, so the shadow pass draws nothing for them and the direct pass does not loop over
-    /// them. A light missing from `active` is inactive.
+    /// them. A light missing from `active` is inactive. `(camera, eye)`: the camera's world
+    /// position and, if given, the eye's view-projection (camera-relative world → clip), to
+    /// which directional lights fit their first view (module docs, "Directional lights").
     pub fn active(
         lights: &[Light],
         active: &[bool],
-        camera: DVec3,
+        (camera, eye): (DVec3, Option<&DMat4>),
         bounds: &Aabb,
         resolution: u32,
         margin: u32,
     ) -> LightSetup {
         let texels = (resolution, margin);
-        Self::with_depth(lights, active, camera, bounds, texels, Depth::Shadow)
+        Self::with_depth(
+            lights,
+            active,
+            camera,
+            bounds,
+            texels,
+            Depth::Shadow { eye },
+        )
     }
 
     fn with_depth(
@@ -217,19 +249,32 @@ impl LightSetup {
                 LightKind::Directional => {
                     let center = bounds.center().as_dvec3();
                     let radius = (bounds.extent().as_dvec3().length() * 0.5).max(1e-6);
-                    let eye = center - dir * radius * 2.0;
+                    let from = center - dir * radius * 2.0;
                     let view =
-                        glam::dcamera::rh::view::look_to_mat4(eye, dir, any_perpendicular(dir));
-                    let proj = glam::dcamera::rh::proj::vulkan::orthographic(
-                        -radius,
-                        radius,
-                        -radius,
-                        radius,
-                        radius * 1e-3,
-                        radius * 4.0,
-                    );
-                    let m = depth.apply(proj * view * to_relative);
-                    setup.push_view(m, (2.0 * radius / res) as f32, true);
+                        glam::dcamera::rh::view::look_to_mat4(from, dir, any_perpendicular(dir));
+                    let ortho = |centre: glam::DVec2, half: f64| {
+                        let proj = glam::dcamera::rh::proj::vulkan::orthographic(
+                            centre.x - half,
+                            centre.x + half,
+                            centre.y - half,
+                            centre.y + half,
+                            radius * 1e-3,
+                            radius * 4.0,
+                        );
+                        (
+                            depth.apply(proj * view * to_relative),
+                            (2.0 * half / res) as f32,
+                        )
+                    };
+                    let whole = ortho(glam::DVec2::ZERO, radius);
+                    if let Depth::Shadow { eye } = depth {
+                        let seen = eye.and_then(|eye| {
+                            focus::window(&view, eye, camera, bounds, radius, resolution)
+                        });
+                        let (m, texel) = seen.map_or(whole, |(c, half)| ortho(c, half));
+                        setup.push_view(m, texel, true);
+                    }
+                    setup.push_view(whole.0, whole.1, true);
                 }
             }
             let count = setup.views.len() as u32 - first;
@@ -300,10 +345,49 @@ mod tests {
         let lights = every_kind();
         let s = LightSetup::new(&lights, DVec3::ZERO, &unit_bounds(), 256, 3);
         let counts: Vec<u32> = s.lights.iter().map(|l| l.shadow.z).collect();
-        assert_eq!(counts, vec![6, 1, 6, 1]);
-        assert_eq!(s.views.len(), 14);
+        assert_eq!(counts, vec![6, 1, 6, 2]);
+        assert_eq!(s.views.len(), 15);
         let firsts: Vec<u32> = s.lights.iter().map(|l| l.shadow.y).collect();
         assert_eq!(firsts, vec![0, 6, 7, 13]);
+    }
+
+    #[test]
+    fn a_directional_lights_first_view_is_fitted_to_what_the_eye_sees_and_its_second_to_all() {
+        // A sun straight down on a 20 m floor; the eye 3 m above it looks at a spot 2 m ahead.
+        let bounds = Aabb {
+            min: Vec3::new(-10.0, 0.0, -10.0),
+            max: Vec3::new(10.0, 2.0, 10.0),
+        };
+        let camera = DVec3::new(0.0, 3.0, 2.0);
+        let eye = glam::dcamera::rh::proj::vulkan::perspective_infinite_reverse(0.8, 1.333, 0.01)
+            * glam::dcamera::rh::view::look_at_mat4(DVec3::ZERO, -camera, DVec3::Y);
+        let lights = [light(LightKind::Directional)];
+        let fitted = LightSetup::active(&lights, &[true], (camera, Some(&eye)), &bounds, 1024, 3);
+        let blind = LightSetup::new(&lights, camera, &bounds, 1024, 3);
+        assert_eq!(fitted.lights[0].shadow.z, 2);
+        assert_eq!(
+            fitted.views.len(),
+            blind.views.len(),
+            "the atlas does not depend on the eye"
+        );
+        let (near, far) = (fitted.views[0].params.x, fitted.views[1].params.x);
+        assert!(near < far / 3.0, "texels {near} m and {far} m");
+        // Without the eye both views are the whole scene's, the second always.
+        assert_eq!(blind.views[0].params.x, far);
+        assert_eq!(blind.view_matrices[1], fitted.view_matrices[1]);
+        // The floor point the eye looks at is inside the first view, well in depth range.
+        let ndc = |m: &DMat4, p: DVec3| {
+            let c = *m * (p - camera).extend(1.0);
+            c.truncate() / c.w
+        };
+        let p = ndc(&fitted.view_matrices[0], DVec3::ZERO);
+        assert!(
+            p.x.abs() < 0.9 && p.y.abs() < 0.9 && p.z > 0.0 && p.z < 1.0,
+            "{p}"
+        );
+        // The photons' views keep one view per directional light.
+        let photon = LightSetup::photon_views(&lights, DVec3::ZERO, &bounds);
+        assert_eq!(photon.lights[0].shadow.z, 1);
     }
 
     #[test]
@@ -314,19 +398,19 @@ mod tests {
         let some = LightSetup::active(
             &lights,
             &[false, true, true],
-            DVec3::ZERO,
+            (DVec3::ZERO, None),
             &unit_bounds(),
             256,
             3,
         );
         assert_eq!(some.lights.len(), 2);
-        assert_eq!(some.views.len(), 2);
+        assert_eq!(some.views.len(), 3);
         // The remaining lights are the same, their views renumbered from 0.
         assert_eq!(some.lights[0].intensity, all.lights[1].intensity);
         assert_eq!(some.lights[0].shadow.y, 0);
         assert_eq!(some.lights[1].shadow.y, 1);
         assert_eq!(some.view_matrices[1], all.view_matrices[7]);
-        let none = LightSetup::active(&lights, &[], DVec3::ZERO, &unit_bounds(), 256, 3);
+        let none = LightSetup::active(&lights, &[], (DVec3::ZERO, None), &unit_bounds(), 256, 3);
         assert!(none.lights.is_empty() && none.views.is_empty());
     }
 

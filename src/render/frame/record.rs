@@ -18,15 +18,15 @@ impl Renderer {
     /// The host's part of a frame before any recording: light set-up and the frame constants.
     pub(super) fn prepare(&self) -> FrameSetup {
         let camera_pos = self.camera.position().as_dvec3();
+        let view_proj = self.eye_view_proj();
         let setup = LightSetup::active(
             &self.lights,
             &self.plan.direct_mask(),
-            camera_pos,
+            (camera_pos, Some(&view_proj)),
             &self.scene.bounds,
             self.settings.shadow_resolution,
             SHADOW_FACE_MARGIN,
         );
-        let view_proj = self.eye_view_proj();
         let uniforms = FrameUniforms {
             view_proj: view_proj.as_mat4(),
             inv_view_proj: view_proj.inverse().as_mat4(),
