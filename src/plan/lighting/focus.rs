@@ -95,7 +95,8 @@ fn seen_box(
             max = max.max(DVec2::new(l.x, l.y));
         }
     }
-    (min.x <= max.x && min.y <= max.y).then_some((min, max))
+    // Nothing left (or an empty, infinite box): no window.
+    (min.is_finite() && max.is_finite() && min.x <= max.x && min.y <= max.y).then_some((min, max))
 }
 
 /// One Sutherland–Hodgman step: the part of convex `polygon` where `plane·(p, 1) ≥ 0`.
@@ -214,6 +215,14 @@ mod tests {
     #[test]
     fn a_camera_that_sees_nothing_of_the_scene_has_no_window_and_one_inside_sees_all_around() {
         let whole = 10.0 * 2f64.sqrt();
+        // An empty scene (the loader's bounds of nothing: +∞ … −∞).
+        let camera = DVec3::new(0.0, 1.0, 2.0);
+        let view = eye(camera, DVec3::ZERO);
+        let empty = Aabb {
+            min: Vec3::INFINITY,
+            max: Vec3::NEG_INFINITY,
+        };
+        assert!(window(&sun_view(), &view, camera, &empty, whole, 1024).is_none());
         // Outside, looking away.
         let camera = DVec3::new(0.0, 1.0, 30.0);
         let away = eye(camera, DVec3::new(0.0, 1.0, 60.0));
