@@ -10,7 +10,7 @@
 float shadow_visibility(GpuLight light, vec3 p, vec3 n, vec3 wi) {
     // A directional light's first view is fitted to what the eye sees, the second covers the
     // whole scene (plan/lighting.rs, "Directional lights"): the first where p is inside it by
-    // 4 texels (the normal offset, the PCF footprint and its bilinear taps stay inside).
+    // 4 texels (the PCF footprint and its bilinear taps stay inside).
     uint first_index = light.shadow.y;
     if (light.shadow.x == LIGHT_DIRECTIONAL && light.shadow.z > 1u) {
         vec4 c = shadow_views[first_index].view_proj * vec4(p, 1.0);
@@ -20,14 +20,22 @@ float shadow_visibility(GpuLight light, vec3 p, vec3 n, vec3 wi) {
             first_index += 1u;
         }
     }
-    // Normal offset: push the lookup point off the surface by about one shadow texel,
-    // measured at the point's distance from the light (perspective) or absolutely (ortho).
+    // Offset against acne: the lookup point goes h = 1.5 texels × sin θ (at least 0.3 texels)
+    // off the surface's plane, texels measured at the point's distance from the light
+    // (perspective) or absolutely (ortho): half of h along the normal, half along the ray to
+    // the light (h/2 / cos θ). Over a planar receiver every PCF tap keeps the margin h either
+    // way (the two paths differ by a vector in the plane), but a step along the normal also
+    // moves the lookup sideways by its length × tan θ, and with it every shadow edge: the whole
+    // of h along the normal moved caustic-ring's shadows about 4 texels under its 20° sun. The
+    // half along the normal is kept for curved receivers: along the ray alone, the ring's
+    // faceted walls shadowed themselves near their terminator (docs/accuracy.md).
     ShadowView first = shadow_views[first_index];
     float dist = first.params.y > 0.5 ? 1.0 : length(light.position.xyz - p);
     float texel = first.params.x * dist;
     float cos_t = clamp(dot(n, wi), 0.0, 1.0);
     float sin_t = sqrt(max(0.0, 1.0 - cos_t * cos_t));
-    vec3 q = p + n * (1.5 * texel * max(sin_t, 0.2));
+    float h = 1.5 * texel * max(sin_t, 0.2);
+    vec3 q = p + n * (0.5 * h) + wi * (0.5 * h / max(cos_t, 0.05));
     // The face is chosen for the point actually looked up (cube faces overlap by a margin
     // that covers the offset and the PCF footprint, see plan/lighting.rs).
     uint vi = light.shadow.x == LIGHT_DIRECTIONAL ? first_index : shadow_view_index(light, q);

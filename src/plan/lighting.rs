@@ -452,20 +452,22 @@ mod tests {
         assert!(ndc.z > 0.0 && ndc.z < 1.0, "{ndc}");
     }
 
-    /// The shadow lookup's normal offset (`glsl/common/shadows.glsl`) must move the looked-up
-    /// depth by many float32 steps, or rasterisers that round the stored depth a step
-    /// differently (NVIDIA's) show shadow acne. With standard depth (near 0, far 1) a floor
-    /// 1.9 scene units below a spot under a 4096² map got under one step; reversed depth gives
-    /// thousands (docs/performance.md, "On an NVIDIA H100").
+    /// The shadow lookup's offset (`glsl/common/shadows.glsl`) must move the looked-up depth by
+    /// many float32 steps, or rasterisers that round the stored depth a step differently
+    /// (NVIDIA's) show shadow acne. With standard depth (near 0, far 1) a floor 1.9 scene units
+    /// below a spot under a 4096² map got under one step; reversed depth gives thousands
+    /// (docs/performance.md, "On an NVIDIA H100"). Half of the offset runs along the ray to the
+    /// light: it lifts the point as far off the surface's plane as the normal offset it
+    /// replaced, and moves the lookup (and the shadow edges) sideways half as far.
     #[test]
-    fn the_normal_offset_spans_many_float32_depth_steps_on_a_floor_below_a_spot() {
+    fn the_shadow_lookup_offset_spans_many_depth_steps_and_moves_half_as_far_sideways() {
         let lights = [narrow_spot()];
         let camera = DVec3::new(0.0, 0.0, 3.0);
         let s = LightSetup::new(&lights, camera, &unit_bounds(), 4096, 3);
         let (view, light_at) = (s.views[0], Vec3::new(0.0, 0.9, 0.0));
-        let depth = |p: Vec3| {
+        let ndc = |p: Vec3| {
             let clip = view.view_proj * (p - camera.as_vec3()).extend(1.0);
-            clip.z / clip.w
+            clip.truncate() / clip.w
         };
         for x in [0.0f32, 0.05, 0.2, 0.4] {
             let p = Vec3::new(x, -1.0, 0.1);
@@ -473,13 +475,27 @@ mod tests {
             let texel = view.params.x * (light_at - p).length();
             let cos_t = n.dot(wi).clamp(0.0, 1.0);
             let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-            let q = p + n * (1.5 * texel * sin_t.max(0.2));
-            let (zp, zq) = (depth(p), depth(q));
-            let step = f32::from_bits(zp.to_bits() + 1) - zp;
-            let steps = (zq - zp).abs() / step;
+            let h = 1.5 * texel * sin_t.max(0.2);
+            let q = p + n * (0.5 * h) + wi * (0.5 * h / cos_t.max(0.05));
+            let normal_offset = p + n * h;
+            let (a, b, c) = (ndc(p), ndc(q), ndc(normal_offset));
+            let step = f32::from_bits(a.z.to_bits() + 1) - a.z;
+            let steps = (b.z - a.z).abs() / step;
             assert!(
-                (0.0..1.0).contains(&zp) && steps >= 64.0,
-                "x = {x}: depth {zp}, the offset moves it {steps} float32 steps"
+                (0.0..1.0).contains(&a.z) && steps >= 64.0,
+                "x = {x}: depth {}, the offset moves it {steps} float32 steps",
+                a.z
+            );
+            // Sideways (in texels: 4096 over ndc's 2), half the normal offset's.
+            let texels = |v: Vec3| (v.truncate() - a.truncate()).length() * 4096.0 / 2.0;
+            let (moved, before) = (texels(b), texels(c));
+            assert!(
+                (moved - 0.5 * before).abs() <= 0.01 * before + 0.002,
+                "x = {x}: the lookup moved {moved} texels sideways, the normal offset {before}"
+            );
+            assert!(
+                (n.dot(q - p) - h).abs() < 1e-3 * h,
+                "x = {x}: not h off the plane"
             );
         }
     }

@@ -64,7 +64,7 @@ mod new;
 mod record;
 mod submit;
 
-/// Texels by which shadow cube faces overlap (normal offset 1.5 + PCF 1 + bilinear 0.5).
+/// Texels by which shadow cube faces overlap (lookup offset ≤ 1.5 + PCF 1 + bilinear 0.5).
 const SHADOW_FACE_MARGIN: u32 = 3;
 
 use crate::config::settings::RenderSettings;
