@@ -110,7 +110,8 @@ void main() {
             }
             float plane = abs(dot(n, pos_q.xyz - pos.xyz));
             vec3 da = texelFetch(g_albedo, gq, 0).rgb - albedo;
-            float w = H[abs(i)] * H[abs(j)] * normal_w * exp2(-(plane * k_plane + dot(da, da) * k_albedo));
+            float exponent = plane * k_plane + dot(da, da) * k_albedo;
+            float w = H[abs(i)] * H[abs(j)] * normal_w * exp2(-exponent);
             sum += w * imageLoad(src, q).rgb;
             wsum += w;
         }

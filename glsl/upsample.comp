@@ -73,7 +73,8 @@ void main() {
                 continue;
             }
             vec3 n_s = normalize(texelFetch(g_normal, s, 0).xyz);
-            // max(0, n·n_s)^(2^UPSAMPLE_NORMAL_POWER_LOG2), by squaring (cheaper than pow on llvmpipe).
+            // max(0, n·n_s)^(2^UPSAMPLE_NORMAL_POWER_LOG2), by squaring (cheaper than pow on
+            // llvmpipe).
             float normal_w = max(dot(n, n_s), 0.0);
             for (uint p = 0u; p < UPSAMPLE_NORMAL_POWER_LOG2; ++p) {
                 normal_w *= normal_w;

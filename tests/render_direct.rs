@@ -229,8 +229,8 @@ fn a_suns_shadow_on_a_wide_floor_is_the_analytic_one_beyond_two_pixels_of_its_ed
         .filter(|c| c[3] == 255 && c[0] == 0)
         .count();
     eprintln!(
-        "{case}: {} of {interior} floor pixels away from the edge on the wrong side ({shadowed_pixels} \
-         in the analytic shadow)",
+        "{case}: {} of {interior} floor pixels away from the edge on the wrong side \
+         ({shadowed_pixels} in the analytic shadow)",
         wrong.len()
     );
     if !wrong.is_empty() {

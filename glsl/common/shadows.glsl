@@ -34,8 +34,15 @@ float shadow_visibility(GpuLight light, vec3 p, vec3 n, vec3 wi) {
     float texel = first.params.x * dist;
     float cos_t = clamp(dot(n, wi), 0.0, 1.0);
     float sin_t = sqrt(max(0.0, 1.0 - cos_t * cos_t));
-    float h = 1.5 * texel * max(sin_t, 0.2);
-    vec3 q = p + n * (0.5 * h) + wi * (0.5 * h / max(cos_t, 0.05));
+    // At least first.params.z: an ortho view's depth keeps the whole scene's range while its
+    // texel may be small (plan/lighting.rs). Along the ray, at most a quarter of the way to a
+    // light at a finite distance (tiny maps at grazing angles would pass the light).
+    float h = max(1.5 * texel * max(sin_t, 0.2), first.params.z);
+    float along = 0.5 * h / max(cos_t, 0.05);
+    if (first.params.y < 0.5) {
+        along = min(along, 0.25 * dist);
+    }
+    vec3 q = p + n * (0.5 * h) + wi * along;
     // The face is chosen for the point actually looked up (cube faces overlap by a margin
     // that covers the offset and the PCF footprint, see plan/lighting.rs).
     uint vi = light.shadow.x == LIGHT_DIRECTIONAL ? first_index : shadow_view_index(light, q);

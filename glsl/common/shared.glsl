@@ -47,7 +47,8 @@ struct GpuLight {
 // One shadow-map view (storage buffer, std430): a layer of the shadow atlas.
 struct ShadowView {
     mat4 view_proj;   // camera-relative world -> light clip
-    vec4 params;      // x: world-space texel size at unit distance (normal offset), y: is_ortho
+    vec4 params;      // x: world-space texel size at unit distance, y: is_ortho, z: least
+                      // lookup offset (m; ortho: 128 depth steps), w: unused
 };
 
 // One light view of the light G-buffer / bounce map (storage buffer, std430).

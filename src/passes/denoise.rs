@@ -40,8 +40,8 @@ use crate::gpu::{vk, Cmd, Filter, Gpu, Image, ImageDesc, Sampler, Shaders, Use, 
 use crate::timing::pass_id::PassId;
 use std::sync::Arc;
 
-/// Exponent of the normal-similarity weight: 2^`DENOISE_NORMAL_POWER_LOG2` (`layout::shared_constants`), which
-/// the shader raises by squaring.
+/// Exponent of the normal-similarity weight: 2^`DENOISE_NORMAL_POWER_LOG2`
+/// (`layout::shared_constants`), which the shader raises by squaring.
 pub const NORMAL_POWER: f32 =
     (1u32 << crate::layout::shared_constants::DENOISE_NORMAL_POWER_LOG2) as f32;
 /// Tangent-plane distance, relative to the distance from the camera, at which the plane weight

@@ -25,7 +25,10 @@
 //! ```
 //!
 //! `shadows.glsl` uses the first where the point falls inside it with a margin of 4 texels, else
-//! the second. Without an eye (or when it sees none of the scene) both views are the whole
+//! the second. An orthographic view's depth is linear over the whole scene's depth range, which
+//! the fitted view keeps while its texel shrinks (down to 1/64 of the whole view's): its lookup
+//! offset, a texel and a half, is held to at least 128 float32 steps of that range
+//! (`ShadowView::params.z`), twice the 64 steps that kept the H100 free of acne. Without an eye (or when it sees none of the scene) both views are the whole
 //! scene's, so the count of views, and the atlas, does not depend on the camera.
 //!
 //! All matrices map *camera-relative* world space (world minus the camera position, computed
@@ -223,7 +226,7 @@ impl LightSetup {
                     let view =
                         glam::dcamera::rh::view::look_to_mat4(pos, dir, any_perpendicular(dir));
                     let m = depth.apply(perspective(fov, near, far) * view * to_relative);
-                    setup.push_view(m, (2.0 * (fov * 0.5).tan() / res) as f32, false);
+                    setup.push_view(m, (2.0 * (fov * 0.5).tan() / res) as f32, false, 0.0);
                 }
                 LightKind::Point | LightKind::Spot { .. } | LightKind::AreaSample => {
                     let (near, far) = near_far(pos, bounds, depth.near());
@@ -243,6 +246,7 @@ impl LightSetup {
                             depth.apply(proj * view * to_relative),
                             (2.0 * half.tan() / res) as f32,
                             false,
+                            0.0,
                         );
                     }
                 }
@@ -252,29 +256,35 @@ impl LightSetup {
                     let from = center - dir * radius * 2.0;
                     let view =
                         glam::dcamera::rh::view::look_to_mat4(from, dir, any_perpendicular(dir));
+                    let (near, far) = (radius * 1e-3, radius * 4.0);
                     let ortho = |centre: glam::DVec2, half: f64| {
                         let proj = glam::dcamera::rh::proj::vulkan::orthographic(
                             centre.x - half,
                             centre.x + half,
                             centre.y - half,
                             centre.y + half,
-                            radius * 1e-3,
-                            radius * 4.0,
+                            near,
+                            far,
                         );
                         (
                             depth.apply(proj * view * to_relative),
                             (2.0 * half / res) as f32,
                         )
                     };
+                    // Depth is linear here and keeps the whole scene's range while a fitted
+                    // view's texel may be 64× smaller: the lookup offset is held to at least
+                    // 128 float32 steps of depth (2⁻²⁴ of the range each, near depth 1), so
+                    // that half of it still spans the 64 steps acne needs (module docs).
+                    let least = (128.0 * (far - near) / f64::from(1u32 << 24)) as f32;
                     let whole = ortho(glam::DVec2::ZERO, radius);
                     if let Depth::Shadow { eye } = depth {
                         let seen = eye.and_then(|eye| {
                             focus::window(&view, eye, camera, bounds, radius, resolution)
                         });
                         let (m, texel) = seen.map_or(whole, |(c, half)| ortho(c, half));
-                        setup.push_view(m, texel, true);
+                        setup.push_view(m, texel, true, least);
                     }
-                    setup.push_view(whole.0, whole.1, true);
+                    setup.push_view(whole.0, whole.1, true, least);
                 }
             }
             let count = setup.views.len() as u32 - first;
@@ -289,10 +299,12 @@ impl LightSetup {
         setup
     }
 
-    fn push_view(&mut self, m: DMat4, texel: f32, ortho: bool) {
+    /// Adds a view; `least_offset` (m) is the smallest shadow-lookup offset it takes
+    /// (`shadows.glsl`).
+    fn push_view(&mut self, m: DMat4, texel: f32, ortho: bool, least_offset: f32) {
         self.views.push(ShadowView {
             view_proj: m.as_mat4(),
-            params: glam::Vec4::new(texel, if ortho { 1.0 } else { 0.0 }, 0.0, 0.0),
+            params: glam::Vec4::new(texel, if ortho { 1.0 } else { 0.0 }, least_offset, 0.0),
         });
         self.view_matrices.push(m);
     }
@@ -390,6 +402,46 @@ mod tests {
         assert_eq!(photon.lights[0].shadow.z, 1);
     }
 
+    /// The fitted view of a sun keeps the whole scene's depth range while its texel shrinks
+    /// (down to 1/64 of the whole view's), so the lookup offset (`shadows.glsl`, mirrored here:
+    /// h = max(1.5 texels × max(sin θ, 0.2), params.z), half along the normal and half along
+    /// the ray) is held to a least value that still moves the depth by 64 float32 steps.
+    #[test]
+    fn a_fitted_sun_views_lookup_offset_spans_many_depth_steps_at_its_smallest_window() {
+        // A sun straight down on a 100 m floor; the eye 0.5 m above it sees under a metre.
+        let bounds = Aabb {
+            min: Vec3::new(-50.0, 0.0, -50.0),
+            max: Vec3::new(50.0, 2.0, 50.0),
+        };
+        let camera = DVec3::new(0.0, 0.5, 0.2);
+        let eye = glam::dcamera::rh::proj::vulkan::perspective_infinite_reverse(0.8, 1.333, 0.01)
+            * glam::dcamera::rh::view::look_at_mat4(DVec3::ZERO, -camera, DVec3::Y);
+        let lights = [light(LightKind::Directional)];
+        let s = LightSetup::active(&lights, &[true], (camera, Some(&eye)), &bounds, 8192, 3);
+        let (fitted, whole) = (s.views[0], s.views[1]);
+        assert!(
+            fitted.params.x <= whole.params.x / 60.0,
+            "texels {} and {}",
+            fitted.params.x,
+            whole.params.x
+        );
+        let depth = |p: Vec3| {
+            let clip = fitted.view_proj * (p - camera.as_vec3()).extend(1.0);
+            clip.z / clip.w
+        };
+        let (p, n, wi) = (Vec3::ZERO, Vec3::Y, Vec3::Y);
+        let (cos_t, sin_t) = (1.0f32, 0.0f32);
+        let h = (1.5 * fitted.params.x * sin_t.max(0.2)).max(fitted.params.z);
+        let q = p + n * (0.5 * h) + wi * (0.5 * h / cos_t.max(0.05));
+        let (zp, zq) = (depth(p), depth(q));
+        let step = f32::from_bits(zp.to_bits() + 1) - zp;
+        let steps = (zq - zp).abs() / step;
+        assert!(
+            (0.0..1.0).contains(&zp) && steps >= 64.0,
+            "depth {zp}: the offset moves it {steps} float32 steps"
+        );
+    }
+
     #[test]
     fn inactive_lights_get_no_light_and_no_views() {
         let [point, narrow_spot, _, directional] = every_kind();
@@ -458,7 +510,8 @@ mod tests {
     /// below a spot under a 4096² map got under one step; reversed depth gives thousands
     /// (docs/performance.md, "On an NVIDIA H100"). Half of the offset runs along the ray to the
     /// light: it lifts the point as far off the surface's plane as the normal offset it
-    /// replaced, and moves the lookup (and the shadow edges) sideways half as far.
+    /// replaced, and moves the lookup (and the shadow edges) sideways half as far. The offset is
+    /// computed here as `shadows.glsl` computes it (a copy: change both).
     #[test]
     fn the_shadow_lookup_offset_spans_many_depth_steps_and_moves_half_as_far_sideways() {
         let lights = [narrow_spot()];

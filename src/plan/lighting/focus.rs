@@ -35,9 +35,10 @@ pub fn window(
 ) -> Option<(DVec2, f64)> {
     let (min, max) = seen_box(light_view, eye_view_proj, camera, bounds)?;
     // Half size needed, widened by the 4 texels of margin the shader keeps from the window's
-    // edge (normal offset, PCF footprint and bilinear taps): h (1 + 8/res) at the final size.
+    // edge (PCF footprint and bilinear taps) and the half texel the centre may move to the
+    // grid: 4.5 texels on each side at the final size.
     let res = f64::from(resolution.max(16));
-    let needed = 0.5 * (max - min).max_element() / (1.0 - 8.0 / res);
+    let needed = 0.5 * (max - min).max_element() / (1.0 - 9.0 / res);
     let mut half = whole;
     for _ in 0..MAX_STEPS {
         let next = half * 0.5f64.powf(0.25);
@@ -51,7 +52,9 @@ pub fn window(
     Some((centre, half))
 }
 
-/// The light-view x, y bounding box of `bounds` ∩ the eye's frustum.
+/// The light-view x, y bounding box of `bounds` ∩ the eye's frustum: the vertices of that
+/// convex polyhedron lie on the box's faces (each face clipped by the frustum) or on the
+/// frustum's near plane (its quad clipped by the box: a camera inside the box sees from there).
 fn seen_box(
     light_view: &DMat4,
     eye_view_proj: &DMat4,
@@ -84,17 +87,32 @@ fn seen_box(
     ];
     let mut min = DVec2::splat(f64::INFINITY);
     let mut max = DVec2::splat(f64::NEG_INFINITY);
-    for face in FACES {
-        let mut polygon: Vec<DVec3> = face.iter().map(|&i| corner(i)).collect();
-        for plane in planes {
-            polygon = clip(&polygon, plane);
-        }
+    let mut add = |polygon: Vec<DVec3>| {
         for p in polygon {
             let l = light_view.transform_point3(p + camera);
             min = min.min(DVec2::new(l.x, l.y));
             max = max.max(DVec2::new(l.x, l.y));
         }
+    };
+    for face in FACES {
+        let mut polygon: Vec<DVec3> = face.iter().map(|&i| corner(i)).collect();
+        for plane in planes {
+            polygon = clip(&polygon, plane);
+        }
+        add(polygon);
     }
+    // The near plane's quad (depth 1 under reversed depth), clipped by the box's six sides.
+    let inverse = eye_view_proj.inverse();
+    let mut near: Vec<DVec3> = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+        .iter()
+        .map(|&(x, y)| inverse.project_point3(DVec3::new(x, y, 1.0)))
+        .collect();
+    for axis in 0..3 {
+        let unit = DVec3::AXES[axis];
+        near = clip(&near, unit.extend(-lo[axis]));
+        near = clip(&near, (-unit).extend(hi[axis]));
+    }
+    add(near);
     // Nothing left (or an empty, infinite box): no window.
     (min.is_finite() && max.is_finite() && min.x <= max.x && min.y <= max.y).then_some((min, max))
 }
@@ -172,7 +190,9 @@ mod tests {
                 if seen {
                     let l = light.transform_point3(p);
                     let d = (DVec2::new(l.x, l.y) - centre).abs();
-                    assert!(d.max_element() <= half, "{p} seen but outside the window");
+                    // Inside by the 4 texels the shader keeps from the edge.
+                    let inside = half - 4.0 * (2.0 * half / 1024.0);
+                    assert!(d.max_element() <= inside, "{p} seen but outside the window");
                 }
             }
         }
@@ -227,10 +247,30 @@ mod tests {
         let camera = DVec3::new(0.0, 1.0, 30.0);
         let away = eye(camera, DVec3::new(0.0, 1.0, 60.0));
         assert!(window(&sun_view(), &away, camera, &floor(), whole, 1024).is_none());
-        // Inside, looking along the floor: the far wall is 10 m away, the window is large.
+        // Inside, looking along the floor: the far wall is 10 m away, the window is large,
+        // and it holds the foreground the eye sees from inside the box too.
         let camera = DVec3::new(0.0, 1.0, 0.0);
         let along = eye(camera, DVec3::new(0.0, 1.0, -5.0));
-        let (_, half) = window(&sun_view(), &along, camera, &floor(), whole, 1024).unwrap();
+        let (centre, half) = window(&sun_view(), &along, camera, &floor(), whole, 1024).unwrap();
         assert!(half >= 5.0 && half <= whole, "{half}");
+        let inside = half - 4.0 * (2.0 * half / 1024.0);
+        for p in [
+            DVec3::new(0.0, 0.9, -0.5),
+            DVec3::new(0.0, 1.0, -1.0),
+            DVec3::new(0.1, 0.95, -0.3),
+        ] {
+            let clip = along * (p - camera).extend(1.0);
+            let ndc = clip.truncate() / clip.w;
+            assert!(
+                ndc.x.abs() < 1.0 && ndc.y.abs() < 1.0 && ndc.z < 1.0,
+                "{p} not seen"
+            );
+            let l = sun_view().transform_point3(p);
+            let d = (DVec2::new(l.x, l.y) - centre).abs();
+            assert!(
+                d.max_element() <= inside,
+                "{p}, in the foreground, outside the window"
+            );
+        }
     }
 }
