@@ -155,6 +155,26 @@ mod tests {
         glam::dcamera::rh::view::look_to_mat4(DVec3::new(0.0, 50.0, 0.0), DVec3::NEG_Y, DVec3::X)
     }
 
+    /// The window at 1024² for an eye at `camera` looking at `target` over [`floor`].
+    fn fitted(camera: DVec3, target: DVec3) -> Option<(DVec2, f64)> {
+        let whole = 10.0 * 2f64.sqrt();
+        window(
+            &sun_view(),
+            &eye(camera, target),
+            camera,
+            &floor(),
+            whole,
+            1024,
+        )
+    }
+
+    /// Is `p` inside the window by the 4 texels (of 1024) the shader keeps from its edge?
+    fn well_inside(p: DVec3, (centre, half): (DVec2, f64)) -> bool {
+        let l = sun_view().transform_point3(p);
+        let d = (DVec2::new(l.x, l.y) - centre).abs();
+        d.max_element() <= half - 4.0 * (2.0 * half / 1024.0)
+    }
+
     /// A 20 m × 20 m floor, 2 m high.
     fn floor() -> Aabb {
         Aabb {
@@ -167,20 +187,12 @@ mod tests {
     fn a_camera_looking_down_at_a_small_part_of_a_floor_gets_a_small_window_around_it() {
         let (camera, target) = (DVec3::new(0.0, 3.0, 2.0), DVec3::new(0.0, 0.0, 0.0));
         let whole = 10.0 * 2f64.sqrt();
-        let (centre, half) = window(
-            &sun_view(),
-            &eye(camera, target),
-            camera,
-            &floor(),
-            whole,
-            1024,
-        )
-        .expect("the floor is seen");
+        let (centre, half) = fitted(camera, target).expect("the floor is seen");
         // Seen: a few metres of floor around the target, and the volume above it up to the
         // camera's height inside the box.
         assert!(half < whole / 3.0, "half size {half} of {whole}");
         // Every point of the floor the eye sees is inside the window.
-        let (view, light) = (eye(camera, target), sun_view());
+        let view = eye(camera, target);
         for x in -40..=40 {
             for z in -40..=40 {
                 let p = DVec3::new(f64::from(x) * 0.25, 0.0, f64::from(z) * 0.25);
@@ -188,11 +200,10 @@ mod tests {
                 let ndc = clip.truncate() / clip.w;
                 let seen = clip.w > 0.0 && ndc.x.abs() <= 1.0 && ndc.y.abs() <= 1.0;
                 if seen {
-                    let l = light.transform_point3(p);
-                    let d = (DVec2::new(l.x, l.y) - centre).abs();
-                    // Inside by the 4 texels the shader keeps from the edge.
-                    let inside = half - 4.0 * (2.0 * half / 1024.0);
-                    assert!(d.max_element() <= inside, "{p} seen but outside the window");
+                    assert!(
+                        well_inside(p, (centre, half)),
+                        "{p} seen but outside the window"
+                    );
                 }
             }
         }
@@ -202,18 +213,7 @@ mod tests {
     fn the_window_moves_and_grows_in_steps_only() {
         let target = DVec3::ZERO;
         let whole = 10.0 * 2f64.sqrt();
-        let at = |x: f64| {
-            let camera = DVec3::new(x, 3.0, 2.0);
-            window(
-                &sun_view(),
-                &eye(camera, target),
-                camera,
-                &floor(),
-                whole,
-                1024,
-            )
-            .unwrap()
-        };
+        let at = |x: f64| fitted(DVec3::new(x, 3.0, 2.0), target).unwrap();
         let (c0, h0) = at(0.0);
         let (c1, h1) = at(1e-4);
         // A tenth of a millimetre: the same window, bit for bit.
@@ -250,10 +250,10 @@ mod tests {
         // Inside, looking along the floor: the far wall is 10 m away, the window is large,
         // and it holds the foreground the eye sees from inside the box too.
         let camera = DVec3::new(0.0, 1.0, 0.0);
-        let along = eye(camera, DVec3::new(0.0, 1.0, -5.0));
-        let (centre, half) = window(&sun_view(), &along, camera, &floor(), whole, 1024).unwrap();
-        assert!(half >= 5.0 && half <= whole, "{half}");
-        let inside = half - 4.0 * (2.0 * half / 1024.0);
+        let target = DVec3::new(0.0, 1.0, -5.0);
+        let seen = fitted(camera, target).unwrap();
+        assert!(seen.1 >= 5.0 && seen.1 <= whole, "{}", seen.1);
+        let along = eye(camera, target);
         for p in [
             DVec3::new(0.0, 0.9, -0.5),
             DVec3::new(0.0, 1.0, -1.0),
@@ -265,10 +265,8 @@ mod tests {
                 ndc.x.abs() < 1.0 && ndc.y.abs() < 1.0 && ndc.z < 1.0,
                 "{p} not seen"
             );
-            let l = sun_view().transform_point3(p);
-            let d = (DVec2::new(l.x, l.y) - centre).abs();
             assert!(
-                d.max_element() <= inside,
+                well_inside(p, seen),
                 "{p}, in the foreground, outside the window"
             );
         }
