@@ -7,45 +7,50 @@
 #include "lights.glsl"
 #include "material.glsl"
 
-float shadow_visibility(GpuLight light, vec3 p, vec3 n, vec3 wi) {
-    // A directional light's first view is fitted to what the eye sees, the second covers the
-    // whole scene (plan/lighting.rs, "Directional lights"): the first where p is inside it by
-    // 4 texels (the PCF footprint and its bilinear taps stay inside).
-    uint first_index = light.shadow.y;
-    if (light.shadow.x == LIGHT_DIRECTIONAL && light.shadow.z > 1u) {
-        vec4 c = shadow_views[first_index].view_proj * vec4(p, 1.0);
-        vec2 uv_p = c.xy / c.w * 0.5 + 0.5;
-        float m = 4.0 * frame.params.x;
-        if (any(lessThan(uv_p, vec2(m))) || any(greaterThan(uv_p, vec2(1.0 - m)))) {
-            first_index += 1u;
-        }
-    }
-    // Offset against acne: the lookup point goes h = 1.5 texels × sin θ (at least 0.3 texels)
-    // off the surface's plane, texels measured at the point's distance from the light
-    // (perspective) or absolutely (ortho): half of h along the normal, half along the ray to
-    // the light (h/2 / cos θ). Over a planar receiver every PCF tap keeps the margin h either
-    // way (the two paths differ by a vector in the plane), but a step along the normal also
-    // moves the lookup sideways by its length × tan θ, and with it every shadow edge: the whole
-    // of h along the normal moved caustic-ring's shadows about 4 texels under its 20° sun. The
-    // half along the normal is kept for curved receivers: along the ray alone, the ring's
-    // faceted walls shadowed themselves near their terminator (docs/accuracy.md).
-    ShadowView first = shadow_views[first_index];
-    float dist = first.params.y > 0.5 ? 1.0 : length(light.position.xyz - p);
-    float texel = first.params.x * dist;
+// The point looked up in `view` for surface point p (normal n, unit wi towards the light).
+// Offset against acne: it goes h = 1.5 texels × sin θ (at least 0.3 texels) off the surface's
+// plane, texels measured at the point's distance from the light (perspective) or absolutely
+// (ortho): half of h along the normal, half along the ray to the light (h/2 / cos θ). Over a
+// planar receiver every PCF tap keeps the margin h either way (the two paths differ by a vector
+// in the plane), but a step along the normal also moves the lookup sideways by its length ×
+// tan θ, and with it every shadow edge: the whole of h along the normal moved caustic-ring's
+// shadows about 4 texels under its 20° sun. The half along the normal is kept for curved
+// receivers: along the ray alone, the ring's faceted walls shadowed themselves near their
+// terminator (docs/accuracy.md). h is at least view.params.z: an ortho view's depth keeps the
+// whole scene's range while its texel may be small (plan/lighting.rs). Along the ray it goes
+// at most a quarter of the way to a light at a finite distance (tiny maps at grazing angles
+// would pass the light).
+vec3 shadow_lookup_point(ShadowView view, GpuLight light, vec3 p, vec3 n, vec3 wi) {
+    float dist = view.params.y > 0.5 ? 1.0 : length(light.position.xyz - p);
+    float texel = view.params.x * dist;
     float cos_t = clamp(dot(n, wi), 0.0, 1.0);
     float sin_t = sqrt(max(0.0, 1.0 - cos_t * cos_t));
-    // At least first.params.z: an ortho view's depth keeps the whole scene's range while its
-    // texel may be small (plan/lighting.rs). Along the ray, at most a quarter of the way to a
-    // light at a finite distance (tiny maps at grazing angles would pass the light).
-    float h = max(1.5 * texel * max(sin_t, 0.2), first.params.z);
+    float h = max(1.5 * texel * max(sin_t, 0.2), view.params.z);
     float along = 0.5 * h / max(cos_t, 0.05);
-    if (first.params.y < 0.5) {
+    if (view.params.y < 0.5) {
         along = min(along, 0.25 * dist);
     }
-    vec3 q = p + n * (0.5 * h) + wi * along;
+    return p + n * (0.5 * h) + wi * along;
+}
+
+float shadow_visibility(GpuLight light, vec3 p, vec3 n, vec3 wi) {
+    uint first = light.shadow.y;
+    vec3 q = shadow_lookup_point(shadow_views[first], light, p, n, wi);
+    // A directional light's first view is fitted to what the eye sees, the second covers the
+    // whole scene (plan/lighting.rs, "Directional lights"): the first where the looked-up
+    // point lies 4 texels inside it (the PCF footprint and its bilinear taps stay inside).
+    if (light.shadow.x == LIGHT_DIRECTIONAL && light.shadow.z > 1u) {
+        vec4 c = shadow_views[first].view_proj * vec4(q, 1.0);
+        vec2 uv_q = c.xy / c.w * 0.5 + 0.5;
+        float m = 4.0 * frame.params.x;
+        if (any(lessThan(uv_q, vec2(m))) || any(greaterThan(uv_q, vec2(1.0 - m)))) {
+            first += 1u;
+            q = shadow_lookup_point(shadow_views[first], light, p, n, wi);
+        }
+    }
     // The face is chosen for the point actually looked up (cube faces overlap by a margin
     // that covers the offset and the PCF footprint, see plan/lighting.rs).
-    uint vi = light.shadow.x == LIGHT_DIRECTIONAL ? first_index : shadow_view_index(light, q);
+    uint vi = light.shadow.x == LIGHT_DIRECTIONAL ? first : shadow_view_index(light, q);
     ShadowView view = shadow_views[vi];
     vec4 clip = view.view_proj * vec4(q, 1.0);
     if (clip.w <= 0.0) {

@@ -24,8 +24,8 @@
 //!   view first + 1  around the whole scene (what the environment cube and reflections see)
 //! ```
 //!
-//! `shadows.glsl` uses the first where the point falls inside it with a margin of 4 texels, else
-//! the second. An orthographic view's depth is linear over the whole scene's depth range, which
+//! `shadows.glsl` uses the first where the point it looks up (offset against acne) falls 4
+//! texels inside it, else the second. An orthographic view's depth is linear over the whole scene's depth range, which
 //! the fitted view keeps while its texel shrinks (down to 1/64 of the whole view's): its lookup
 //! offset, a texel and a half, is held to at least 128 float32 steps of that range
 //! (`ShadowView::params.z`), twice the 64 steps that kept the H100 free of acne. Without an eye (or when it sees none of the scene) both views are the whole

@@ -34,11 +34,12 @@ pub fn window(
     resolution: u32,
 ) -> Option<(DVec2, f64)> {
     let (min, max) = seen_box(light_view, eye_view_proj, camera, bounds)?;
-    // Half size needed, widened by the 4 texels of margin the shader keeps from the window's
-    // edge (PCF footprint and bilinear taps) and the half texel the centre may move to the
-    // grid: 4.5 texels on each side at the final size.
+    // Half size needed, widened on each side (in texels at the final size) by the 4 the
+    // shader keeps between the looked-up point and the window's edge (PCF footprint and
+    // bilinear taps), the 2 the lookup offset's half along the normal may move it sideways
+    // (0.75 texel × sin θ tan θ, up to θ = 70°) and the half the centre may move to the grid.
     let res = f64::from(resolution.max(16));
-    let needed = 0.5 * (max - min).max_element() / (1.0 - 9.0 / res);
+    let needed = 0.5 * (max - min).max_element() / (1.0 - 13.0 / res);
     let mut half = whole;
     for _ in 0..MAX_STEPS {
         let next = half * 0.5f64.powf(0.25);
