@@ -25,11 +25,12 @@
 //! ```
 //!
 //! `shadows.glsl` uses the first where the point it looks up (offset against acne) falls 4
-//! texels inside it, else the second. An orthographic view's depth is linear over the whole scene's depth range, which
-//! the fitted view keeps while its texel shrinks (down to 1/64 of the whole view's): its lookup
-//! offset, a texel and a half, is held to at least 128 float32 steps of that range
-//! (`ShadowView::params.z`), twice the 64 steps that kept the H100 free of acne. Without an eye (or when it sees none of the scene) both views are the whole
-//! scene's, so the count of views, and the atlas, does not depend on the camera.
+//! texels inside it, else the second. An orthographic view's depth is linear over the whole
+//! scene's depth range, which the fitted view keeps while its texel shrinks (down to 1/64 of
+//! the whole view's): its lookup offset, a texel and a half, is held to at least 128 float32
+//! steps of that range (`ShadowView::params.z`), twice the 64 steps that kept the H100 free of
+//! acne. Without an eye (or when it sees none of the scene) both views are the whole scene's,
+//! so the count of views, and the atlas, does not depend on the camera.
 //!
 //! All matrices map *camera-relative* world space (world minus the camera position, computed
 //! in f64) to the light's clip space, so precision does not depend on the distance from the
@@ -331,6 +332,37 @@ mod tests {
         }
     }
 
+    /// `shadows.glsl`'s `shadow_lookup_point` (a copy: change both): the point looked up for
+    /// surface point `p` with normal `n`, `wi` towards the light, `texel` the view's texel at
+    /// p's distance and `least` its `params.z`.
+    fn lookup_point(p: Vec3, n: Vec3, wi: Vec3, texel: f32, least: f32) -> (Vec3, f32) {
+        let cos_t = n.dot(wi).clamp(0.0, 1.0);
+        let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+        let h = (1.5 * texel * sin_t.max(0.2)).max(least);
+        (p + n * (0.5 * h) + wi * (0.5 * h / cos_t.max(0.05)), h)
+    }
+
+    /// A sun straight down on a floor of half-width `half` (2 m of air above it), seen by an
+    /// eye at `camera` looking at the origin: the setup with the eye, at `resolution`².
+    fn sun_seen_from(half: f32, camera: DVec3, resolution: u32) -> (Aabb, LightSetup) {
+        let bounds = Aabb {
+            min: Vec3::new(-half, 0.0, -half),
+            max: Vec3::new(half, 2.0, half),
+        };
+        let eye = glam::dcamera::rh::proj::vulkan::perspective_infinite_reverse(0.8, 1.333, 0.01)
+            * glam::dcamera::rh::view::look_at_mat4(DVec3::ZERO, -camera, DVec3::Y);
+        let lights = [light(LightKind::Directional)];
+        let setup = LightSetup::active(
+            &lights,
+            &[true],
+            (camera, Some(&eye)),
+            &bounds,
+            resolution,
+            3,
+        );
+        (bounds, setup)
+    }
+
     /// A spot narrow enough for one view, pointing down from (0, 0.9, 0).
     fn narrow_spot() -> Light {
         light(LightKind::Spot {
@@ -366,15 +398,9 @@ mod tests {
     #[test]
     fn a_directional_lights_first_view_is_fitted_to_what_the_eye_sees_and_its_second_to_all() {
         // A sun straight down on a 20 m floor; the eye 3 m above it looks at a spot 2 m ahead.
-        let bounds = Aabb {
-            min: Vec3::new(-10.0, 0.0, -10.0),
-            max: Vec3::new(10.0, 2.0, 10.0),
-        };
         let camera = DVec3::new(0.0, 3.0, 2.0);
-        let eye = glam::dcamera::rh::proj::vulkan::perspective_infinite_reverse(0.8, 1.333, 0.01)
-            * glam::dcamera::rh::view::look_at_mat4(DVec3::ZERO, -camera, DVec3::Y);
+        let (bounds, fitted) = sun_seen_from(10.0, camera, 1024);
         let lights = [light(LightKind::Directional)];
-        let fitted = LightSetup::active(&lights, &[true], (camera, Some(&eye)), &bounds, 1024, 3);
         let blind = LightSetup::new(&lights, camera, &bounds, 1024, 3);
         assert_eq!(fitted.lights[0].shadow.z, 2);
         assert_eq!(
@@ -409,15 +435,8 @@ mod tests {
     #[test]
     fn a_fitted_sun_views_lookup_offset_spans_many_depth_steps_at_its_smallest_window() {
         // A sun straight down on a 100 m floor; the eye 0.5 m above it sees under a metre.
-        let bounds = Aabb {
-            min: Vec3::new(-50.0, 0.0, -50.0),
-            max: Vec3::new(50.0, 2.0, 50.0),
-        };
         let camera = DVec3::new(0.0, 0.5, 0.2);
-        let eye = glam::dcamera::rh::proj::vulkan::perspective_infinite_reverse(0.8, 1.333, 0.01)
-            * glam::dcamera::rh::view::look_at_mat4(DVec3::ZERO, -camera, DVec3::Y);
-        let lights = [light(LightKind::Directional)];
-        let s = LightSetup::active(&lights, &[true], (camera, Some(&eye)), &bounds, 8192, 3);
+        let (_, s) = sun_seen_from(50.0, camera, 8192);
         let (fitted, whole) = (s.views[0], s.views[1]);
         assert!(
             fitted.params.x <= whole.params.x / 60.0,
@@ -429,10 +448,8 @@ mod tests {
             let clip = fitted.view_proj * (p - camera.as_vec3()).extend(1.0);
             clip.z / clip.w
         };
-        let (p, n, wi) = (Vec3::ZERO, Vec3::Y, Vec3::Y);
-        let (cos_t, sin_t) = (1.0f32, 0.0f32);
-        let h = (1.5 * fitted.params.x * sin_t.max(0.2)).max(fitted.params.z);
-        let q = p + n * (0.5 * h) + wi * (0.5 * h / cos_t.max(0.05));
+        let p = Vec3::ZERO;
+        let (q, _) = lookup_point(p, Vec3::Y, Vec3::Y, fitted.params.x, fitted.params.z);
         let (zp, zq) = (depth(p), depth(q));
         let step = f32::from_bits(zp.to_bits() + 1) - zp;
         let steps = (zq - zp).abs() / step;
@@ -510,8 +527,7 @@ mod tests {
     /// below a spot under a 4096² map got under one step; reversed depth gives thousands
     /// (docs/performance.md, "On an NVIDIA H100"). Half of the offset runs along the ray to the
     /// light: it lifts the point as far off the surface's plane as the normal offset it
-    /// replaced, and moves the lookup (and the shadow edges) sideways half as far. The offset is
-    /// computed here as `shadows.glsl` computes it (a copy: change both).
+    /// replaced, and moves the lookup (and the shadow edges) sideways half as far.
     #[test]
     fn the_shadow_lookup_offset_spans_many_depth_steps_and_moves_half_as_far_sideways() {
         let lights = [narrow_spot()];
@@ -526,10 +542,7 @@ mod tests {
             let p = Vec3::new(x, -1.0, 0.1);
             let (n, wi) = (Vec3::Y, (light_at - p).normalize());
             let texel = view.params.x * (light_at - p).length();
-            let cos_t = n.dot(wi).clamp(0.0, 1.0);
-            let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-            let h = 1.5 * texel * sin_t.max(0.2);
-            let q = p + n * (0.5 * h) + wi * (0.5 * h / cos_t.max(0.05));
+            let (q, h) = lookup_point(p, n, wi, texel, view.params.z);
             let normal_offset = p + n * h;
             let (a, b, c) = (ndc(p), ndc(q), ndc(normal_offset));
             let step = f32::from_bits(a.z.to_bits() + 1) - a.z;
