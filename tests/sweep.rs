@@ -162,16 +162,16 @@ const SHARP_CAUSTIC: &str = "caustic-ring";
 /// anywhere. 48×48, references of 64 passes (path tracer) or 16 × 50k-photon iterations
 /// (progressive).
 ///
-/// Not the indirect relMSE of [`SHARP_CAUSTIC`] (measured 0.148, 0.257, 0.271; FLIP 0.113,
-/// 0.119, 0.117): at 4k photons its caustic photons' kNN kernels are as wide as the reference's
-/// own blur (16 iterations: the progressive radius is still 0.6× its first), at 16k and 64k they
-/// are a pixel and the cardioid's sharp edge lies a pixel off the reference's blurred one; and
-/// the "indirect" part there counts the floor the G-buffer holds behind the mirror ring, which
-/// the frame never shows. Against the sweep's 256 × 100k-photon reference at 160×120 the same
-/// three counts give whole-image relMSE 0.0409, 0.0393, 0.0417 and FLIP 0.092, 0.078, 0.076
-/// (docs/accuracy.md, "Kernel radius from the photon density").
+/// Not the indirect relMSE of [`SHARP_CAUSTIC`] (measured 0.182, 0.250, 0.286; FLIP 0.094,
+/// 0.062, 0.054): its "indirect" part counts the floor the G-buffer holds behind the mirror
+/// ring, which the frame never shows, while the reference's counts the cardioid the ring
+/// reflects, which ISPM takes from its environment cube. Its FLIP, over what the frame shows,
+/// falls with the photons since the reference draws the cardioid sharp (half of each
+/// iteration's photons aimed at the ring, `reference::caustic_photons`); against the older
+/// reference of one global radius, 0.6× its first after 16 iterations, FLIP was flat (0.113,
+/// 0.119, 0.117) and the cardioid's sharp edge lay a pixel off the reference's blurred one.
 ///
-/// cornell-box measured 0.0576, 0.0341, 0.0283 (FLIP 0.176, 0.137, 0.112). Before the glossy
+/// cornell-box measured 0.0564, 0.0324, 0.0285 (FLIP 0.152, 0.109, 0.083). Before the glossy
 /// lobes were regularised in the estimate (`photon::kernel`, "Glossy lobes in the estimate")
 /// its 64k estimate rose to 0.0405: one photon in the exponent-100 lobe of the purple sphere
 /// made a sparkle of 1.02 in red where the reference has 0.17.

@@ -216,12 +216,26 @@ pub fn emit_from_light(
         return Vec::new();
     }
     let power = light_flux(light, &bounds) / count as f32;
+    photons_of(light, index, count, global_seed, |rng| {
+        let (origin, direction) = emit_one(light, &bounds, rng);
+        (origin, direction, power)
+    })
+}
+
+/// `count` photons of light `index`, photon `i` drawn by `draw` (origin, direction, power) from
+/// its own RNG, seeded as the module docs say.
+fn photons_of(
+    light: &Light,
+    index: usize,
+    count: usize,
+    global_seed: u32,
+    draw: impl Fn(&mut Rng) -> (Vec3, Vec3, Vec3),
+) -> Vec<EmittedPhoton> {
     let light_seed = hash2(global_seed, index as u32);
     (0..count)
         .map(|i| {
             let seed = seed_bounce_map_texel(light.position, i as u32, light_seed);
-            let mut rng = Rng::new(seed);
-            let (origin, direction) = emit_one(light, &bounds, &mut rng);
+            let (origin, direction, power) = draw(&mut Rng::new(seed));
             EmittedPhoton {
                 origin,
                 direction,
@@ -231,6 +245,133 @@ pub fn emit_from_light(
             }
         })
         .collect()
+}
+
+/// A sphere a light's photons can be aimed at ([`emit_toward`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Target {
+    pub center: Vec3,
+    pub radius: f32,
+}
+
+impl Target {
+    /// The bounding sphere of `bounds` (`None` when it is empty).
+    pub fn of(bounds: &Aabb) -> Option<Self> {
+        (!bounds.is_empty()).then(|| {
+            let (center, radius) = bounding_sphere(bounds);
+            Self { center, radius }
+        })
+    }
+}
+
+/// The directions (or, for a directional light, the origins) of `light` whose rays can reach
+/// `target`, and how to draw them: `None` when the light cannot be aimed (an emitter's area
+/// sample, or a point or spot light inside the sphere, whose rays reach it in every direction).
+fn aim(light: &Light, target: &Target) -> Option<Aim> {
+    match light.kind {
+        LightKind::Directional => Some(Aim::Disk),
+        LightKind::Point | LightKind::Spot { .. } => {
+            let to = target.center - light.position;
+            let d = to.length();
+            // Inside (or on) the sphere, or a broken position (NaN compares false).
+            let outside = d.is_finite() && d > target.radius * 1.0001;
+            if !outside {
+                return None;
+            }
+            let sin_max = target.radius / d;
+            // 1 − cos θmax = 2 sin²(θmax/2), exact for small spheres far away.
+            let half = 0.5 * sin_max.asin();
+            let one_minus_cos = 2.0 * half.sin() * half.sin();
+            Some(Aim::Cone {
+                axis: to / d,
+                one_minus_cos,
+            })
+        }
+        LightKind::AreaSample => None,
+    }
+}
+
+enum Aim {
+    /// Origins uniform on the target's disk, across the light's direction.
+    Disk,
+    /// Directions uniform in the cone round `axis` that holds the sphere.
+    Cone { axis: Vec3, one_minus_cos: f32 },
+}
+
+/// The flux of `light` that crosses `target`'s bounding region ([`emit_toward`]'s photons
+/// carry it; zero when the light cannot be aimed at it).
+pub fn flux_toward(light: &Light, target: &Target) -> Vec3 {
+    let intensity = sanitize(light.intensity);
+    match aim(light, target) {
+        None => Vec3::ZERO,
+        Some(Aim::Disk) => intensity * (PI * target.radius * target.radius),
+        Some(Aim::Cone { one_minus_cos, .. }) => {
+            // The cone's mean falloff is taken photon by photon in `emit_toward`; the budget
+            // only needs its size: the point light's flux through the cone's solid angle.
+            intensity * (TAU * one_minus_cos)
+        }
+    }
+}
+
+/// `count` photons of light `index` aimed at `target`: for a directional light, origins
+/// uniform on the disk across its direction that covers the sphere, started outside the whole
+/// scene; for a point or spot light, directions uniform in the cone from the light that holds
+/// the sphere, each carrying `I·falloff(ω)·Ω/count` (Ω the cone's solid angle). Every ray of the
+/// light that can hit something inside the sphere is among those drawn, so a photon map whose
+/// light paths are split by where the first ray lands (these photons for the paths that start
+/// on the target's surfaces, the light's own emission for the rest) is an unbiased estimate
+/// with many more photons on the target (the CPU references' caustic photons,
+/// `reference::gather`). Empty when the light cannot be aimed at it ([`flux_toward`] zero).
+pub fn emit_toward(
+    scene: &Scene,
+    index: usize,
+    count: usize,
+    global_seed: u32,
+    target: &Target,
+) -> Vec<EmittedPhoton> {
+    let light = &scene.lights[index];
+    let Some(aim) = aim(light, target).filter(|_| count > 0) else {
+        return Vec::new();
+    };
+    let (scene_center, scene_radius) = bounding_sphere(&scene.bounds());
+    let intensity = sanitize(light.intensity);
+    photons_of(light, index, count, global_seed, |rng| match aim {
+        Aim::Disk => {
+            let dir = light.direction.try_normalize().unwrap_or(Vec3::NEG_Y);
+            let disk = concentric_disk(rng.next_2()) * target.radius;
+            let frame = Frame::from_normal(dir);
+            // Back along the light's direction until outside the scene's sphere.
+            let back = (target.center - scene_center).length() + scene_radius;
+            let origin = target.center - dir * (back * 1.01)
+                + frame.to_world(Vec3::new(disk.x, disk.y, 0.0));
+            let flux = intensity * (PI * target.radius * target.radius);
+            (origin, dir, flux / count as f32)
+        }
+        Aim::Cone {
+            axis,
+            one_minus_cos,
+        } => {
+            let [u, v] = rng.next_2();
+            let cos_t = 1.0 - u * one_minus_cos;
+            let sin_t = (u * one_minus_cos * (1.0 + cos_t)).max(0.0).sqrt();
+            let phi = TAU * v;
+            let local = Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t);
+            let dir = Frame::from_normal(axis).to_world(local).normalize();
+            let falloff = match light.kind {
+                LightKind::Spot {
+                    inner_cone_angle,
+                    outer_cone_angle,
+                } => {
+                    let spot_axis = light.direction.try_normalize().unwrap_or(Vec3::NEG_Z);
+                    let (cos_i, cos_o) = (inner_cone_angle.cos(), outer_cone_angle.cos());
+                    spot_falloff(cos_i, cos_o, dir.dot(spot_axis))
+                }
+                _ => 1.0,
+            };
+            let flux = intensity * (TAU * one_minus_cos * falloff);
+            (light.position, dir, flux / count as f32)
+        }
+    })
 }
 
 /// About `photons` photons from all lights and emissive surfaces, budgeted by power: the

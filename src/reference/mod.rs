@@ -6,14 +6,16 @@
 //! - [`Method::PhotonGather`]: traditional photon mapping with ISPM's kernel and estimator:
 //!   eye rays follow delta bounces to the first surface with a finite BSDF, direct light by
 //!   NEE, indirect light gathered from the photon map.
-//! - [`Method::Progressive`]: progressive photon mapping (Knaus & Zwicker 2011) with a global
-//!   radius that shrinks as `r²_{i+1} = r²_i (i+α)/(i+1)`: consistent, caustics included.
+//! - [`Method::Progressive`]: progressive photon mapping (Knaus & Zwicker 2011): a new photon
+//!   map per iteration, each photon's kNN kernel scaled by `s_i` with
+//!   `s²_{i+1} = s²_i (i+α)/(i+1)`: consistent, caustics included (`gather::render_progressive`).
 //!
 //! All use every rayon thread over rows, are deterministic for a seed (per-pixel RNG streams,
 //! photon maps independent of the thread count), report progress on an optional indicatif bar,
 //! and stop at the next row when `cancel` is set, returning the last complete pass.
 //! Never touches Vulkan.
 
+pub mod caustic_photons;
 mod emitter_light;
 pub mod gather;
 mod image;
@@ -58,7 +60,7 @@ pub struct RefSettings {
     /// Progressive photon mapping iterations.
     pub iterations: u32,
     /// Kernel `r_max` override in metres (`--radius`); scene-relative when `None`. For
-    /// `progressive`, the initial global radius.
+    /// `progressive`, the clamp of the first iteration's kernels.
     pub radius: Option<f32>,
     /// Knaus–Zwicker α.
     pub alpha: f32,

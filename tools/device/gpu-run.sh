@@ -103,6 +103,14 @@ stage_shadows() {
     timeout 60 $R render "${args[@]}" --method direct --shadow-resolution $n \
       -o "$OUT/shadows/direct-$n.png" >/dev/null 2>&1
   done
+  # The sun's two views (one fitted to what the eye sees, one over the whole scene) and their
+  # lookup offsets: caustic-ring, the bundled scene with a directional light.
+  args=(caustic-ring --size 640x480 --frames 8)
+  timeout 60 $R render "${args[@]}" -o "$OUT/shadows/sun-default.png" >/dev/null 2>&1
+  for n in 512 1024 4096; do
+    timeout 60 $R render "${args[@]}" --method direct --shadow-resolution $n \
+      -o "$OUT/shadows/sun-direct-$n.png" >/dev/null 2>&1
+  done
 }
 
 # Benchmarks: every bundled scene at two sizes, both estimators, overlapped against serial.
@@ -180,14 +188,15 @@ stage_crashes() {
 
 # `sweeps NAME SIZE ISPM_GRID BASELINE_GRID SECONDS`: the headline's accuracy-vs-time sweep of
 # every bundled scene at SIZE against the cached references, ISPM's grid then the CPU
-# photon-gather baseline's on this machine's cores, into $OUT/NAME; each scene given a quarter
-# of SECONDS (never past BUDGET).
+# photon-gather baseline's on this machine's cores, into $OUT/NAME; each scene (SCENES, default
+# all four bundled ones) given an equal share of SECONDS (never past BUDGET).
 sweeps() {
   local name=$1 size=$2 ispm=$3 baseline=$4 seconds=$5
   mkdir -p "$OUT/$name"
   [ "$seconds" -gt "$(left)" ] && seconds=$(left)
-  local share=$((seconds / 4))
-  for scene in cornell-box caustic-ring glass-sphere diffuse-box; do
+  local scenes=(${SCENES:-cornell-box caustic-ring glass-sphere diffuse-box})
+  local share=$((seconds / ${#scenes[@]}))
+  for scene in "${scenes[@]}"; do
     local end=$(($(date +%s) + share)) grid t
     for grid in "$ispm" "$baseline"; do
       t=$((end - $(date +%s)))
