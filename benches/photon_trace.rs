@@ -76,6 +76,26 @@ static PHOTON_RAYS: LazyLock<u64> = LazyLock::new(|| {
         .sum()
 });
 
+/// The segments the tracer casts, one per ray: the emitted photons' first rays as cast, then
+/// one ray per stored photon along its segment *from its far end*: from the stored hit back
+/// towards where the photon came from (the box is closed and every diffuse hit after the first
+/// is stored, so these are all the tracer's rays but the few that a photon's last scattering
+/// sends nowhere). A segment traversed backwards visits the nodes round the same line and ends
+/// at the same surfaces; the bare-obvhs rate on these rays is the rate of the tracer's own ray
+/// distribution, which (unlike `RAY_BATCH`'s) starts on the surfaces and follows the photons
+/// where the light sends them.
+static PHOTON_SEGMENTS: LazyLock<Vec<Ray>> = LazyLock::new(|| {
+    let map = trace_from_lights(&SCENE, &BVH, &EMITTED, &SETTINGS);
+    let first = EMITTED.iter().map(|p| Ray::new(p.origin, p.direction));
+    let back = map.photons.iter().filter_map(|p| {
+        let (towards_source, _) = ispm::photon::types::unpack_direction(p.direction);
+        let eps = 1e-4 * p.position.abs().max_element().max(1.0);
+        let origin = p.position + p.normal.normalize_or_zero() * eps;
+        (towards_source != Vec3::ZERO).then(|| Ray::new(origin, towards_source))
+    });
+    first.chain(back).collect()
+});
+
 /// Incoherent rays inside the box: origins uniform in it, directions uniform on the sphere.
 static RAY_BATCH: LazyLock<Vec<Ray>> = LazyLock::new(|| {
     let mut rng = Rng::new(7);
@@ -161,6 +181,45 @@ fn incoherent_rays_raw_obvhs(bencher: Bencher, threads: usize) {
                         })
                         .count()
                 })
+                .sum::<usize>()
+        })
+    });
+}
+
+/// Bare obvhs on [`PHOTON_SEGMENTS`]: the raw ray-cast rate of the tracer's own rays.
+#[divan::bench(args = [1, 2])]
+fn photon_segments_raw_obvhs(bencher: Bencher, threads: usize) {
+    let pool = pool(threads);
+    let (bvh, tris) = &*RAW;
+    let rays = &*PHOTON_SEGMENTS;
+    bencher.counter(ItemsCount::new(rays.len())).bench(|| {
+        pool.install(|| {
+            rays.par_chunks(256)
+                .map(|c| {
+                    c.iter()
+                        .filter(|r| {
+                            let ray =
+                                obvhs::ray::Ray::new_inf(Vec3A::from(r.origin), Vec3A::from(r.dir));
+                            let mut hit = RayHit::none();
+                            bvh.ray_traverse(ray, &mut hit, |r, id| tris[id].intersect(r))
+                        })
+                        .count()
+                })
+                .sum::<usize>()
+        })
+    });
+}
+
+/// `SceneBvh::intersect` on [`PHOTON_SEGMENTS`].
+#[divan::bench(args = [1, 2])]
+fn photon_segments_scene_bvh(bencher: Bencher, threads: usize) {
+    let pool = pool(threads);
+    let rays = &*PHOTON_SEGMENTS;
+    LazyLock::force(&BVH);
+    bencher.counter(ItemsCount::new(rays.len())).bench(|| {
+        pool.install(|| {
+            rays.par_chunks(256)
+                .map(|c| c.iter().filter(|r| BVH.intersect(r).is_some()).count())
                 .sum::<usize>()
         })
     });

@@ -255,11 +255,15 @@ pub struct Target {
 }
 
 impl Target {
-    /// The bounding sphere of `bounds` (`None` when it is empty).
+    /// The bounding sphere of `bounds`, a thousandth wider so that no ray grazing a corner of
+    /// the box is lost to rounding (`None` when it is empty).
     pub fn of(bounds: &Aabb) -> Option<Self> {
         (!bounds.is_empty()).then(|| {
             let (center, radius) = bounding_sphere(bounds);
-            Self { center, radius }
+            Self {
+                center,
+                radius: radius * 1.001,
+            }
         })
     }
 }
@@ -298,18 +302,52 @@ enum Aim {
     Cone { axis: Vec3, one_minus_cos: f32 },
 }
 
-/// The flux of `light` that crosses `target`'s bounding region ([`emit_toward`]'s photons
-/// carry it; zero when the light cannot be aimed at it).
+/// The flux of `light` through `target`'s disk or cone, what [`emit_toward`]'s photons carry
+/// together (in expectation for a spot, whose falloff over the cone is averaged here over a
+/// fixed 16 × 16 grid of the cone's directions: zero for a spot that points away from the
+/// target). Zero when the light cannot be aimed at it.
 pub fn flux_toward(light: &Light, target: &Target) -> Vec3 {
     let intensity = sanitize(light.intensity);
     match aim(light, target) {
         None => Vec3::ZERO,
         Some(Aim::Disk) => intensity * (PI * target.radius * target.radius),
-        Some(Aim::Cone { one_minus_cos, .. }) => {
-            // The cone's mean falloff is taken photon by photon in `emit_toward`; the budget
-            // only needs its size: the point light's flux through the cone's solid angle.
-            intensity * (TAU * one_minus_cos)
+        Some(Aim::Cone {
+            axis,
+            one_minus_cos,
+        }) => {
+            const GRID: u32 = 16;
+            let mut falloff = 0.0;
+            for i in 0..GRID * GRID {
+                let u = ((i / GRID) as f32 + 0.5) / GRID as f32;
+                let v = ((i % GRID) as f32 + 0.5) / GRID as f32;
+                falloff += cone_falloff(light, cone_direction(axis, one_minus_cos, [u, v]));
+            }
+            intensity * (TAU * one_minus_cos * falloff / (GRID * GRID) as f32)
         }
+    }
+}
+
+/// A direction uniform over the cone round `axis` of solid angle `2π·one_minus_cos`, from `u`.
+fn cone_direction(axis: Vec3, one_minus_cos: f32, [u, v]: [f32; 2]) -> Vec3 {
+    let cos_t = 1.0 - u * one_minus_cos;
+    let sin_t = (u * one_minus_cos * (1.0 + cos_t)).max(0.0).sqrt();
+    let phi = TAU * v;
+    let local = Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t);
+    Frame::from_normal(axis).to_world(local).normalize()
+}
+
+/// The spot's falloff towards `dir` (1 for a point light).
+fn cone_falloff(light: &Light, dir: Vec3) -> f32 {
+    match light.kind {
+        LightKind::Spot {
+            inner_cone_angle,
+            outer_cone_angle,
+        } => {
+            let spot_axis = light.direction.try_normalize().unwrap_or(Vec3::NEG_Z);
+            let (cos_i, cos_o) = (inner_cone_angle.cos(), outer_cone_angle.cos());
+            spot_falloff(cos_i, cos_o, dir.dot(spot_axis))
+        }
+        _ => 1.0,
     }
 }
 
@@ -318,10 +356,10 @@ pub fn flux_toward(light: &Light, target: &Target) -> Vec3 {
 /// scene; for a point or spot light, directions uniform in the cone from the light that holds
 /// the sphere, each carrying `I·falloff(ω)·Ω/count` (Ω the cone's solid angle). Every ray of the
 /// light that can hit something inside the sphere is among those drawn, so a photon map whose
-/// light paths are split by where the first ray lands (these photons for the paths that start
-/// on the target's surfaces, the light's own emission for the rest) is an unbiased estimate
-/// with many more photons on the target (the CPU references' caustic photons,
-/// `reference::gather`). Empty when the light cannot be aimed at it ([`flux_toward`] zero).
+/// light paths are split by where the first ray lands (these photons for the paths whose first
+/// ray hits a surface the sphere was drawn round, the light's own emission for the rest) is an
+/// unbiased estimate with many more photons on the target (the CPU references' caustic photons,
+/// `reference::caustic_photons`). Empty when the light cannot be aimed at it.
 pub fn emit_toward(
     scene: &Scene,
     index: usize,
@@ -351,23 +389,8 @@ pub fn emit_toward(
             axis,
             one_minus_cos,
         } => {
-            let [u, v] = rng.next_2();
-            let cos_t = 1.0 - u * one_minus_cos;
-            let sin_t = (u * one_minus_cos * (1.0 + cos_t)).max(0.0).sqrt();
-            let phi = TAU * v;
-            let local = Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t);
-            let dir = Frame::from_normal(axis).to_world(local).normalize();
-            let falloff = match light.kind {
-                LightKind::Spot {
-                    inner_cone_angle,
-                    outer_cone_angle,
-                } => {
-                    let spot_axis = light.direction.try_normalize().unwrap_or(Vec3::NEG_Z);
-                    let (cos_i, cos_o) = (inner_cone_angle.cos(), outer_cone_angle.cos());
-                    spot_falloff(cos_i, cos_o, dir.dot(spot_axis))
-                }
-                _ => 1.0,
-            };
+            let dir = cone_direction(axis, one_minus_cos, rng.next_2());
+            let falloff = cone_falloff(light, dir);
             let flux = intensity * (TAU * one_minus_cos * falloff);
             (light.position, dir, flux / count as f32)
         }

@@ -7,8 +7,10 @@
 //!   eye rays follow delta bounces to the first surface with a finite BSDF, direct light by
 //!   NEE, indirect light gathered from the photon map.
 //! - [`Method::Progressive`]: progressive photon mapping (Knaus & Zwicker 2011): a new photon
-//!   map per iteration, each photon's kNN kernel scaled by `s_i` with
-//!   `s²_{i+1} = s²_i (i+α)/(i+1)`: consistent, caustics included (`gather::render_progressive`).
+//!   map per iteration (half its photons aimed at the mirrors and glass, [`caustic_photons`]),
+//!   each photon's kNN kernel scaled by `s_i` with `s²_{i+1} = s²_i (i+α)/(i+1)`: consistent up
+//!   to a filter of about one pixel (the kernels' footprint floor, which does not shrink),
+//!   caustics included (`gather::render_progressive`).
 //!
 //! All use every rayon thread over rows, are deterministic for a seed (per-pixel RNG streams,
 //! photon maps independent of the thread count), report progress on an optional indicatif bar,

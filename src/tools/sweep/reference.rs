@@ -21,7 +21,8 @@ use super::hash::{fnv1a, fnv1a_debug, hex};
 /// change makes `path-trace` or `progressive` render a scene differently (2: emissive surfaces
 /// sampled as lights, emission counted once; 3: Russian-roulette path depth, energy-compensated
 /// glossy lobe, glTF dielectric base weighted by 1 − F0; 4: the Fresnel ramp scaled by 1 −
-/// roughness; 5: `progressive`'s kernels from each photon's kNN radius, not one global radius),
+/// roughness; 5: `progressive`'s kernels from each photon's kNN radius, not one global radius,
+/// and half its photons aimed at the delta surfaces, `reference::caustic_photons`),
 /// so that no cached reference of the old physics is compared with the new renderer.
 pub const REFERENCE_REVISION: u32 = 5;
 use crate::config::settings::{Method, DEFAULT_BOUNCES};
