@@ -128,14 +128,9 @@ fn photon_bounces(bencher: Bencher, threads: usize) {
 fn incoherent_rays_scene_bvh(bencher: Bencher, threads: usize) {
     let pool = pool(threads);
     LazyLock::force(&BVH);
-    bencher.counter(ItemsCount::new(RAYS)).bench(|| {
-        pool.install(|| {
-            RAY_BATCH
-                .par_chunks(256)
-                .map(|c| c.iter().filter(|r| BVH.intersect(r).is_some()).count())
-                .sum::<usize>()
-        })
-    });
+    bencher
+        .counter(ItemsCount::new(RAYS))
+        .bench(|| pool.install(|| scene_bvh_hits(&RAY_BATCH)));
 }
 
 /// Bare obvhs over the same world triangles (its CWBVH, same build preset as `SceneBvh`),
@@ -166,61 +161,53 @@ static RAW: LazyLock<(CwBvh, Vec<Triangle>)> = LazyLock::new(|| {
 #[divan::bench(args = [1, 2])]
 fn incoherent_rays_raw_obvhs(bencher: Bencher, threads: usize) {
     let pool = pool(threads);
+    LazyLock::force(&RAW);
+    bencher
+        .counter(ItemsCount::new(RAYS))
+        .bench(|| pool.install(|| raw_obvhs_hits(&RAY_BATCH)));
+}
+
+/// How many of `rays` hit something, by bare obvhs on every thread of the current pool.
+fn raw_obvhs_hits(rays: &[Ray]) -> usize {
     let (bvh, tris) = &*RAW;
-    bencher.counter(ItemsCount::new(RAYS)).bench(|| {
-        pool.install(|| {
-            RAY_BATCH
-                .par_chunks(256)
-                .map(|c| {
-                    c.iter()
-                        .filter(|r| {
-                            let ray =
-                                obvhs::ray::Ray::new_inf(Vec3A::from(r.origin), Vec3A::from(r.dir));
-                            let mut hit = RayHit::none();
-                            bvh.ray_traverse(ray, &mut hit, |r, id| tris[id].intersect(r))
-                        })
-                        .count()
+    rays.par_chunks(256)
+        .map(|c| {
+            c.iter()
+                .filter(|r| {
+                    let ray = obvhs::ray::Ray::new_inf(Vec3A::from(r.origin), Vec3A::from(r.dir));
+                    let mut hit = RayHit::none();
+                    bvh.ray_traverse(ray, &mut hit, |r, id| tris[id].intersect(r))
                 })
-                .sum::<usize>()
+                .count()
         })
-    });
+        .sum()
+}
+
+/// How many of `rays` hit something, by `SceneBvh::intersect` on every thread of the pool.
+fn scene_bvh_hits(rays: &[Ray]) -> usize {
+    rays.par_chunks(256)
+        .map(|c| c.iter().filter(|r| BVH.intersect(r).is_some()).count())
+        .sum()
 }
 
 /// Bare obvhs on [`PHOTON_SEGMENTS`]: the raw ray-cast rate of the tracer's own rays.
 #[divan::bench(args = [1, 2])]
 fn photon_segments_raw_obvhs(bencher: Bencher, threads: usize) {
     let pool = pool(threads);
-    let (bvh, tris) = &*RAW;
+    LazyLock::force(&RAW);
     let rays = &*PHOTON_SEGMENTS;
-    bencher.counter(ItemsCount::new(rays.len())).bench(|| {
-        pool.install(|| {
-            rays.par_chunks(256)
-                .map(|c| {
-                    c.iter()
-                        .filter(|r| {
-                            let ray =
-                                obvhs::ray::Ray::new_inf(Vec3A::from(r.origin), Vec3A::from(r.dir));
-                            let mut hit = RayHit::none();
-                            bvh.ray_traverse(ray, &mut hit, |r, id| tris[id].intersect(r))
-                        })
-                        .count()
-                })
-                .sum::<usize>()
-        })
-    });
+    bencher
+        .counter(ItemsCount::new(rays.len()))
+        .bench(|| pool.install(|| raw_obvhs_hits(rays)));
 }
 
 /// `SceneBvh::intersect` on [`PHOTON_SEGMENTS`].
 #[divan::bench(args = [1, 2])]
 fn photon_segments_scene_bvh(bencher: Bencher, threads: usize) {
     let pool = pool(threads);
-    let rays = &*PHOTON_SEGMENTS;
     LazyLock::force(&BVH);
-    bencher.counter(ItemsCount::new(rays.len())).bench(|| {
-        pool.install(|| {
-            rays.par_chunks(256)
-                .map(|c| c.iter().filter(|r| BVH.intersect(r).is_some()).count())
-                .sum::<usize>()
-        })
-    });
+    let rays = &*PHOTON_SEGMENTS;
+    bencher
+        .counter(ItemsCount::new(rays.len()))
+        .bench(|| pool.install(|| scene_bvh_hits(rays)));
 }
