@@ -166,18 +166,28 @@ pub fn progressive_radius(r0: f32, alpha: f32, i: u32) -> f32 {
 /// a few millimetres in a bright caustic, `r_max` where photons are sparse; the aimed photons
 /// make the caustics' photons many, so that their kernels are small and their noise low.
 ///
-/// The kernels keep `photon-gather`'s floor of one pixel's footprint, which does not shrink:
-/// the estimate converges to the radiance filtered over about a pixel round each pixel centre,
-/// the filter ISPM's and `photon-gather`'s estimates converge to as well. Without it the kernels
-/// of a focused caustic shrank far below a pixel and the pixel centres sampled its peak or
-/// missed it: `glass-sphere`'s focus at 64² came out 14 % brighter over the image than its
-/// pixels' mean, a few pixels many times too bright (`tests/ispm_accuracy.rs`, caustic tests).
+/// Sampled at pixel centres (one eye sample per pixel, or `jitter` off: the sweep's references),
+/// the kernels keep `photon-gather`'s floor of one pixel's footprint, which does not shrink: the
+/// estimate converges to the radiance filtered over about a pixel round each pixel centre, the
+/// filter ISPM's and `photon-gather`'s estimates converge to as well. Without it the kernels of
+/// a focused caustic shrank far below a pixel and the pixel centres sampled its peak or missed
+/// it: `glass-sphere`'s focus at 64² came out 14 % brighter over the image than its pixels'
+/// mean, a few pixels many times too bright (`tests/ispm_accuracy.rs`, caustic tests). With
+/// jittered samples (`spp > 1`, `ispm render`'s default 16) the samples' box over the pixel is
+/// the filter, as in Mitsuba, and the kernels have no floor: both at once blurred the
+/// cross-check's glass caustic to 0.876 of Mitsuba's (docs/crosscheck.md).
 pub(super) fn render_progressive(ctx: &Ctx) -> Result<HdrImage> {
     let s = ctx.settings;
     let iterations = s.iterations.max(1);
     ctx.set_length(iterations as u64 * s.spp.max(1) as u64 * s.height as u64);
-    let kernel = KernelSettings::scene_relative(&ctx.scene.bounds(), s.photons, s.radius)
-        .for_view(ctx.scene.camera.yfov, s.height);
+    let kernel = KernelSettings::scene_relative(&ctx.scene.bounds(), s.photons, s.radius);
+    // The pixel filter is the jittered samples' box or the kernels' footprint floor, not both.
+    let jittered = s.spp > 1 && s.jitter;
+    let kernel = if jittered {
+        kernel
+    } else {
+        kernel.for_view(ctx.scene.camera.yfov, s.height)
+    };
     let neighbours = Neighbours::for_photons(s.photons);
     let eye = ctx.scene.camera.position();
     let target = delta_target(ctx.scene);
