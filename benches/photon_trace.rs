@@ -1,7 +1,8 @@
 //! CPU photon tracing throughput: photon bounces (rays cast by the tracer, each followed by a
 //! BSDF evaluation and Russian roulette) per second, against the raw incoherent ray-cast rate
 //! of bare `obvhs` (its CWBVH and Möller–Trumbore triangles) and of our `SceneBvh` on the same
-//! scene, in the same run, with 1 and 2 rayon threads.
+//! scene, in the same run, with 1 and 2 rayon threads: on incoherent rays inside the box and on
+//! the tracer's own rays (`PHOTON_SEGMENTS`).
 //! `cargo bench --bench photon_trace`; results in `docs/performance.md`.
 //!
 //! Scene: the Cornell-like closed box of `reference::scenes::cornell` (walls of albedo 0.7,
