@@ -161,8 +161,9 @@ pub fn progressive_radius(r0: f32, alpha: f32, i: u32) -> f32 {
 /// tracer on `caustic-ring`'s floor (640×480, 3-pixel blur) that reference had a relMSE of
 /// 0.0156, six times ISPM's own render at 160k photons (docs/accuracy.md, "The references'
 /// caustics"). Scaling each photon's kNN radius by the same factor keeps the schedule that
-/// makes the estimate consistent (every kernel above the floor below shrinks as `s_i`, the photons per kernel grow
-/// with the iterations) and starts each kernel at the size its own photons' density calls for:
+/// makes the estimate consistent (every kernel above the floor below shrinks as `s_i`, the
+/// photons per kernel grow with the iterations) and starts each kernel at the size its own
+/// photons' density calls for:
 /// a few millimetres in a bright caustic, `r_max` where photons are sparse; the aimed photons
 /// make the caustics' photons many, so that their kernels are small and their noise low.
 ///
