@@ -1,7 +1,7 @@
-//! Caustic photons for the progressive reference: part of each photon map aimed at the
-//! surfaces with a delta lobe (mirrors, glass), the rest emitted as usual, the light paths
-//! split between the two by where their first ray lands, so that nothing is counted twice or
-//! left out.
+//! Caustic photons for the CPU photon mappers (`progressive`, `photon-gather`): part of each
+//! photon map aimed at the surfaces with a delta lobe (mirrors, glass), the rest emitted as
+//! usual, the light paths split between the two by where their first ray lands, so that
+//! nothing is counted twice or left out.
 //!
 //! ```text
 //!   light ──► first ray hits a delta surface?  ──yes──► paths of the aimed photons
@@ -31,7 +31,9 @@
 //! density: variance, not bias. A spot light is aimed at the whole cone towards the sphere,
 //! including the directions its own cone leaves dark, whose photons carry no power (dropped by
 //! the tracer); its share of the aimed photons follows its falloff-weighted flux through that
-//! cone ([`flux_toward`]), so a spot pointing away from the sphere gets none.
+//! cone ([`flux_toward`]), so a spot pointing away from the sphere gets none. Every photon's
+//! first ray is cast here to split the paths and again by the tracer: one extra ray per
+//! emitted photon, against the two or more a traced path costs.
 
 use crate::photon::bvh::SceneBvh;
 use crate::photon::emit::{emit_photons, emit_toward, flux_toward, EmittedPhoton, Target};
@@ -102,14 +104,11 @@ pub fn split_emission(
             !is_aimed.get(p.light as usize).copied().unwrap_or(false) || !first_hits_delta(p)
         })
         .collect();
-    out.extend(
+    out.par_extend(
         aimed
-            .into_iter()
-            .flatten()
-            .collect::<Vec<_>>()
             .into_par_iter()
-            .filter(|p| first_hits_delta(p))
-            .collect::<Vec<_>>(),
+            .flatten()
+            .filter(|p| first_hits_delta(p)),
     );
     out
 }
