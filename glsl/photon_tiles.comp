@@ -66,8 +66,11 @@ layout(push_constant) uniform Push {
     uint accumulate;  // 1: continue the targets' sums (not the first dispatch)
     uint start;   // the first entry of each tile's list this dispatch gathers, from its start
     uint photon_base;  // this buffer's first photon's index in spheres
-    uint pad0;
-    uint pad1;
+    // 1: the fine photons at full resolution, added to out0 (the indirect image the upsample
+    // wrote); no other target is read or written (they may all be out0). The dispatch is then
+    // one workgroup per tile with a list: workgroup i's tile is offsets[tile_list + i].
+    uint fine;
+    uint tile_list;
 } push;
 
 void store(ivec2 px, vec4 a, vec4 b, vec4 c, vec4 d) {
@@ -149,12 +152,33 @@ void add_photon(vec4 centre, vec4 normal, vec4 power, vec3 wi) {
 }
 
 void main() {
-    ivec2 px = ivec2(gl_GlobalInvocationID.xy);
+    uint tile = push.fine != 0u ? offsets[push.tile_list + gl_WorkGroupID.x]
+                                : gl_WorkGroupID.y * push.tile_columns + gl_WorkGroupID.x;
+    uvec2 tile_xy = uvec2(tile % push.tile_columns, tile / push.tile_columns);
+    ivec2 px = ivec2(tile_xy * uvec2(PHOTON_TILE) + gl_LocalInvocationID.xy);
     bool inside = px.x < int(push.width) && px.y < int(push.height);
     // The G-buffer pixel this one shades: itself, or at 1/N the centre of its N×N block (as in
     // photon_volumes_subsampled.frag and upsample.comp's subsample_centre).
     int n = int(push.subsample);
     ivec2 g = SUBSAMPLED ? min(px * n + n / 2, ivec2(frame.counts.zw) - 1) : px;
+    // Adding to the sums the targets hold: those of the dispatches before, or the estimate
+    // the fine photons are added to.
+    bool adding = push.accumulate != 0u || push.fine != 0u;
+
+    uint list_begin = offsets[push.first + tile];
+    uint list_end = offsets[push.first + tile + 1u];
+    uint begin = list_begin + push.start;
+    if (begin >= list_end) {
+        // Nothing (left) in this tile's list, the same for the whole workgroup: the first
+        // dispatch clears the sums, one that adds leaves them. First of all, for an empty tile
+        // needs nothing else (most tiles of the fine photons' full-resolution estimate at
+        // --subsample N > 1, src/render/photon_frame/estimate.rs).
+        if (!adding && inside) {
+            store(px, vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0));
+        }
+        return;
+    }
+
     vec4 position = inside ? texelFetch(g_position, g, 0) : vec4(0.0);
     pos = position.xyz;
     bool shaded = inside && position.w != 0.0;
@@ -176,18 +200,13 @@ void main() {
     }
     lambert = oriented ? c[LOBE_LAMBERTIAN] * (1.0 / PI) : vec3(0.0);
 
-    uint tile = gl_WorkGroupID.y * push.tile_columns + gl_WorkGroupID.x;
-    uint list_begin = offsets[push.first + tile];
-    uint list_end = offsets[push.first + tile + 1u];
-    uint begin = list_begin + push.start;
     uint end = min(list_end, begin + TILE_JOB);
-    if (push.accumulate != 0u && begin >= list_end) {
-        return;  // nothing left of this tile's list: its sums stand
-    }
-    if (push.accumulate != 0u && inside) {
+    if (adding && inside) {
         // Continue the sums of the dispatches before, in the same order.
         sum0 = imageLoad(out0, px);
-        if (SUBSAMPLED) {
+        if (push.fine != 0u) {
+            // Only out0: the fine photons are caustic ones, which add nothing to the others.
+        } else if (SUBSAMPLED) {
             glossy_sum = imageLoad(out1, px).rgb;
             global_sum = imageLoad(out2, px);
             vec4 w = imageLoad(out3, px);
@@ -267,7 +286,9 @@ void main() {
     if (!inside) {
         return;
     }
-    if (SUBSAMPLED) {
+    if (push.fine != 0u) {
+        imageStore(out0, px, sum0);
+    } else if (SUBSAMPLED) {
         store(px, sum0, vec4(glossy_sum, 0.0), global_sum, vec4(kappa_sum, global_glossy));
     } else {
         store(px, sum0, global_sum, vec4(kappa_sum, 0.0, 0.0, 0.0), vec4(0.0));

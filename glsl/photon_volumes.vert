@@ -26,6 +26,8 @@ layout(push_constant) uniform Push {
     float scale;  // the kNN radii's factor (KernelSettings::scale)
     float gather_exponent_max;  // the fragment stages' glossy regularisation
     vec4 offset;  // xyz: photon map origin − eye (the stored positions are origin-relative)
+    uint share;   // which photons this estimate draws: SHARE_* (photon::kernel::Share)
+    float split;  // the fine photons' kernel radius per metre of eye distance
 } push;
 
 layout(location = 0) flat out uint v_photon;
@@ -42,9 +44,13 @@ void main() {
                            push.footprint_max, length(center));
     float bound = r.x;
     float d = length(center);
-    if (!any(greaterThan(photon.power, vec3(0.0))) || isnan(d)) {
-        // No power, or a broken position: collapse the billboard to a point, which rasterises
-        // nothing.
+    float rho_p;
+    unpack_direction(photon.direction, rho_p);
+    bool drawn = kernel_share_draws(push.share, push.split, r_knn, rho_p, push.r_min, push.r_max,
+                                    push.scale, d);
+    if (!any(greaterThan(photon.power, vec3(0.0))) || isnan(d) || !drawn) {
+        // No power, a broken position, or a photon another estimate draws: collapse the
+        // billboard to a point, which rasterises nothing.
         gl_Position = frame.view_proj * vec4(center, 1.0);
     } else if (!(d > bound * BILLBOARD_INSIDE)) {
         // The eye inside the bounding sphere: the whole screen at infinite depth (reversed-Z).

@@ -30,6 +30,20 @@ vec2 kernel_radius(float r_knn, float r_min, float r_max, float scale, float foo
     return vec2(r, r * KERNEL_NORMAL_RATIO);
 }
 
+// Whether an estimate of share `share` (SHARE_*: all, fine, coarse) with split `split` draws a
+// photon with kNN radius r_knn and path density rho_p at eye_distance metres from the eye: the
+// twin of src/photon/kernel.rs's Share::draws. A fine photon is a caustic one whose kernel
+// before the footprint floor is narrower than split * eye_distance.
+bool kernel_share_draws(uint share, float split, float r_knn, float rho_p, float r_min,
+                        float r_max, float scale, float eye_distance) {
+    if (share == SHARE_ALL) {
+        return true;
+    }
+    float r = (r_knn > 0.0 ? clamp(r_knn, r_min, r_max) : r_max) * scale;
+    bool fine = rho_p > CAUSTIC_PATH_DENSITY && r < split * eye_distance;
+    return fine == (share == SHARE_FINE);
+}
+
 float kernel_t(vec3 x, vec3 n, float r_xy, float r_z, vec3 s) {
     vec3 d = s - x;
     float dist = length(d);

@@ -47,6 +47,11 @@ pub struct QualityArgs {
     /// or plain `bilinear` (default joint).
     #[arg(long, value_enum)]
     upsample: Option<ispm::config::settings::Upsample>,
+    /// At --subsample N > 1, estimate the caustic photons at 1/N too, as the global ones:
+    /// cheaper, but a focused caustic spreads over N×N blocks (default: the caustic photons at
+    /// full resolution).
+    #[arg(long)]
+    subsample_caustics: bool,
 }
 
 /// What `--quality` names: a preset, or `none` (no preset, whatever the command's default one).
@@ -76,6 +81,7 @@ impl QualityArgs {
             radius: self.radius,
             subsample: self.subsample,
             upsample: self.upsample,
+            subsampled_caustics: self.subsample_caustics.then_some(true),
             ..Knobs::default()
         }
     }

@@ -215,6 +215,10 @@ pub struct RenderSettings {
     pub subsample: u32,
     /// How a subsampled estimate is upsampled (joint bilateral, or plain bilinear).
     pub upsample: Upsample,
+    /// At `subsample > 1`, estimate the caustic photons at 1/N too (`--subsample-caustics`:
+    /// cheaper, and spreads a focused caustic over N×N blocks) instead of at full resolution
+    /// (`render/photon_frame/estimate.rs`).
+    pub subsampled_caustics: bool,
     /// Levels of the indirect light's edge-avoiding à-trous filter for a frame that starts an
     /// accumulation or is not accumulated, fewer as frames accumulate (`--denoise`;
     /// `passes/denoise.rs`). 0 ([`DEFAULT_DENOISE`], the library's default; the command
@@ -272,6 +276,7 @@ impl Default for RenderSettings {
             exposure_ev: DEFAULT_EXPOSURE_EV,
             subsample: DEFAULT_SUBSAMPLE,
             upsample: Upsample::default(),
+            subsampled_caustics: false,
             denoise: DEFAULT_DENOISE,
             schedule: Schedule::default(),
             effects: Effects::default(),

@@ -90,6 +90,12 @@ pub const KEEP_R1: u32 = 2654435769;
 // A photon is a caustic photon when its path density ρp exceeds this (`photon::density`): every
 // bounce on its path was a mirror, refraction or glossy one.
 pub const CAUSTIC_PATH_DENSITY: f32 = 1.0e-2;
+// Which photons one density estimate draws (`photon::kernel::Share`): every one, the fine ones
+// (caustic photons with kernels narrower than the split; at `--subsample N > 1` estimated at
+// full resolution, `render/photon_frame/estimate.rs`) or the others.
+pub const SHARE_ALL: u32 = 0;
+pub const SHARE_FINE: u32 = 1;
+pub const SHARE_COARSE: u32 = 2;
 // The kernel-support normalisation of the global photons' estimate (`passes/support.rs`): the
 // smallest on-surface fraction of a kernel it divides by (a straight convex edge's), and the
 // cosine between a global photon's normal and the shaded surface's below which the photon does

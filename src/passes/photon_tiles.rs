@@ -63,6 +63,20 @@ pub struct TileStats {
     pub dispatches: usize,
 }
 
+impl TileStats {
+    /// The stats of two estimates of one frame (the caustic photons' at full resolution and the
+    /// global photons' at `--subsample N > 1`): tiles, entries and dispatches added, the
+    /// longest list of either.
+    pub fn and(self, other: Self) -> Self {
+        Self {
+            tiles: self.tiles + other.tiles,
+            entries: self.entries + other.entries,
+            longest: self.longest.max(other.longest),
+            dispatches: self.dispatches + other.dispatches,
+        }
+    }
+}
+
 /// The push constants (`Push` in `photon_tiles.comp`).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
@@ -82,7 +96,10 @@ struct Push {
     accumulate: u32,
     start: u32,
     photon_base: u32,
-    pad: [u32; 2],
+    /// 1: the fine photons, added to `targets[0]` alone ([`PhotonTilesPass::record`]), one
+    /// workgroup per tile with a list, the tiles read from `offsets[tile_list..]`.
+    fine: u32,
+    tile_list: u32,
 }
 const _: () = assert!(std::mem::offset_of!(Push, offset) == 32);
 const _: () = assert!(std::mem::offset_of!(Push, width) == 48);
@@ -226,17 +243,42 @@ impl PhotonTilesPass {
     /// Gathers `counts[i]` photons from photon buffer `i`, as listed in `lists`, with the
     /// radii of `kernel` and `offset` (origin − eye) into `targets` (the photon volumes'):
     /// `[indirect, global, weight]` at subsample 1, else `[irradiance, glossy, global, weight]`.
-    /// `slot` is the frame slot, whose previous frame has finished.
+    /// With `add` (the fine photons at full resolution when subsampling,
+    /// `render/photon_frame/estimate.rs`), into `[indirect]` alone, added to what it holds:
+    /// an empty tile then costs only its list's bounds. `slot` is the frame slot, whose
+    /// previous frame has finished.
     pub fn record(
         &mut self,
         cmd: &Cmd,
         inputs: &PhotonVolumeInputs,
         (counts, kernel, offset): (&[u32], &KernelSettings, glam::Vec3),
         (lists, slot): (&TileLists, usize),
-        targets: &[&Image],
+        (targets, add): (&[&Image], bool),
     ) -> anyhow::Result<TileStats> {
         let gpu = self.gpu.clone();
-        let offsets: &[u8] = bytemuck::cast_slice(&lists.offsets);
+        // With `add`, a dispatch is made over the tiles with a list only (an empty tile's
+        // workgroup costs as much to launch as to skip on llvmpipe: 20 ms for the 4800 of
+        // 640×480): each buffer's such tiles follow the offsets, from `sparse[b]` on.
+        let mut offsets_and_tiles = Vec::new();
+        let mut sparse = Vec::new();
+        if add {
+            offsets_and_tiles.extend_from_slice(&lists.offsets);
+            for b in 0..counts.len() {
+                let first = lists.first(b) as usize;
+                let tiles = &lists.offsets[first..=first + lists.tiles()];
+                let start = offsets_and_tiles.len() as u32;
+                offsets_and_tiles.extend(
+                    (tiles.windows(2).enumerate())
+                        .filter(|(_, w)| w[1] > w[0])
+                        .map(|(t, _)| t as u32),
+                );
+                sparse.push((start, offsets_and_tiles.len() as u32 - start));
+            }
+        }
+        let offsets: &[u8] = match add {
+            true => bytemuck::cast_slice(&offsets_and_tiles),
+            false => bytemuck::cast_slice(&lists.offsets),
+        };
         let indices: &[u8] = bytemuck::cast_slice(&lists.indices);
         let spheres: &[u8] = bytemuck::cast_slice(&lists.spheres);
         let reach = u64::from(gpu.properties.max_storage_buffer_range);
@@ -282,7 +324,9 @@ impl PhotonTilesPass {
             let base = photon_base;
             photon_base += count;
             // Buffer 0 always: its empty lists clear the targets when there are no photons.
-            if count == 0 && b > 0 {
+            // Adding, only the buffers whose photons some tile lists.
+            let (tile_list, listed) = sparse.get(b).copied().unwrap_or_default();
+            if (count == 0 && b > 0) || (add && listed == 0) {
                 continue;
             }
             // Only when read: an unread photon buffer may belong to the transfer queue.
@@ -319,10 +363,14 @@ impl PhotonTilesPass {
                         accumulate: u32::from(!first_dispatch),
                         start: job as u32 * TILE_JOB,
                         photon_base: base,
-                        pad: [0; 2],
+                        fine: u32::from(add),
+                        tile_list,
                     },
                 );
-                cmd.dispatch(lists.columns, lists.rows, 1);
+                match add {
+                    true => cmd.dispatch(listed, 1, 1),
+                    false => cmd.dispatch(lists.columns, lists.rows, 1),
+                }
                 first_dispatch = false;
                 dispatches += 1;
             }

@@ -42,7 +42,7 @@ use crate::gpu::{
 };
 use crate::layout::shared_constants::{BILLBOARD_INSIDE, BILLBOARD_MARGIN};
 use crate::photon::bsdf::BsdfVariant;
-use crate::photon::kernel::KernelSettings;
+use crate::photon::kernel::{KernelSettings, Share};
 use crate::timing::pass_id::PassId;
 use std::sync::Arc;
 
@@ -88,10 +88,16 @@ struct Push {
     /// Added to every stored photon position to make it eye-relative (xyz; w unused): the
     /// photon map's origin minus the eye (`photon_frame.rs`).
     offset: [f32; 4],
+    /// Which photons are drawn (`photon::kernel::Share::push`); the vertex stage collapses
+    /// the others' billboards.
+    share: u32,
+    split: f32,
+    pad: [u32; 2],
 }
 // std430 push-constant layout: the vec4 after eight scalars starts at byte 32.
 const _: () = assert!(std::mem::offset_of!(Push, offset) == 32);
-const _: () = assert!(size_of::<Push>() == 48);
+const _: () = assert!(std::mem::offset_of!(Push, share) == 48);
+const _: () = assert!(size_of::<Push>() == 64);
 
 /// The indirect-radiance target (alpha: number of volumes that touched the pixel).
 pub fn target(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<Image> {
@@ -325,13 +331,15 @@ impl PhotonVolumesPass {
     /// radii, [`crate::photon::types::pack_normal`]) with the radii of `kernel` (its scale,
     /// clamp and footprint floor, [`crate::photon::kernel`]) into `targets`: `[indirect]` and
     /// the two [`support_targets`] at subsample 1, else the two [`low_targets`]. `offset` is added to every stored photon
-    /// position to make it relative to the eye (the frame's space).
+    /// position to make it relative to the eye (the frame's space). Only the photons of `share`
+    /// are drawn; with `add` (the fine photons at full resolution when subsampling,
+    /// `render/photon_frame/estimate.rs`) they are added to what `targets[0]` holds.
     pub fn record(
         &self,
         cmd: &Cmd,
         inputs: &PhotonVolumeInputs,
         (counts, kernel, offset): (&[u32], &KernelSettings, glam::Vec3),
-        targets: &[&Image],
+        (targets, share, add): (&[&Image], Share, bool),
     ) {
         let _scope = cmd.scope(PassId::PhotonVolumes.name());
         let drawn = || inputs.photons.iter().zip(&self.sets).zip(counts);
@@ -341,12 +349,14 @@ impl PhotonVolumesPass {
             .flat_map(|((photons, _), _)| Self::uses(inputs, photons, &self.sampler))
             .collect();
         cmd.uses(Shaders::Graphics, &uses);
-        let colors: Vec<Attachment> = targets
-            .iter()
-            .map(|&image| Attachment {
+        let colors: Vec<Attachment> = (targets.iter().enumerate())
+            .map(|(i, &image)| Attachment {
                 image,
                 layer: 0,
-                load: Load::Clear([0.0; 4]),
+                load: match add && i == 0 {
+                    true => Load::Keep,
+                    false => Load::Clear([0.0; 4]),
+                },
             })
             .collect();
         let depth = Attachment {
@@ -375,6 +385,9 @@ impl PhotonVolumesPass {
                     scale: kernel.scale,
                     gather_exponent_max: kernel.gather_exponent_max(),
                     offset: offset.extend(0.0).to_array(),
+                    share: share.push().0,
+                    split: share.push().1,
+                    pad: [0; 2],
                 },
             );
             cmd.draw_indexed_instanced(6, count);

@@ -30,6 +30,10 @@
 //! weights are bilinear alone (background samples still excluded), so what the joint filter
 //! buys at edges and glancing surfaces can be measured against a plain upsample.
 //!
+//! The fine photons (caustic photons with kernels an N×N block would spread, `photon::kernel::Share`)
+//! are not in the low-resolution images when the scene can make any: they are estimated at full
+//! resolution and added to `indirect` after this pass (`render/photon_frame/estimate.rs`).
+//!
 //! Reads: materials, eye G-buffer, the two low-resolution images (`ComputeSampledRead`).
 //! Writes: `indirect` (`ComputeStorageWrite`).
 

@@ -84,6 +84,7 @@
 //! keeps σ ≤ 16): only accumulation makes the glossy estimate consistent. Measured in
 //! docs/accuracy.md, "Glossy regularisation".
 
+use crate::layout::shared_constants::{CAUSTIC_PATH_DENSITY, SHARE_ALL, SHARE_COARSE, SHARE_FINE};
 use crate::scene::Aabb;
 use glam::Vec3;
 
@@ -172,12 +173,7 @@ impl KernelSettings {
 /// `(r_xy, r_z)` of a photon with kNN radius `r_knn` (metres, `photon::density`; the length
 /// of its packed normal) at `eye_distance` metres from the eye.
 pub fn kernel_radius(r_knn: f32, settings: &KernelSettings, eye_distance: f32) -> (f32, f32) {
-    // ≤ 0 or NaN: a record without a radius (zero normal) gets the widest kernel.
-    let r = if r_knn > 0.0 {
-        r_knn.clamp(settings.r_min, settings.r_max)
-    } else {
-        settings.r_max
-    } * settings.scale;
+    let r = clamped_radius(r_knn, settings);
     let floor = settings.footprint * eye_distance;
     // Camera case (1×1 images, fields of view near 180°): a pixel wider than the room made
     // kernels that spanned its walls; the floor stops at a tenth of the scene (NaN stays NaN).
@@ -189,6 +185,62 @@ pub fn kernel_radius(r_knn: f32, settings: &KernelSettings, eye_distance: f32) -
     // NaN distances (a photon with a broken position) leave the floor out.
     let r = r.max(floor);
     (r, r * NORMAL_RATIO)
+}
+
+/// The kernel radius of a photon with kNN radius `r_knn` before the footprint floor: clamped
+/// to `[r_min, r_max]` and scaled.
+fn clamped_radius(r_knn: f32, settings: &KernelSettings) -> f32 {
+    // ≤ 0 or NaN: a record without a radius (zero normal) gets the widest kernel.
+    (if r_knn > 0.0 {
+        r_knn.clamp(settings.r_min, settings.r_max)
+    } else {
+        settings.r_max
+    }) * settings.scale
+}
+
+/// The fine photons' kernel radius bound at `--subsample N > 1` ([`Share`]), in low-resolution
+/// pixels (N pixels each): a caustic kernel narrower than this is estimated at full
+/// resolution. Measured (docs/accuracy.md, "Fine photons at full resolution"): the error
+/// hardly depends on it from 1 to 4, the cost neither.
+pub const FINE_KERNEL_PIXELS: f32 = 2.0;
+
+/// Which photons one density estimate draws. At `--subsample N > 1` the **fine** photons,
+/// caustic photons whose kernel (before the footprint floor) is narrower than `split` metres
+/// per metre of eye distance, are estimated at full resolution and the others at 1/N
+/// (`render/photon_frame/estimate.rs`): the photons whose light an N×N block would spread.
+/// `kernel.glsl`'s `kernel_share_draws` is the shaders' twin.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Share {
+    /// Every photon.
+    All,
+    /// The fine photons of `split`.
+    Fine { split: f32 },
+    /// Every photon but the fine ones of `split`.
+    Coarse { split: f32 },
+}
+
+impl Share {
+    /// Whether the estimate draws a photon with kNN radius `r_knn` and path density `rho_p`
+    /// at `eye_distance` metres from the eye, with the radii of `settings`.
+    pub fn draws(self, r_knn: f32, rho_p: f32, settings: &KernelSettings, d: f32) -> bool {
+        let fine = |split: f32| {
+            rho_p > CAUSTIC_PATH_DENSITY && clamped_radius(r_knn, settings) < split * d
+        };
+        match self {
+            Share::All => true,
+            Share::Fine { split } => fine(split),
+            Share::Coarse { split } => !fine(split),
+        }
+    }
+
+    /// `(share, split)` as the shaders read them (`SHARE_*` in `layout/shared_constants.rs`).
+    pub fn push(self) -> (u32, f32) {
+        match self {
+            Share::All => (SHARE_ALL, 0.0),
+            Share::Fine { split } => (SHARE_FINE, split),
+            Share::Coarse { split } => (SHARE_COARSE, split),
+        }
+    }
 }
 
 /// The ellipsoid's `t` (≤ 1 inside) of the shaded point `s` for a photon at `x` with unit
@@ -229,6 +281,47 @@ pub fn kernel_weight(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_fine_and_coarse_shares_split_every_photon_once() {
+        let settings = KernelSettings {
+            r_min: 0.01,
+            r_max: 0.5,
+            scale: 0.8,
+            footprint: 0.002,
+            footprint_max: 1.0,
+        };
+        let split = 0.01;
+        let (mut fine, mut coarse) = (0, 0);
+        for r_knn in [-1.0, 0.0, 0.001, 0.02, 0.049, 0.051, 0.3, 2.0, f32::NAN] {
+            for rho_p in [0.0, 1.0e-3, CAUSTIC_PATH_DENSITY, 0.5, 1.0e6, f32::NAN] {
+                for d in [0.1, 1.0, 5.0, 100.0, f32::NAN] {
+                    let f = Share::Fine { split }.draws(r_knn, rho_p, &settings, d);
+                    let c = Share::Coarse { split }.draws(r_knn, rho_p, &settings, d);
+                    assert!(
+                        f != c,
+                        "r {r_knn}, rho {rho_p}, d {d}: fine {f}, coarse {c}"
+                    );
+                    assert!(Share::All.draws(r_knn, rho_p, &settings, d));
+                    fine += usize::from(f);
+                    coarse += usize::from(c);
+                    // Fine: a caustic photon whose kernel before the floor is under split·d.
+                    let r = if r_knn > 0.0 {
+                        r_knn.clamp(0.01, 0.5)
+                    } else {
+                        0.5
+                    } * 0.8;
+                    assert_eq!(f, rho_p > CAUSTIC_PATH_DENSITY && r < split * d);
+                }
+            }
+        }
+        assert!(fine > 0 && coarse > 0);
+        // At 5 m, a caustic photon of kNN radius 2 cm (1.6 cm scaled) is fine, one of 30 cm
+        // is not, nor is a global photon of 2 cm.
+        assert!(Share::Fine { split }.draws(0.02, 1.0, &settings, 5.0));
+        assert!(!Share::Fine { split }.draws(0.3, 1.0, &settings, 5.0));
+        assert!(!Share::Fine { split }.draws(0.02, 1.0e-3, &settings, 5.0));
+    }
 
     #[test]
     fn kernel_integrates_to_one_over_the_tangent_disk() {

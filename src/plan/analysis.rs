@@ -223,6 +223,11 @@ impl SceneAnalysis {
             max_bounces,
             max_bounces_reason,
             subsample: self.subsample,
+            full_resolution_caustics: full_resolution_caustics(
+                settings,
+                self.subsample,
+                self.delta.needed || self.glossy.needed,
+            ),
             density: settings.density,
             denoise: settings.denoise,
             accumulate,
@@ -230,6 +235,16 @@ impl SceneAnalysis {
             motion: MotionPlan::of(scene),
         }
     }
+}
+
+/// [`EffectsPlan::full_resolution_caustics`]: subsampling, not `--subsample-caustics`, and
+/// lobes that make caustic photons (`caustic_lobes`: a delta or glossy one).
+fn full_resolution_caustics(
+    settings: &RenderSettings,
+    subsample: u32,
+    caustic_lobes: bool,
+) -> bool {
+    subsample > 1 && !settings.subsampled_caustics && caustic_lobes
 }
 
 impl EffectsPlan {
@@ -283,6 +298,7 @@ impl EffectsPlan {
             max_bounces: if ispm { settings.bounces.max(1) } else { 0 },
             max_bounces_reason: "--effects all: --bounces (at least 1)".to_string(),
             subsample,
+            full_resolution_caustics: full_resolution_caustics(settings, subsample, true),
             density: settings.density,
             denoise: settings.denoise,
             accumulate: settings.accumulate && (ispm || has_area_samples(scene)),

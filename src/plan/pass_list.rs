@@ -31,10 +31,14 @@ impl EffectsPlan {
         let upsample = if !indirect.needed {
             photon(PassId::Upsample)
         } else if self.subsample > 1 {
+            let caustics = match self.full_resolution_caustics {
+                true => " (the caustic photons with narrow kernels at full resolution)",
+                false => "",
+            };
             pass(
                 PassId::Upsample,
                 true,
-                &format!("--subsample {}", self.subsample),
+                &format!("--subsample {}{caustics}", self.subsample),
             )
         } else {
             pass(

@@ -46,7 +46,7 @@ use crate::passes::support::SupportPass;
 use crate::passes::upsample::UpsamplePass;
 use crate::photon::bvh::SceneBvh;
 use crate::photon::density::Neighbours;
-use crate::photon::kernel::KernelSettings;
+use crate::photon::kernel::{KernelSettings, FINE_KERNEL_PIXELS};
 use crate::photon::trace::TraceSettings;
 use crate::photon::types::{pack_normal, BounceMapPhoton, Photon};
 use crate::plan::bounce_plan::{BouncePlan, Capacity};
@@ -155,6 +155,8 @@ pub struct PhotonFrame {
     screen_size: ((u32, u32), u32),
     /// The tiled estimator's lists of the last recorded estimate.
     tile_stats: Option<crate::passes::photon_tiles::TileStats>,
+    /// Caustic photons (`photon::density::PhotonClass`) in the last traced photon map.
+    caustic_photons: usize,
 }
 
 /// The density estimator of the frame (`--density`, resolved for the device).
@@ -183,12 +185,36 @@ fn estimate_targets<'a>(
 }
 
 struct Subsampled {
+    /// The fine photons' estimate at full resolution, in a scene that can make caustic
+    /// photons (`estimate.rs`'s module docs).
+    fine: Option<FinePhotons>,
     low: [Image; 2],
     /// The global photons' share of `low` and the pass that normalises it by its kernel's
     /// support on the surface (`passes/support.rs`).
     support: ([Image; 2], SupportPass),
     upsample: UpsamplePass,
     subsample: u32,
+}
+
+/// The fine photons' estimate at full resolution when subsampling (`estimate.rs`'s module
+/// docs).
+struct FinePhotons {
+    /// An estimator of the frame's kind at subsample 1, adding the fine photons to `indirect`.
+    estimator: Estimator,
+    /// The photon volumes' other two full-resolution targets (the global photons' share and
+    /// weight: zero, the fine photons are caustic ones), which their render pass needs beside
+    /// `indirect`; the tiled gather touches `indirect` alone.
+    support: Option<[Image; 2]>,
+    /// The kernel with the full image's footprint floor.
+    kernel: KernelSettings,
+}
+
+impl FinePhotons {
+    /// The split between fine and coarse photons at subsample `n`: [`FINE_KERNEL_PIXELS`]
+    /// low-resolution pixels, per metre of eye distance.
+    fn split(&self, n: u32) -> f32 {
+        FINE_KERNEL_PIXELS * n as f32 * self.kernel.pixel_angle()
+    }
 }
 
 /// The random seed of photon sample `sample` of a renderer seeded `seed`: `seed` itself for
@@ -237,6 +263,9 @@ impl PhotonFrame {
     pub fn set_radius_scale(&mut self, scale: f32) {
         self.kernel_clamp.scale = scale;
         self.kernel.scale = scale;
+        if let Some(fine) = self.subsampled.as_mut().and_then(|s| s.fine.as_mut()) {
+            fine.kernel.scale = scale;
+        }
     }
 
     /// The photon sample of the last traced map ([`Self::set_sample`]).

@@ -92,6 +92,8 @@ pub struct Knobs {
     pub subsample: Option<u32>,
     /// `--upsample` (the preset's, else [`Upsample::default`]).
     pub upsample: Option<Upsample>,
+    /// `--subsample-caustics` (else the caustic photons at full resolution).
+    pub subsampled_caustics: Option<bool>,
     /// `--size` (else [`DEFAULT_SIZE`]).
     pub size: Option<(u32, u32)>,
     /// `--seed` (else [`DEFAULT_SEED`]).
@@ -171,6 +173,7 @@ impl RenderSettings {
                 .upsample
                 .or(preset.map(|p| p.upsample))
                 .unwrap_or_default(),
+            subsampled_caustics: knobs.subsampled_caustics.unwrap_or(false),
             denoise: knobs.denoise.unwrap_or(DEFAULT_DENOISE),
             schedule: knobs.schedule.unwrap_or_default(),
             effects: knobs.effects.unwrap_or_default(),

@@ -7,7 +7,7 @@
 use super::buffers::PhotonBuffers;
 use super::{drawn_photons, retrace, PhotonFrame};
 use crate::gpu::{Cmd, QueueRole};
-use crate::photon::density::knn_radii;
+use crate::photon::density::{knn_radii, PhotonClass};
 use crate::photon::types::{BounceMapPhoton, Photon};
 use crate::render::stats::FrameStats;
 use crate::timing;
@@ -33,6 +33,7 @@ impl PhotonFrame {
             self.buffers.counts.fill(0);
             self.traced.clear();
             self.radii.clear();
+            self.caustic_photons = 0;
             return Ok(stats);
         }
         anyhow::ensure!(
@@ -58,6 +59,9 @@ impl PhotonFrame {
         // anything can fail: the radii always match the kept photons.
         let (traced, neighbours) = (&self.traced, self.neighbours);
         self.radii = timing::timed("photon density", || knn_radii(traced.photons(), neighbours));
+        self.caustic_photons = (self.traced.photons())
+            .filter(|p| PhotonClass::of_photon(p) == PhotonClass::Caustic)
+            .count();
         let count = self.traced.photon_count();
         if !self.buffers.holds(count) {
             // The old buffers go to the graveyard, destroyed once the frames using them finish.

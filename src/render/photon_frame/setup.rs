@@ -6,11 +6,13 @@
 
 use super::buffers::{photons_per_buffer, storage_buffer_range, BounceBuffers, PhotonBuffers};
 use super::retrace::Traced;
-use super::{estimate_targets, relative_to, Estimator, PhotonFrame, PhotonTargets, Subsampled};
+use super::{
+    estimate_targets, relative_to, Estimator, FinePhotons, PhotonFrame, PhotonTargets, Subsampled,
+};
 use crate::config::settings::Effects;
 use crate::config::settings::{Density, RenderSettings, FRAMES_IN_FLIGHT};
 use crate::gpu::scene::GpuScene;
-use crate::gpu::{vk, Buffer, Gpu, MemoryLocation, ViewKind};
+use crate::gpu::{vk, Buffer, Gpu, Image, MemoryLocation, ViewKind};
 use crate::passes::bounce_map::{BounceMapIo, BounceMapPass};
 use crate::passes::composite::CompositePass;
 use crate::passes::denoise::DenoisePass;
@@ -144,21 +146,71 @@ impl PhotonFrame {
         )?;
         let buffers = PhotonBuffers::new(gpu, 1, 1, photons_per_buffer(gpu, settings))?;
         let subsample = settings.subsample_factor();
+        let inputs = PhotonVolumeInputs {
+            frame,
+            photons: &buffers.device,
+            materials: &gpu_scene.materials,
+            gbuffer,
+        };
+        let density = settings.density.resolve_for_device(&gpu.properties);
+        let estimator = |subsample: u32, targets: &[&Image]| -> anyhow::Result<Estimator> {
+            let variant = settings.bsdf_variant;
+            Ok(match density {
+                Density::Tiled => Estimator::Tiled(PhotonTilesPass::new(
+                    gpu,
+                    &inputs,
+                    subsample,
+                    variant,
+                    (FRAMES_IN_FLIGHT, targets),
+                )?),
+                Density::Volumes | Density::Auto => Estimator::Volumes(Box::new(
+                    PhotonVolumesPass::new(gpu, &inputs, subsample, variant)?,
+                )),
+            })
+        };
+        let kernel_clamp =
+            KernelSettings::scene_relative(&gpu_scene.bounds, settings.photons, settings.radius);
+        // The fine photons at full resolution when subsampling (`estimate.rs`).
+        let caustics_apart = subsample > 1 && effects.full_resolution_caustics;
+        let (width, height) = (radiance.width, radiance.height);
         let (indirect, subsampled) = if subsample == 1 {
-            let indirect = photon_volumes::target(gpu, radiance.width, radiance.height)?;
-            (indirect, None)
+            (photon_volumes::target(gpu, width, height)?, None)
         } else {
-            let indirect = upsample::output(gpu, radiance.width, radiance.height)?;
-            let (w, h) = upsample::low_size(radiance.width, radiance.height, subsample);
+            let indirect = match caustics_apart {
+                // The fine photons' estimate draws into it.
+                true => photon_volumes::target(gpu, width, height)?,
+                false => upsample::output(gpu, width, height)?,
+            };
+            let fine = match caustics_apart {
+                true => {
+                    // The photon volumes draw into three targets; the tiled gather adds to
+                    // `indirect` alone.
+                    let support = match density {
+                        Density::Tiled => None,
+                        _ => Some(photon_volumes::support_targets(gpu, width, height)?),
+                    };
+                    let targets: Vec<&Image> = std::iter::once(&indirect)
+                        .chain(support.iter().flatten())
+                        .collect();
+                    Some(FinePhotons {
+                        estimator: estimator(1, &targets)?,
+                        support,
+                        // The footprint floor of the full image.
+                        kernel: kernel_clamp.for_view(scene.camera.yfov, height),
+                    })
+                }
+                false => None,
+            };
+            let (w, h) = upsample::low_size(width, height, subsample);
             let low = photon_volumes::low_targets(gpu, w, h)?;
-            let inputs = UpsampleInputs {
+            let upsample_inputs = UpsampleInputs {
                 materials: &gpu_scene.materials,
                 gbuffer,
                 low: &low,
             };
             let upsample = UpsamplePass::new(
                 gpu,
-                &inputs,
+                &upsample_inputs,
                 &indirect,
                 subsample,
                 settings.upsample,
@@ -170,6 +222,7 @@ impl PhotonFrame {
             (
                 indirect,
                 Some(Subsampled {
+                    fine,
                     low,
                     support,
                     upsample,
@@ -178,33 +231,14 @@ impl PhotonFrame {
             )
         };
         let support = if subsample == 1 {
-            let images = photon_volumes::support_targets(gpu, radiance.width, radiance.height)?;
+            let images = photon_volumes::support_targets(gpu, width, height)?;
             let pass = SupportPass::new(gpu, (frame, gbuffer), (&indirect, None), &images)?;
             Some((images, pass))
         } else {
             None
         };
-        let inputs = PhotonVolumeInputs {
-            frame,
-            photons: &buffers.device,
-            materials: &gpu_scene.materials,
-            gbuffer,
-        };
-        let estimator = match settings.density.resolve_for_device(&gpu.properties) {
-            Density::Tiled => {
-                let targets = estimate_targets(&indirect, support.as_ref(), subsampled.as_ref());
-                Estimator::Tiled(PhotonTilesPass::new(
-                    gpu,
-                    &inputs,
-                    subsample,
-                    settings.bsdf_variant,
-                    (FRAMES_IN_FLIGHT, &targets),
-                )?)
-            }
-            Density::Volumes | Density::Auto => Estimator::Volumes(Box::new(
-                PhotonVolumesPass::new(gpu, &inputs, subsample, settings.bsdf_variant)?,
-            )),
-        };
+        let targets = estimate_targets(&indirect, support.as_ref(), subsampled.as_ref());
+        let estimator = estimator(subsample, &targets)?;
         let composite = CompositePass::new(gpu, &indirect, radiance)?;
         // The denoiser filters the global share the support pass normalised, within the
         // estimate it belongs to (the low-resolution irradiance when subsampling).
@@ -220,9 +254,7 @@ impl PhotonFrame {
                 Some((pass, levels))
             }
         };
-        let kernel_clamp =
-            KernelSettings::scene_relative(&gpu_scene.bounds, settings.photons, settings.radius);
-        let estimate_height = upsample::low_size(radiance.width, radiance.height, subsample).1;
+        let estimate_height = upsample::low_size(width, height, subsample).1;
         Ok(Self {
             gpu: gpu.clone(),
             scene: scene.clone(),
@@ -275,8 +307,9 @@ impl PhotonFrame {
             eye: scene.camera.position().as_dvec3(),
             kernel_clamp,
             estimate_height,
-            screen_size: ((radiance.width, radiance.height), subsample),
+            screen_size: ((width, height), subsample),
             tile_stats: None,
+            caustic_photons: 0,
         })
     }
 }
