@@ -176,8 +176,9 @@ impl PhotonFrame {
         let (indirect, subsampled) = if subsample == 1 {
             (photon_volumes::target(gpu, width, height)?, None)
         } else {
-            let indirect = match caustics_apart {
-                // The fine photons' estimate draws into it.
+            let indirect = match caustics_apart && density != Density::Tiled {
+                // The fine photons' volumes draw into it (the tiled gather writes it as the
+                // upsample does, as a storage image).
                 true => photon_volumes::target(gpu, width, height)?,
                 false => upsample::output(gpu, width, height)?,
             };
