@@ -376,9 +376,10 @@ fn bench_measures_overlapped_serial_and_direct_frames_and_writes_json_and_figure
     assert_eq!(speedup["factor"].as_u64(), Some(2), "{speedup}");
     assert_eq!(speedup["base_factor"].as_u64(), Some(1), "{speedup}");
     assert!(speedup["estimate_ms"].as_f64().is_some_and(|v| v > 0.0));
-    // The estimate is the sum of its passes, the upsample among them at 1/2 only.
+    // The estimate is the sum of its passes, the upsample and the fine photons apart among
+    // them at 1/2 only.
     let passes = &speedup["passes"];
-    let sum: f64 = ["density", "support", "denoise", "upsample"]
+    let sum: f64 = ["density", "support", "denoise", "upsample", "fine"]
         .iter()
         .map(|p| passes[p].as_f64().expect("pass median"))
         .sum();
@@ -388,6 +389,7 @@ fn bench_measures_overlapped_serial_and_direct_frames_and_writes_json_and_figure
     );
     assert!(passes["upsample"].as_f64().is_some_and(|v| v > 0.0));
     assert_eq!(speedup["base_passes"]["upsample"].as_f64(), Some(0.0));
+    assert_eq!(speedup["base_passes"]["fine"].as_f64(), Some(0.0));
     assert!(speedup["estimate"].as_f64().is_some_and(|v| v > 0.0));
     assert!(stdout.contains("subsample:"), "{stdout}");
     let figure = std::fs::read_to_string(&svg).expect("figure written");

@@ -635,7 +635,8 @@ fn drain_reports_the_passes_and_variants_skipped_as_finish_does() {
             .collect()
     };
     // The first frame traces: the plan's skips only (the other density estimator, full
-    // resolution, no denoiser, no glass, frames that stand alone).
+    // resolution (no upsample, no fine photons apart), no denoiser, no glass, frames that
+    // stand alone).
     let other = match common::estimator_pass() {
         "photon_tiles" => "photon_volumes",
         _ => "photon_tiles",
@@ -646,6 +647,7 @@ fn drain_reports_the_passes_and_variants_skipped_as_finish_does() {
             other,
             "denoise",
             "upsample",
+            "fine_photons",
             "environment",
             "translucent",
             "accumulate"
@@ -662,7 +664,7 @@ fn drain_reports_the_passes_and_variants_skipped_as_finish_does() {
     common::assert_validation_clean(&gpu);
     assert_eq!(
         drained.passes_skipped.len(),
-        11,
+        12,
         "{:?}",
         drained.passes_skipped
     );

@@ -377,7 +377,7 @@ fn a_focused_caustic_stays_sharp_when_subsampled() {
 fn a_scene_without_caustics_pays_nothing_for_fine_photons() {
     let scene = ispm::scene::bundled::resolve(Some("diffuse-box")).expect("scene");
     let plan = ispm::plan::EffectsPlan::analyse(&scene, &settings(64, 4), &scene.camera);
-    assert!(!plan.full_resolution_caustics, "{plan:?}");
+    assert!(!plan.fine_photons.needed, "{plan:?}");
     let split = render(&scene, settings(64, 4));
     let together = render(
         &scene,
@@ -388,5 +388,5 @@ fn a_scene_without_caustics_pays_nothing_for_fine_photons() {
     );
     assert_eq!(split.indirect, together.indirect);
     let cornell = ispm::plan::EffectsPlan::analyse(&cornell(), &settings(64, 4), &cornell().camera);
-    assert!(cornell.full_resolution_caustics, "{cornell:?}");
+    assert!(cornell.fine_photons.needed, "{cornell:?}");
 }

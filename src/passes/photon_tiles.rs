@@ -315,7 +315,11 @@ impl PhotonTilesPass {
         s.indices.write(0, indices)?;
         s.spheres.write(0, spheres)?;
 
-        let _scope = cmd.scope(PassId::PhotonTiles.name());
+        let scope = match add {
+            true => PassId::FinePhotons,
+            false => PassId::PhotonTiles,
+        };
+        let _scope = cmd.scope(scope.name());
         let (width, height) = (targets[0].width, targets[0].height);
         let mut first_dispatch = true;
         let mut dispatches = 0;

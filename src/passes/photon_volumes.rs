@@ -341,7 +341,11 @@ impl PhotonVolumesPass {
         (counts, kernel, offset): (&[u32], &KernelSettings, glam::Vec3),
         (targets, share, add): (&[&Image], Share, bool),
     ) {
-        let _scope = cmd.scope(PassId::PhotonVolumes.name());
+        let scope = match add {
+            true => PassId::FinePhotons,
+            false => PassId::PhotonVolumes,
+        };
+        let _scope = cmd.scope(scope.name());
         let drawn = || inputs.photons.iter().zip(&self.sets).zip(counts);
         // Only the drawn buffers: an undrawn photon buffer may belong to the transfer queue.
         let uses: Vec<Use> = drawn()

@@ -223,7 +223,7 @@ impl SceneAnalysis {
             max_bounces,
             max_bounces_reason,
             subsample: self.subsample,
-            full_resolution_caustics: full_resolution_caustics(
+            fine_photons: fine_photons(
                 settings,
                 self.subsample,
                 self.delta.needed || self.glossy.needed,
@@ -237,14 +237,24 @@ impl SceneAnalysis {
     }
 }
 
-/// [`EffectsPlan::full_resolution_caustics`]: subsampling, not `--subsample-caustics`, and
-/// lobes that make caustic photons (`caustic_lobes`: a delta or glossy one).
-fn full_resolution_caustics(
-    settings: &RenderSettings,
-    subsample: u32,
-    caustic_lobes: bool,
-) -> bool {
-    subsample > 1 && !settings.subsampled_caustics && caustic_lobes
+/// [`EffectsPlan::fine_photons`]: subsampling, not `--subsample-caustics`, and lobes that make
+/// caustic photons (`caustic_lobes`: a delta or glossy one).
+fn fine_photons(settings: &RenderSettings, subsample: u32, caustic_lobes: bool) -> Decision {
+    if subsample == 1 {
+        Decision::no("--subsample 1: the full-resolution estimate holds every photon")
+    } else if settings.subsampled_caustics {
+        Decision::no(format!(
+            "--subsample-caustics: every photon at 1/{subsample}"
+        ))
+    } else if !caustic_lobes {
+        Decision::no("no mirror, glass or glossy material: no caustic photons")
+    } else {
+        Decision::yes(format!(
+            "caustic photons with kernels under {} pixels of the 1/{subsample} image, at full \
+             resolution",
+            crate::photon::kernel::FINE_KERNEL_PIXELS
+        ))
+    }
 }
 
 impl EffectsPlan {
@@ -298,7 +308,7 @@ impl EffectsPlan {
             max_bounces: if ispm { settings.bounces.max(1) } else { 0 },
             max_bounces_reason: "--effects all: --bounces (at least 1)".to_string(),
             subsample,
-            full_resolution_caustics: full_resolution_caustics(settings, subsample, true),
+            fine_photons: fine_photons(settings, subsample, true),
             density: settings.density,
             denoise: settings.denoise,
             accumulate: settings.accumulate && (ispm || has_area_samples(scene)),

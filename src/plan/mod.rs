@@ -129,10 +129,10 @@ pub struct EffectsPlan {
     /// The subsample factor the frame uses (upsample runs above 1).
     pub subsample: u32,
     /// At `subsample > 1`: the fine photons (caustic photons with narrow kernels,
-    /// `photon::kernel::Share`) are estimated at full resolution and the others at 1/N
+    /// `photon::kernel::Share`) estimated at full resolution and the others at 1/N
     /// (`render/photon_frame/estimate.rs`). Where the scene can make caustic photons (a delta
     /// or glossy lobe) and `--subsample-caustics` is not given.
-    pub full_resolution_caustics: bool,
+    pub fine_photons: Decision,
     /// The density estimator (`--density`; the renderer resolves `Auto` for its device before
     /// it plans).
     pub density: Density,

@@ -31,14 +31,10 @@ impl EffectsPlan {
         let upsample = if !indirect.needed {
             photon(PassId::Upsample)
         } else if self.subsample > 1 {
-            let caustics = match self.full_resolution_caustics {
-                true => " (the caustic photons with narrow kernels at full resolution)",
-                false => "",
-            };
             pass(
                 PassId::Upsample,
                 true,
-                &format!("--subsample {}{caustics}", self.subsample),
+                &format!("--subsample {}", self.subsample),
             )
         } else {
             pass(
@@ -46,6 +42,14 @@ impl EffectsPlan {
                 false,
                 "--subsample 1: a full-resolution estimate",
             )
+        };
+        let fine = match indirect.needed {
+            true => pass(
+                PassId::FinePhotons,
+                self.fine_photons.needed,
+                &self.fine_photons.reason,
+            ),
+            false => photon(PassId::FinePhotons),
         };
         // The boundary normalisation of the global photons (`passes/support.rs`).
         let support = if !indirect.needed {
@@ -127,6 +131,7 @@ impl EffectsPlan {
             support,
             denoise,
             upsample,
+            fine,
             photon(PassId::Composite),
             translucent(PassId::Environment),
             translucent(PassId::Translucent),

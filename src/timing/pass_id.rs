@@ -32,6 +32,9 @@ pub enum PassId {
     Support,
     Denoise,
     Upsample,
+    /// The fine photons' full-resolution estimate at `--subsample N > 1`, added after the
+    /// upsample (`render/photon_frame/estimate.rs`; the density estimator's pass, timed apart).
+    FinePhotons,
     Composite,
     Environment,
     Translucent,
@@ -45,7 +48,7 @@ pub enum PassId {
 
 impl PassId {
     /// Every stage, in frame order.
-    pub const ALL: [PassId; 23] = [
+    pub const ALL: [PassId; 24] = [
         PassId::LightGbuffers,
         PassId::LightGbuffer,
         PassId::BounceMap,
@@ -60,6 +63,7 @@ impl PassId {
         PassId::Support,
         PassId::Denoise,
         PassId::Upsample,
+        PassId::FinePhotons,
         PassId::Composite,
         PassId::Environment,
         PassId::Translucent,
@@ -88,6 +92,7 @@ impl PassId {
             PassId::Support => "support",
             PassId::Denoise => "denoise",
             PassId::Upsample => "upsample",
+            PassId::FinePhotons => "fine_photons",
             PassId::Composite => "composite",
             PassId::Environment => "environment",
             PassId::Translucent => "translucent",

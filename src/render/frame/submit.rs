@@ -282,6 +282,13 @@ impl Renderer {
                         ),
                     });
                 }
+                if p.run && p.name == PassId::FinePhotons && !ran(p.name) {
+                    // Planned, but the photon map holds no caustic photon this frame.
+                    return Some(SkippedPass {
+                        name: p.name.name().to_string(),
+                        reason: "no caustic photon in this frame's photon map".to_string(),
+                    });
+                }
                 (!p.run && !ran(p.name)).then(|| SkippedPass {
                     name: p.name.name().to_string(),
                     reason: p.reason,

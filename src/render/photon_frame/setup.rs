@@ -171,7 +171,7 @@ impl PhotonFrame {
         let kernel_clamp =
             KernelSettings::scene_relative(&gpu_scene.bounds, settings.photons, settings.radius);
         // The fine photons at full resolution when subsampling (`estimate.rs`).
-        let caustics_apart = subsample > 1 && effects.full_resolution_caustics;
+        let caustics_apart = subsample > 1 && effects.fine_photons.needed;
         let (width, height) = (radiance.width, radiance.height);
         let (indirect, subsampled) = if subsample == 1 {
             (photon_volumes::target(gpu, width, height)?, None)

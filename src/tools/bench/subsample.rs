@@ -9,7 +9,9 @@ use serde::Serialize;
 /// full-resolution indirect image, all of which run at the subsampled resolution except the
 /// last: the density pass (`gpu.photon_tiles` or `gpu.photon_volumes`), the boundary
 /// normalisation (`gpu.support`), the filter of the global photons' share (`gpu.denoise`, when
-/// `--denoise` is on) and, when subsampled, `gpu.upsample`. Each is also given alone; the
+/// `--denoise` is on) and, when subsampled, `gpu.upsample` and the fine photons' full-resolution
+/// estimate (`gpu.fine_photons`, where the scene makes caustic photons). Each is also given
+/// alone; the
 /// host's tile lists (`cpu.photon tiles`) are given apart, as they do not run on the GPU.
 #[derive(Clone, Debug, Serialize)]
 pub struct SubsampleSpeedup {
@@ -25,8 +27,8 @@ pub struct SubsampleSpeedup {
     pub passes: EstimatePasses,
     /// `base_estimate_ms ÷ estimate_ms`: how many times cheaper the estimate is at `factor`.
     pub estimate: f64,
-    /// The density pass and the upsample alone (without the support and the filter), base ÷
-    /// compared.
+    /// The density passes (the fine photons' included) and the upsample alone (without the
+    /// support and the filter), base ÷ compared.
     pub density_and_upsample: f64,
     /// The density pass alone, base ÷ compared.
     pub density_pass: f64,
@@ -44,6 +46,8 @@ pub struct EstimatePasses {
     pub support: f64,
     pub denoise: f64,
     pub upsample: f64,
+    /// The fine photons at full resolution (`gpu.fine_photons`).
+    pub fine: f64,
 }
 
 impl EstimatePasses {
@@ -54,11 +58,12 @@ impl EstimatePasses {
             support: median(PassId::Support),
             denoise: median(PassId::Denoise),
             upsample: median(PassId::Upsample),
+            fine: median(PassId::FinePhotons),
         }
     }
 
     fn total(&self) -> f64 {
-        self.density + self.support + self.denoise + self.upsample
+        self.density + self.support + self.denoise + self.upsample + self.fine
     }
 }
 
@@ -81,7 +86,10 @@ impl SubsampleSpeedup {
             base_passes: b,
             passes: o,
             estimate: ratio(b.total(), o.total()),
-            density_and_upsample: ratio(b.density + b.upsample, o.density + o.upsample),
+            density_and_upsample: ratio(
+                b.density + b.fine + b.upsample,
+                o.density + o.fine + o.upsample,
+            ),
             density_pass: ratio(b.density, o.density),
             base_binning_ms: binning(base),
             binning_ms: binning(other),
@@ -93,8 +101,8 @@ impl SubsampleSpeedup {
     pub fn line(&self) -> String {
         let passes = |p: &EstimatePasses| {
             format!(
-                "density {:.2} + support {:.2} + denoise {:.2} + upsample {:.2}",
-                p.density, p.support, p.denoise, p.upsample
+                "density {:.2} + support {:.2} + denoise {:.2} + upsample {:.2} + fine {:.2}",
+                p.density, p.support, p.denoise, p.upsample, p.fine
             )
         };
         format!(
