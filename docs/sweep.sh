@@ -31,4 +31,4 @@ for scene in cornell-box caustic-ring glass-sphere diffuse-box; do
   done
   cp "$out/results.csv" "docs/images/sweep-$scene.csv"
 done
-python3 docs/tools/presets.py docs/images/sweep-*.csv
+python3 docs/tools/presets.py docs/images/sweep-{cornell-box,caustic-ring,glass-sphere,diffuse-box}.csv
