@@ -68,9 +68,14 @@ layout(push_constant) uniform Push {
     uint photon_base;  // this buffer's first photon's index in spheres
     // 1: the fine photons at full resolution, added to out0 (the indirect image the upsample
     // wrote); no other target is read or written (they may all be out0). The dispatch is then
-    // one workgroup per tile with a list: workgroup i's tile is offsets[tile_list + i].
+    // one workgroup per tile with a list, in rows: workgroup i (row-major) has the tile
+    // offsets[tile_list + i], for i < listed.
     uint fine;
     uint tile_list;
+    uint listed;
+    uint pad2;
+    uint pad3;
+    uint pad4;
 } push;
 
 void store(ivec2 px, vec4 a, vec4 b, vec4 c, vec4 d) {
@@ -152,7 +157,11 @@ void add_photon(vec4 centre, vec4 normal, vec4 power, vec3 wi) {
 }
 
 void main() {
-    uint tile = push.fine != 0u ? offsets[push.tile_list + gl_WorkGroupID.x]
+    uint listed_index = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+    if (push.fine != 0u && listed_index >= push.listed) {
+        return;  // past the last listed tile (the same for the whole workgroup)
+    }
+    uint tile = push.fine != 0u ? offsets[push.tile_list + listed_index]
                                 : gl_WorkGroupID.y * push.tile_columns + gl_WorkGroupID.x;
     uvec2 tile_xy = uvec2(tile % push.tile_columns, tile / push.tile_columns);
     ivec2 px = ivec2(tile_xy * uvec2(PHOTON_TILE) + gl_LocalInvocationID.xy);
@@ -171,8 +180,7 @@ void main() {
     if (begin >= list_end) {
         // Nothing (left) in this tile's list, the same for the whole workgroup: the first
         // dispatch clears the sums, one that adds leaves them. First of all, for an empty tile
-        // needs nothing else (most tiles of the fine photons' full-resolution estimate at
-        // --subsample N > 1, src/render/photon_frame/estimate.rs).
+        // needs nothing else (the background's tiles, and those a later job finds done).
         if (!adding && inside) {
             store(px, vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0));
         }

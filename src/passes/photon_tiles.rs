@@ -100,11 +100,15 @@ struct Push {
     /// workgroup per tile with a list, the tiles read from `offsets[tile_list..]`.
     fine: u32,
     tile_list: u32,
+    /// In fine mode: the tiles listed from `tile_list` on (the dispatch's workgroups past
+    /// them return at once: it is made 2-D to stay within the device's workgroup counts).
+    listed: u32,
+    pad: [u32; 3],
 }
 const _: () = assert!(std::mem::offset_of!(Push, offset) == 32);
 const _: () = assert!(std::mem::offset_of!(Push, width) == 48);
 const _: () = assert!(std::mem::offset_of!(Push, start) == 64);
-const _: () = assert!(size_of::<Push>() == 80);
+const _: () = assert!(size_of::<Push>() == 96);
 
 /// One frame slot's lists and descriptor sets (one set per photon buffer).
 struct Slot {
@@ -244,9 +248,9 @@ impl PhotonTilesPass {
     /// radii of `kernel` and `offset` (origin − eye) into `targets` (the photon volumes'):
     /// `[indirect, global, weight]` at subsample 1, else `[irradiance, glossy, global, weight]`.
     /// With `add` (the fine photons at full resolution when subsampling,
-    /// `render/photon_frame/estimate.rs`), into `[indirect]` alone, added to what it holds:
-    /// an empty tile then costs only its list's bounds. `slot` is the frame slot, whose
-    /// previous frame has finished.
+    /// `render/photon_frame/estimate.rs`), into `[indirect]` alone, added to what it holds,
+    /// and only the tiles with a list are dispatched. `slot` is the frame slot, whose previous
+    /// frame has finished.
     pub fn record(
         &mut self,
         cmd: &Cmd,
@@ -369,10 +373,16 @@ impl PhotonTilesPass {
                         photon_base: base,
                         fine: u32::from(add),
                         tile_list,
+                        listed,
+                        pad: [0; 3],
                     },
                 );
                 match add {
-                    true => cmd.dispatch(listed, 1, 1),
+                    true => {
+                        let max = gpu.properties.max_compute_work_group_count_x;
+                        let (x, y) = rows_of(listed, max);
+                        cmd.dispatch(x, y, 1)
+                    }
                     false => cmd.dispatch(lists.columns, lists.rows, 1),
                 }
                 first_dispatch = false;
@@ -389,6 +399,14 @@ impl PhotonTilesPass {
             dispatches,
         })
     }
+}
+
+/// The workgroup grid of a dispatch over `listed` tiles, one each in row-major order, with at
+/// most `max` per row (the device's workgroups per dimension: 65 535 on lavapipe, 4.2
+/// megapixels of 8×8 tiles); the last row's workgroups past `listed` return at once.
+fn rows_of(listed: u32, max: u32) -> (u32, u32) {
+    let width = listed.min(max.max(1)).max(1);
+    (width, listed.div_ceil(width))
 }
 
 /// What a dispatch over photon buffer `photons` uses: bindings 0–13 of `photon_tiles.comp`
@@ -423,4 +441,34 @@ fn gather_uses<'a>(
     }
     uses.push(Use::Read(spheres));
     uses
+}
+
+#[cfg(test)]
+mod tests {
+    use super::rows_of;
+
+    #[test]
+    fn the_fine_dispatch_covers_every_listed_tile_within_the_device_limit() {
+        for (listed, max) in [
+            (1, 65_535),
+            (4800, 65_535),
+            (65_535, 65_535),
+            (129_600, 65_535),
+        ]
+        .into_iter()
+        .chain([(0, 7), (1, 7), (7, 7), (8, 7), (48, 7), (49, 7)])
+        {
+            let (x, y) = rows_of(listed, max);
+            // (Rows are limited too, to at least 65 535: any screen's tiles fit.)
+            assert!(x <= max && y <= max, "{listed} tiles, max {max}: {x} × {y}");
+            // Every listed tile has a workgroup, and less than a row is left over.
+            assert!(x * y >= listed, "{listed}, {max}: {x} × {y}");
+            assert!(
+                x * y < listed + x || listed == 0,
+                "{listed}, {max}: {x} × {y}"
+            );
+        }
+        assert_eq!(rows_of(129_600, 65_535), (65_535, 2));
+        assert_eq!(rows_of(4800, 65_535), (4800, 1));
+    }
 }

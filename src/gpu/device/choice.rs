@@ -21,6 +21,9 @@ pub struct DeviceProperties {
     pub calibrated_timestamps: bool,
     /// Most bytes one storage-buffer descriptor reaches (`maxStorageBufferRange`).
     pub max_storage_buffer_range: u32,
+    /// Most workgroups one compute dispatch may have along x (`maxComputeWorkGroupCount[0]`,
+    /// at least 65 535).
+    pub max_compute_work_group_count_x: u32,
     /// Bits of sub-pixel precision the rasteriser snaps vertex positions to
     /// (`subPixelPrecisionBits`, at least 4): a fragment's interpolated attributes belong to a
     /// point up to half a 2^-bits pixel step away from its pixel's centre ray.
@@ -124,6 +127,7 @@ fn describe(instance: &ash::Instance, pd: vk::PhysicalDevice) -> DevicePropertie
         driver_info: text(driver.driver_info_as_c_str()),
         timestamp_period: p.limits.timestamp_period,
         max_storage_buffer_range: p.limits.max_storage_buffer_range,
+        max_compute_work_group_count_x: p.limits.max_compute_work_group_count[0],
         sub_pixel_precision_bits: p.limits.sub_pixel_precision_bits,
         families,
         calibrated_timestamps: has(ash::ext::calibrated_timestamps::NAME)

@@ -19,7 +19,8 @@
 //! docs/accuracy.md, "Fine photons at full resolution"). Fine kernels are small, so the
 //! full-resolution estimate costs little; the tiled gather dispatches it over the tiles with a
 //! list only. A scene without delta or glossy lobes makes no caustic photons and pays nothing
-//! (no second estimator is made: `EffectsPlan::fine_photons`), a frame without
+//! (under `--effects auto`, the default, no second estimator is made:
+//! `EffectsPlan::fine_photons`), a frame without
 //! caustic photons skips it, and `--subsample-caustics` turns the split off for comparison.
 
 use super::retrace::Traced;
