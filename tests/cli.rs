@@ -210,7 +210,7 @@ fn plan_stdout(args: &[&str]) -> String {
 
 #[test]
 fn plan_prints_one_line_per_decision_naming_the_material_or_light_behind_it() {
-    // Photons as `render` would draw them (its default preset, `high`: 10k); full resolution.
+    // Photons as `render` would draw them (its default preset, `high`: 40k); full resolution.
     let stdout = plan_stdout(&["plan", "caustic-ring", "--subsample", "1"]);
     for needle in [
         "effects: auto\n",
@@ -219,7 +219,7 @@ fn plan_prints_one_line_per_decision_naming_the_material_or_light_behind_it() {
         "mirror/refraction lobes (shaders, caustic paths): yes — material 'mirror-metal' is a \
          perfect mirror\n",
         "glossy lobe (shaders, CPU trace): no — no material has a finite-exponent glossy lobe\n",
-        "light 0 'sun': direct + 10000 photons",
+        "light 0 'sun': direct + 40000 photons",
         "pass upsample: skip — --subsample 1",
     ] {
         assert!(
