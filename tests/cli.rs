@@ -97,10 +97,10 @@ fn quality_none_drops_the_default_preset_and_an_unknown_preset_fails_cleanly() {
             .as_u64()
             .expect("emitted_photons")
     };
-    // `render`'s default preset (`high`: 40k photons) against no preset (100k, the flag's own
+    // `render`'s default preset (`high`: 10k photons) against no preset (100k, the flag's own
     // default), each to within the light views' rounding.
     let (preset, none) = (emitted(&[]), emitted(&["--quality", "none"]));
-    assert!((36_000..=44_000).contains(&preset), "{preset}");
+    assert!((9_000..=11_000).contains(&preset), "{preset}");
     assert!((90_000..=110_000).contains(&none), "{none}");
     let bad = dir.path().join("bad.png");
     let out = ispm(&[
@@ -210,7 +210,7 @@ fn plan_stdout(args: &[&str]) -> String {
 
 #[test]
 fn plan_prints_one_line_per_decision_naming_the_material_or_light_behind_it() {
-    // Photons as `render` would draw them (its default preset, `high`: 40k); full resolution.
+    // Photons as `render` would draw them (its default preset, `high`: 10k); full resolution.
     let stdout = plan_stdout(&["plan", "caustic-ring", "--subsample", "1"]);
     for needle in [
         "effects: auto\n",
@@ -219,7 +219,7 @@ fn plan_prints_one_line_per_decision_naming_the_material_or_light_behind_it() {
         "mirror/refraction lobes (shaders, caustic paths): yes — material 'mirror-metal' is a \
          perfect mirror\n",
         "glossy lobe (shaders, CPU trace): no — no material has a finite-exponent glossy lobe\n",
-        "light 0 'sun': direct + 40000 photons",
+        "light 0 'sun': direct + 10000 photons",
         "pass upsample: skip — --subsample 1",
     ] {
         assert!(

@@ -21,10 +21,10 @@ pub enum Quality {
     Draft,
     /// 10k photons, twice the default kernel, 4× subsampled.
     Interactive,
-    /// 40k photons, twice the default kernel, 4× subsampled.
+    /// 10k photons, twice the default kernel, 2× subsampled.
     High,
     /// The most accurate single frame the sweep measured: 160k photons, twice the default
-    /// kernel, 4× subsampled.
+    /// kernel, full resolution.
     Reference,
 }
 
@@ -32,23 +32,26 @@ impl Quality {
     /// The preset's knobs: points of the single-frame front of the four bundled scenes' sweeps
     /// taken together, picked by `docs/tools/presets.py` (docs/accuracy.md §5.3: geometric
     /// means over the scenes of the frame time and of the relMSE over each scene's best,
-    /// 160×120, lavapipe with the tiled gather, idle, 2026-11-27, against the references that
-    /// resolve caustics and with the fine photons at full resolution: every point of the
-    /// front is now 4× subsampled). Bounces are not a knob:
+    /// 160×120, lavapipe with the tiled gather, idle, 2026-11-26). The sweep re-run on
+    /// 2026-11-27 (the references that resolve caustics, the fine photons at full resolution)
+    /// makes the same rule pick 40k photons at N 4 for `high` and 160k at N 4 for
+    /// `reference`; not adopted: with them the default 4-second render's error fell (relMSE
+    /// 0.0096 → 0.0087 on cornell-box) but its diffuse walls and ceilings showed darker,
+    /// higher-contrast blotches than with these (docs/accuracy.md §5.3). Bounces are not a knob:
     /// Russian roulette ends the paths ([`DEFAULT_BOUNCES`] is only the safety cap).
     /// Accumulated frames are not either: `render` accumulates any preset for its `--seconds`
-    /// or `--frames` (the sweep's accumulated frames are off the single frames' front since the
-    /// fine photons: four frames of 10k photons took longer than `reference` for more error).
+    /// or `--frames`, and the sweep measured four frames of 10k photons at full resolution
+    /// beating every single frame (473.2 ms, 1.33×).
     pub fn preset(self) -> Preset {
         let (photons, radius_scale, subsample) = match self {
-            // The fastest point of the front (53.8 ms, 1.57× the best error).
+            // The fastest point of the front (92.2 ms, 2.06× the best error).
             Quality::Draft => (10_000, 1.0, 4),
-            // 61.9 ms, 1.35×.
+            // 99.1 ms, 1.78×.
             Quality::Interactive => (10_000, 2.0, 4),
-            // 127.1 ms, 1.17×.
-            Quality::High => (40_000, 2.0, 4),
-            // The most accurate single frame measured: 444.0 ms, 1.01×.
-            Quality::Reference => (160_000, 2.0, 4),
+            // 118.8 ms, 1.59×.
+            Quality::High => (10_000, 2.0, 2),
+            // The most accurate single frame measured: 898.8 ms, 1.35×.
+            Quality::Reference => (160_000, 2.0, 1),
         };
         Preset {
             photons,
@@ -62,11 +65,11 @@ impl Quality {
 
 /// The preset `ispm render --method ispm` uses when `--quality` is not given: its other flags
 /// override this preset's values as they would a named one's. On the default scene at the
-/// default size (cornell-box, 640×480, lavapipe, 2 cores, `--seconds 4`, 2026-11-27) it
-/// accumulated 8 frames in 3.5 s of wall time, relMSE 0.0087 against the 160×120 reference
-/// after a 4×4 box filter (0.0025 blurred), where the `high` before it (10k photons,
-/// `--subsample 2`) accumulated 9 frames for 0.0096 (0.0031) and `interactive` 14 frames for
-/// 0.0093 (0.0029); docs/accuracy.md §7, "The defaults".
+/// default size (cornell-box, 640×480, lavapipe, 2 cores, `--seconds 4`) it accumulated 4
+/// frames in 8.0 s of wall time, where the flags' own defaults (100k photons, radius ×1, no
+/// subsampling) took 18.1 s for 3 frames with a visibly grainier ceiling and back wall, for about
+/// the same error after a 4×4 box filter (relMSE 0.0098 against 0.0089; docs/accuracy.md §7,
+/// "The defaults").
 pub const RENDER_DEFAULT: Quality = Quality::High;
 
 /// The preset `ispm view` starts with when `--quality` is not given: the cheapest frame that
