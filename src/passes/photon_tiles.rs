@@ -64,9 +64,9 @@ pub struct TileStats {
 }
 
 impl TileStats {
-    /// The stats of two estimates of one frame (the caustic photons' at full resolution and the
-    /// global photons' at `--subsample N > 1`): tiles, entries and dispatches added, the
-    /// longest list of either.
+    /// The stats of two estimates of one frame (at `--subsample N > 1`, the coarse photons' at
+    /// 1/N and the fine photons' at full resolution): tiles (of both grids), entries and
+    /// dispatches added, the longest list of either.
     pub fn and(self, other: Self) -> Self {
         Self {
             tiles: self.tiles + other.tiles,
