@@ -12,7 +12,7 @@
 #
 # Stages (arguments, run in the order given): `render` (the README's render with stats and a
 # trace), `shadows` (direct light alone at several shadow-map sizes), `bench` (`ispm bench` on
-# every bundled scene), `cargobench` (the `cargo bench` targets pack.sh was given), `tests` (the test suite, validation on), `crashes` (the binaries that crashed, again and again, with and without validation), `sweep`
+# every bundled scene), `subsample` (`--compare-subsample 4` on every bundled scene), `cargobench` (the `cargo bench` targets pack.sh was given), `tests` (the test suite, validation on), `crashes` (the binaries that crashed, again and again, with and without validation), `sweep`
 # (the 160x120 accuracy-vs-time sweep of docs/tools/headline.py), `sweep640` (the same at
 # 640x480, against references made here beforehand). BUDGET seconds in all; each
 # stage stops at it, and everything lands in one $OUT/results.tgz (the tool returns few files),
@@ -136,6 +136,19 @@ stage_bench() {
       --subsample $n --compare-density
   done
   bench diffuse-box-1920x1080 diffuse-box --size 1920x1080 --frames 12 --chunks 3 --compare-density
+}
+
+# Item 3 of #20: the whole radiance estimate at 1/4 against 1/1 (`--compare-subsample 4`) on
+# every bundled scene, at the default preset's photons (`--quality high --subsample 1`) and at
+# 100k photons.
+stage_subsample() {
+  mkdir -p "$OUT/bench"
+  for scene in cornell-box caustic-ring glass-sphere diffuse-box; do
+    bench "$scene-sub4-high" "$scene" --size 640x480 --frames 20 --warmup 2 --chunks 5 \
+      --quality high --subsample 1 --compare-subsample 4
+    bench "$scene-sub4-100k" "$scene" --size 640x480 --frames 20 --warmup 2 --chunks 5 \
+      --photons 100000 --compare-subsample 4
+  done
 }
 
 # The test suite, four binaries at a time, validation on. `viewer` needs xvfb-run and `layouts`
