@@ -7,6 +7,13 @@ use super::{KdTree, LEAF, MAX_K, NO_NEIGHBOURS, QUERY_RUN};
 use glam::Vec3;
 use rayon::prelude::*;
 
+/// The fraction of the step from the last query that a bounded query first adds to the last
+/// query's radius (module docs of [`crate::photon::density`], "The k-d tree"). On
+/// `benches/host_estimate.rs`'s 100k-photon map (131 723 global photons, k = 64, one thread,
+/// 2026-11-27): 0 misses for 50 % of the queries, 0.1 for 20 %, 0.2 for 7 %, 0.3 for 2.7 %, 0.5
+/// for 0.7 %; 0.2 took the least time, 165 ms against 233 ms with the safe bound alone (1.0).
+const GUESS: f32 = 0.2;
+
 /// The most squared distances a bounded query collects before it falls back to a heap.
 const WITHIN_CAPACITY: usize = 4 * MAX_K;
 
@@ -133,8 +140,10 @@ impl Within {
         if self.overflow || n == 0 || self.len < n {
             return None;
         }
+        // Only distances below the limit were kept: none is negative or NaN, and the bits of
+        // non-negative floats order as their values do (cheaper than `total_cmp`).
         let found = &mut self.d2[..self.len];
-        Some(*found.select_nth_unstable_by(n - 1, f32::total_cmp).1)
+        Some(*found.select_nth_unstable_by_key(n - 1, |d| d.to_bits()).1)
     }
 }
 
@@ -193,13 +202,18 @@ fn run_radii(tree: &KdTree, k: usize, points: &[Vec3], out: &mut [f32]) {
     let mut within = Within::new();
     let mut last: Option<(Vec3, f32)> = None;
     for (r, &p) in out.iter_mut().zip(points) {
-        // The last query's `wanted` points lie within d + |p − q| of p (widened for
-        // rounding: a bound that holds too few is searched again with a heap).
+        // The last query's `wanted` points lie within d + |p − q| of p; the density changes
+        // little from one point to the next, so first try d + GUESS·|p − q|, which holds
+        // them for most queries with fewer points to select from (each bound widened for
+        // rounding; one that holds too few is searched again with the next, then a heap).
         let bounded = last.and_then(|(q, d)| {
-            let bound = (d + p.distance(q)) * (1.0 + 1e-5) + 1e-30;
-            within.reset(bound * bound);
-            tree.search(p, &mut within);
-            within.nth(wanted)
+            let step = p.distance(q);
+            [GUESS, 1.0].into_iter().find_map(|alpha| {
+                let bound = (d + alpha * step) * (1.0 + 1e-5) + 1e-30;
+                within.reset(bound * bound);
+                tree.search(p, &mut within);
+                within.nth(wanted)
+            })
         });
         let (d2, found) = bounded.map_or_else(
             || {

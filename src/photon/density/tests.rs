@@ -104,7 +104,8 @@ fn brute_force_radii(photons: &[Photon], neighbours: Neighbours) -> Vec<f32> {
 
 #[test]
 fn every_radius_equals_brute_force_whichever_search_finds_it() {
-    // Runs of queries bounded by the last one's answer, heap searches where the bound is
+    // Runs of queries bounded by the last one's answer (its tighter guess first, the safe
+    // bound where the guess holds too few), heap searches where the bound is
     // too tight (duplicates: d = 0) or holds more than the buffer (a tight cluster of 1500
     // photons next to sparse ones), both classes mixed.
     let mut rng = Rng::new(21);
