@@ -58,49 +58,13 @@ impl BouncePlan {
             (1e-4 * (relative.abs().max_element() + f64::from(depth))
                 + 4.0 * f64::from(f32::EPSILON) * hit.abs().max_element()) as f32
         };
-        let mut rays = Vec::new();
-        for (v, view) in self
-            .views
-            .iter()
-            .enumerate()
-            .take(views.end)
-            .skip(views.start)
-        {
-            let (width, height) = (view.texels.x, view.texels.y);
-            if width == 0 || height == 0 {
-                continue;
-            }
-            let inverse = self.view_matrices[v].inverse();
-            let offset = view.texels.z as usize;
-            for y in 0..height {
-                for x in 0..width {
-                    let index = offset + (y * width + x) as usize;
-                    let Some(p) = bounce_map.get(index) else {
-                        continue;
-                    };
-                    if p.power.max_element().partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
-                    {
-                        continue;
-                    }
-                    let texel_key = self.texel_key(v, x, y);
-                    let jitter = texel_jitter(texel_key, sample);
-                    let ndc = jittered_ndc(x, y, jitter, width, height);
-                    let near = unproject(&inverse, ndc, NEAR);
-                    let dir = (unproject(&inverse, ndc, FAR) - near).normalize();
-                    // The path is keyed by its texel, as the bounce map's own generator is, not
-                    // by where it starts.
-                    let key = hash2(texel_key, CPU_PATH_STREAM);
-                    rays.push((p, near, dir, key));
-                }
-            }
-        }
         // The bounce map placed each photon on the plane of the triangle its texel's centre saw
         // (`bounce_map.comp`); a jittered point past that triangle's edge lies on the plane
         // extended, a hair off the surface (behind it inside a faceted sphere, so the photon
         // would leave). With the BVH, the texel's ray is traced over ±5 % of that depth and the
         // start moved onto the surface it meets there; a ray that meets none (it passes a
         // silhouette) keeps the plane's point.
-        let place = |&(p, near, dir, key): &(&BounceMapPhoton, DVec3, DVec3, u32)| {
+        let place = |p: &BounceMapPhoton, near: DVec3, dir: DVec3, key: u32| {
             let depth = f64::from(p.depth);
             let mut relative = near + dir * depth;
             if let Some(bvh) = surface {
@@ -118,6 +82,42 @@ impl BouncePlan {
             let error = error(relative, p.depth, hit);
             PhotonState::from_bounce_map(p, hit.as_vec3(), error, key)
         };
-        rays.par_iter().filter_map(place).collect()
+        // Row by row on every core (each texel's start depends on its texel alone), in the
+        // texels' order.
+        let mut starts = Vec::new();
+        for (v, view) in self
+            .views
+            .iter()
+            .enumerate()
+            .take(views.end)
+            .skip(views.start)
+        {
+            let (width, height) = (view.texels.x, view.texels.y);
+            if width == 0 || height == 0 {
+                continue;
+            }
+            let inverse = &self.view_matrices[v].inverse();
+            let offset = view.texels.z as usize;
+            let place = &place;
+            starts.par_extend((0..height).into_par_iter().flat_map_iter(|y| {
+                (0..width).filter_map(move |x| {
+                    let index = offset + (y * width + x) as usize;
+                    let p = bounce_map.get(index)?;
+                    if p.power.max_element().partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+                    {
+                        return None;
+                    }
+                    let texel_key = self.texel_key(v, x, y);
+                    let jitter = texel_jitter(texel_key, sample);
+                    let ndc = jittered_ndc(x, y, jitter, width, height);
+                    let near = unproject(inverse, ndc, NEAR);
+                    let dir = (unproject(inverse, ndc, FAR) - near).normalize();
+                    // The path is keyed by its texel, as the bounce map's own generator is, not
+                    // by where it starts.
+                    place(p, near, dir, hash2(texel_key, CPU_PATH_STREAM))
+                })
+            }));
+        }
+        starts
     }
 }

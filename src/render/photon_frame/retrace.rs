@@ -176,7 +176,10 @@ impl Traced {
                 lights[light] = Some(self.take(light));
                 continue;
             }
+            let read_span = timing::span("bounce map read");
             read(texels.clone(), &mut self.bounce_map[texels.clone()])?;
+            drop(read_span);
+            let _starts_span = timing::span("photon starts");
             let emitted = self.bounce_map[texels]
                 .iter()
                 .filter(|p| p.eta != 0.0)
