@@ -37,6 +37,9 @@ if [ -n "${TESTS:-}" ]; then
     case " $TESTS " in *" $(basename "$t") "*) ;; *) rm "$t" ;; esac
   done
 fi
+# SKIP_TESTS="a b …": leave these out (e.g. the CPU-only ones, when the payload and the references
+# must fit one call's carry).
+for t in ${SKIP_TESTS:-}; do rm -f ".device/stage/tests/$t"; done
 # BENCHES="a b …": the `cargo bench` targets to carry too (run by gpu-run.sh's `cargobench`).
 mkdir -p .device/stage/benches
 for bench in ${BENCHES:-}; do
@@ -48,6 +51,8 @@ for line in sys.stdin:
         print(m["executable"])
 ' | while read -r exe; do cp "$exe" ".device/stage/benches/$bench"; done
 done
+# BASELINE=path: another build's release `ispm`, for gpu-run.sh's `abrender`.
+if [ -n "${BASELINE:-}" ]; then cp "$BASELINE" .device/stage/bin/ispm-baseline; fi
 cp target/debug/ispm .device/stage/bin/ispm-test
 cp target/release/ispm .device/stage/bin/ispm-release
 strip .device/stage/bin/* .device/stage/tests/*
@@ -55,6 +60,6 @@ if [ -n "$(ls .device/stage/benches)" ]; then strip .device/stage/benches/*; fi
 cache=${XDG_CACHE_HOME:-$HOME/.cache}/ispm/references
 if [ -d "$cache" ]; then cp -r "$cache" .device/cache/ispm/; fi
 pwd >.device/built_at
-tar -C .device/stage -cf - bin tests benches | xz -T0 -6 >.device/payload.tar.xz
+tar -C .device/stage -cf - bin tests benches | xz -T0 -9 >.device/payload.tar.xz
 rm -rf .device/stage
 du -sh .device .gl
