@@ -157,6 +157,8 @@ pub struct PhotonFrame {
     tile_stats: Option<crate::passes::photon_tiles::TileStats>,
     /// Caustic photons (`photon::density::PhotonClass`) in the last traced photon map.
     caustic_photons: usize,
+    /// The photon map as uploaded (normals packed with the radii), kept to reuse its memory.
+    packed: Vec<Photon>,
 }
 
 /// The density estimator of the frame (`--density`, resolved for the device).

@@ -5,16 +5,17 @@
 //! estimate (`estimate.rs`).
 
 use super::buffers::PhotonBuffers;
-use super::{drawn_photons, retrace, PhotonFrame};
+use super::{retrace, PhotonFrame};
 use crate::gpu::{Cmd, QueueRole};
 use crate::photon::density::{knn_radii, PhotonClass};
-use crate::photon::types::{BounceMapPhoton, Photon};
+use crate::photon::types::{pack_normal, BounceMapPhoton, Photon};
 use crate::render::stats::FrameStats;
 use crate::timing;
 use crate::timing::pass_id::PassId;
+use rayon::prelude::*;
 use std::ops::Range;
 
-/// Photons packed at a time for the staging buffers (3 MiB).
+/// Photons copied at a time into the staging buffers (3 MiB).
 const WRITE_CHUNK: usize = 1 << 16;
 
 impl PhotonFrame {
@@ -59,9 +60,13 @@ impl PhotonFrame {
         // anything can fail: the radii always match the kept photons.
         let (traced, neighbours) = (&self.traced, self.neighbours);
         self.radii = timing::timed("photon density", || knn_radii(traced.photons(), neighbours));
-        self.caustic_photons = (self.traced.photons())
-            .filter(|p| PhotonClass::of_photon(p) == PhotonClass::Caustic)
-            .count();
+        self.caustic_photons = (self.traced.light_photons())
+            .map(|light| {
+                (light.par_iter())
+                    .filter(|p| PhotonClass::of_photon(p) == PhotonClass::Caustic)
+                    .count()
+            })
+            .sum();
         let count = self.traced.photon_count();
         if !self.buffers.holds(count) {
             // The old buffers go to the graveyard, destroyed once the frames using them finish.
@@ -73,14 +78,21 @@ impl PhotonFrame {
             self.rebind = true;
         }
         // Light after light, each light's photons where a fresh map has them, normals packed
-        // with their radii, a chunk at a time.
-        let all = 0..self.radii.len();
-        let mut drawn = drawn_photons(&self.traced, &self.radii, glam::Vec3::ZERO, all);
-        let chunks = std::iter::from_fn(|| {
-            let chunk: Vec<Photon> = drawn.by_ref().take(WRITE_CHUNK).collect();
-            (!chunk.is_empty()).then_some(chunk)
-        });
-        timing::timed("upload write", || self.buffers.write(chunks))?;
+        // with their radii (on every core, in order), then copied to the staging buffers.
+        let (traced, radii, packed) = (&self.traced, &self.radii, &mut self.packed);
+        timing::timed("upload write", || {
+            packed.clear();
+            let mut start = 0;
+            for light in traced.light_photons() {
+                let own = &radii[start..start + light.len()];
+                packed.par_extend(light.par_iter().zip(own).map(|(p, &r)| Photon {
+                    normal: pack_normal(p.normal, r),
+                    ..*p
+                }));
+                start += light.len();
+            }
+            self.buffers.write(packed.chunks(WRITE_CHUNK))
+        })?;
         stats.photon_buffers = self.buffers.counts.iter().filter(|&&n| n > 0).count();
         stats.bounce_map_buffers = self.bounce_map_buffers();
         Ok(stats)

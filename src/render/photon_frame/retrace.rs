@@ -95,6 +95,11 @@ impl Traced {
         &self.lights
     }
 
+    /// The photon map (origin-relative) as one slice per light, light after light.
+    pub fn light_photons(&self) -> impl Iterator<Item = &[Photon]> {
+        self.lights.iter().map(|l| l.photons.as_slice())
+    }
+
     /// The photon map (origin-relative): every light's photons, light after light.
     pub fn photons(&self) -> impl Iterator<Item = &Photon> {
         self.lights.iter().flat_map(|l| &l.photons)

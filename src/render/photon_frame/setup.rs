@@ -311,6 +311,7 @@ impl PhotonFrame {
             screen_size: ((width, height), subsample),
             tile_stats: None,
             caustic_photons: 0,
+            packed: Vec::new(),
         })
     }
 }
