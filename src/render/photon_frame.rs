@@ -104,7 +104,6 @@ pub struct PhotonFrame {
     /// The photon sample of the next traced map: its bounce-map seed, CPU path seed and the
     /// texels' jittered points (`bounce_plan::texel_jitter`).
     sample: u32,
-    kernel: KernelSettings,
     light_gbuffer: GBuffer,
     light_pass: LightGBufferPass,
     views: Buffer,
@@ -146,8 +145,11 @@ pub struct PhotonFrame {
     batches: Vec<ViewBatch>,
     /// The eye the photon volumes are drawn for ([`Self::set_view`]).
     eye: glam::DVec3,
-    /// The kernel's scene-relative clamp, before the view's footprint floor.
+    /// The kernel's scene-relative clamp, before the view's footprint floor; with `yfov`,
+    /// every kernel an estimate draws with ([`Self::kernel_at`]).
     kernel_clamp: KernelSettings,
+    /// The vertical field of view of the camera the estimate is drawn for ([`Self::set_view`]).
+    yfov: f32,
     /// Height of the image the estimate is made at (the low one when subsampling).
     estimate_height: u32,
     /// The full image size and the subsample factor: with the `view_proj` the frame gives each
@@ -207,16 +209,12 @@ struct FinePhotons {
     /// weight: zero, the fine photons are caustic ones), which their render pass needs beside
     /// `indirect`; the tiled gather touches `indirect` alone.
     support: Option<[Image; 2]>,
-    /// The kernel with the full image's footprint floor.
-    kernel: KernelSettings,
 }
 
-impl FinePhotons {
-    /// The split between fine and coarse photons at subsample `n`: [`FINE_KERNEL_PIXELS`]
-    /// low-resolution pixels, per metre of eye distance.
-    fn split(&self, n: u32) -> f32 {
-        FINE_KERNEL_PIXELS * n as f32 * self.kernel.pixel_angle()
-    }
+/// The split between fine and coarse photons at subsample `n` when the full image's kernel is
+/// `full`: [`FINE_KERNEL_PIXELS`] low-resolution pixels, per metre of eye distance.
+fn fine_split(full: &KernelSettings, n: u32) -> f32 {
+    FINE_KERNEL_PIXELS * n as f32 * full.pixel_angle()
 }
 
 /// The random seed of photon sample `sample` of a renderer seeded `seed`: `seed` itself for
@@ -264,10 +262,6 @@ impl PhotonFrame {
     /// radius and not to the footprint floor (`photon::kernel`).
     pub fn set_radius_scale(&mut self, scale: f32) {
         self.kernel_clamp.scale = scale;
-        self.kernel.scale = scale;
-        if let Some(fine) = self.subsampled.as_mut().and_then(|s| s.fine.as_mut()) {
-            fine.kernel.scale = scale;
-        }
     }
 
     /// The photon sample of the last traced map ([`Self::set_sample`]).

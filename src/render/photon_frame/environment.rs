@@ -58,7 +58,7 @@ impl PhotonFrame {
         let centre = (centre - self.plan.origin).as_vec3();
         let kernel = KernelSettings {
             footprint: 0.0,
-            ..self.kernel
+            ..self.kernel()
         };
         let gather = GatherMap::with_knn_radii(map, &self.radii, &kernel, centre);
         indirect_cube(
@@ -66,7 +66,7 @@ impl PhotonFrame {
             &self.bvh,
             &gather,
             centre,
-            self.kernel.gather_exponent_max(),
+            kernel.gather_exponent_max(),
         )
     }
 }

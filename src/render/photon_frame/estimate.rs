@@ -24,7 +24,7 @@
 //! caustic photons skips it, and `--subsample-caustics` turns the split off for comparison.
 
 use super::retrace::Traced;
-use super::{drawn_photons, estimate_targets, Estimator, PhotonFrame};
+use super::{drawn_photons, estimate_targets, fine_split, Estimator, PhotonFrame};
 use crate::gpu::{Access, Buffer, Cmd, Image, Resource};
 use crate::passes::debug_view::PhotonSources;
 use crate::passes::eye_gbuffer::GBuffer;
@@ -116,13 +116,13 @@ impl PhotonFrame {
     /// The photon map itself does not depend on the camera and stays valid.
     pub fn set_view(&mut self, camera: &crate::scene::Camera) {
         self.eye = camera.position().as_dvec3();
-        self.kernel = self
-            .kernel_clamp
-            .for_view(camera.yfov, self.estimate_height);
-        let full_height = self.screen_size.0 .1;
-        if let Some(fine) = self.subsampled.as_mut().and_then(|s| s.fine.as_mut()) {
-            fine.kernel = self.kernel_clamp.for_view(camera.yfov, full_height);
-        }
+        self.yfov = camera.yfov;
+    }
+
+    /// The kernel of an estimate `height` pixels high: the clamp (and the radius scale) with
+    /// the view's footprint floor at that resolution.
+    fn kernel_at(&self, height: u32) -> KernelSettings {
+        self.kernel_clamp.for_view(self.yfov, height)
     }
 
     /// What the photon volumes add to each stored position to make it eye-relative:
@@ -200,10 +200,13 @@ impl PhotonFrame {
         };
         // At --subsample N > 1, the fine photons apart (module docs), where the scene makes
         // caustic photons this frame.
+        let kernel = self.kernel();
+        // The fine photons' kernel: the full image's footprint floor.
+        let fine_kernel = self.kernel_at(self.screen_size.0 .1);
         let fine = (self.subsampled.as_ref())
             .and_then(|s| s.fine.as_ref())
             .filter(|_| self.caustic_photons > 0)
-            .map(|fine| fine.split(subsample));
+            .map(|_| fine_split(&fine_kernel, subsample));
         let targets = estimate_targets(
             &self.indirect,
             self.support.as_ref(),
@@ -219,7 +222,7 @@ impl PhotonFrame {
             cmd,
             &inputs,
             &map,
-            (&self.kernel, offset, share),
+            (&kernel, offset, share),
             (&screen, slot),
             (&targets, false),
         )?;
@@ -228,7 +231,7 @@ impl PhotonFrame {
         });
         let denoise = (
             denoise_levels,
-            self.kernel.pixel_angle(),
+            kernel.pixel_angle(),
             crate::passes::denoise::reach_for(accumulated),
         );
         match &mut self.subsampled {
@@ -272,7 +275,7 @@ impl PhotonFrame {
                         cmd,
                         &inputs,
                         &map,
-                        (&pass.kernel, offset, Share::Fine { split }),
+                        (&fine_kernel, offset, Share::Fine { split }),
                         (&screen, slot),
                         (&targets, true),
                     )?;
@@ -377,9 +380,9 @@ impl PhotonFrame {
     }
 
     /// The kernel settings the photon volumes use: the kNN radii's scale, the clamp and the
-    /// footprint floor.
+    /// footprint floor of the estimate's resolution (the low one when subsampling).
     pub fn kernel(&self) -> KernelSettings {
-        self.kernel
+        self.kernel_at(self.estimate_height)
     }
 
     /// k per photon class of the kNN radii packed into the drawn normals (`photon::density`).

@@ -196,8 +196,6 @@ impl PhotonFrame {
                     Some(FinePhotons {
                         estimator: estimator(1, &targets)?,
                         support,
-                        // The footprint floor of the full image.
-                        kernel: kernel_clamp.for_view(scene.camera.yfov, height),
                     })
                 }
                 false => None,
@@ -279,7 +277,6 @@ impl PhotonFrame {
             sample: 0,
             // The footprint floor of the image the estimate is made at (the low one when
             // subsampling).
-            kernel: kernel_clamp.for_view(scene.camera.yfov, estimate_height),
             plan,
             capacity,
             caustic_share,
@@ -307,6 +304,7 @@ impl PhotonFrame {
             batches: Vec::new(),
             eye: scene.camera.position().as_dvec3(),
             kernel_clamp,
+            yfov: scene.camera.yfov,
             estimate_height,
             screen_size: ((width, height), subsample),
             tile_stats: None,
