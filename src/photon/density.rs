@@ -53,7 +53,7 @@
 //! core (rayon). Consecutive points are near each other, and the last query's answer bounds the
 //! next one's: its k + 1 points lie within `d + |p − q|` of the new point `p`. So a query
 //! collects the squared distances below that bound (about k·(1 + |p − q|/d)² of them) and selects
-//! the (k + 1)-th (`select_nth_unstable_by`) instead of keeping a heap. The density changes little
+//! the (k + 1)-th (`select_nth_unstable_by_key`, on the distances' bits) instead of keeping a heap. The density changes little
 //! from one point to the next, so it first tries the tighter `d + 0.2·|p − q|` (`GUESS` in
 //! `queries.rs`): fewer points to collect and select from, enough for 93 % of the queries on a
 //! 100k-photon map, the rest searched again with the safe bound (1.4× less time in all). A query

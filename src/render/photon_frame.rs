@@ -77,11 +77,17 @@ fn drawn_photons<'a>(
     let end = range.end.min(radii.len());
     (traced.photons().skip(range.start))
         .zip(&radii[range.start.min(end)..end])
-        .map(move |(p, &r)| Photon {
-            position: p.position + offset,
-            normal: pack_normal(p.normal, r),
-            ..*p
-        })
+        .map(move |(p, &r)| drawn(p, r, offset))
+}
+
+/// A stored photon as the GPU draws it: its normal packed with its kNN radius `r`, `offset`
+/// added to its position.
+fn drawn(p: &Photon, r: f32, offset: glam::Vec3) -> Photon {
+    Photon {
+        position: p.position + offset,
+        normal: pack_normal(p.normal, r),
+        ..*p
+    }
 }
 
 pub struct PhotonFrame {
@@ -159,7 +165,8 @@ pub struct PhotonFrame {
     tile_stats: Option<crate::passes::photon_tiles::TileStats>,
     /// Caustic photons (`photon::density::PhotonClass`) in the last traced photon map.
     caustic_photons: usize,
-    /// The photon map as uploaded (normals packed with the radii), kept to reuse its memory.
+    /// The photon map as uploaded (normals packed with the radii): a second copy of the map on
+    /// the host, kept to reuse its memory (as large as the largest map so far).
     packed: Vec<Photon>,
 }
 

@@ -12,7 +12,11 @@
 #
 # Stages (arguments, run in the order given): `render` (the README's render with stats and a
 # trace), `shadows` (direct light alone at several shadow-map sizes), `bench` (`ispm bench` on
-# every bundled scene), `subsample` (`--compare-subsample 4` on every bundled scene), `abrender` (the renders of `render` with a baseline binary and this one, alternately), `cargobench` (the `cargo bench` targets pack.sh was given), `tests` (the test suite, validation on), `crashes` (the binaries that crashed, again and again, with and without validation), `sweep`
+# every bundled scene), `subsample` (`--compare-subsample 4` on every bundled scene),
+# `abrender` (the renders of `render` with a baseline binary and this one, alternately),
+# `cargobench` (the `cargo bench` targets pack.sh was given), `tests` (the test suite,
+# validation on), `crashes` (the binaries that crashed, again and again, with and without
+# validation), `sweep`
 # (the 160x120 accuracy-vs-time sweep of docs/tools/headline.py), `sweep640` (the same at
 # 640x480, against references made here beforehand). BUDGET seconds in all; each
 # stage stops at it, and everything lands in one $OUT/results.tgz (the tool returns few files),
@@ -93,7 +97,8 @@ stage_render() {
 
 # Before and after, side by side: the README's render and the 100k-photon one with the
 # baseline binary pack.sh was given (`BASELINE=path/to/ispm`, carried as bin/ispm-baseline) and
-# this one, alternately, ROUNDS times (default 3); their stats under $OUT/abrender.
+# this one, alternately (ABBA: the order flips each round), ROUNDS times (default 3); their stats
+# and the 100k renders' traces under $OUT/abrender.
 stage_abrender() {
   mkdir -p "$OUT/abrender"
   local b=.device/bin/ispm-baseline
@@ -101,18 +106,29 @@ stage_abrender() {
     log "abrender: no baseline binary"
     return
   fi
+  # At most 60 s a render, never past BUDGET.
+  limit() {
+    local t=$(($(left) - 5))
+    [ "$t" -gt 60 ] && t=60
+    echo "$t"
+  }
+  local order=(baseline current)
   for i in $(seq 1 "${ROUNDS:-3}"); do
-    for which in baseline current; do
+    for which in "${order[@]}"; do
       local bin=$R
       [ "$which" = baseline ] && bin=$b
-      [ "$(left)" -lt 30 ] && return
+      [ "$(limit)" -lt 10 ] && return
       log "abrender $i $which"
-      timeout 60 "$bin" render cornell-box -o "$OUT/abrender/default-$which-$i.png" \
-        --stats "$OUT/abrender/default-$which-$i.json" >/dev/null 2>&1 || log "rc $?"
-      timeout 60 "$bin" render cornell-box --quality none --size 640x480 --frames 12 \
+      timeout "$(limit)" "$bin" render cornell-box -o "$OUT/abrender/default-$which-$i.png" \
+        --stats "$OUT/abrender/default-$which-$i.json" >"$OUT/abrender/default-$which-$i.txt" \
+        2>&1 || log "abrender default $which $i: rc $?"
+      [ "$(limit)" -lt 10 ] && return
+      timeout "$(limit)" "$bin" render cornell-box --quality none --size 640x480 --frames 12 \
         -o "$OUT/abrender/100k-$which-$i.png" --stats "$OUT/abrender/100k-$which-$i.json" \
-        --trace "$OUT/abrender/100k-$which-$i-trace.json" >/dev/null 2>&1 || log "rc $?"
+        --trace "$OUT/abrender/100k-$which-$i-trace.json" >"$OUT/abrender/100k-$which-$i.txt" \
+        2>&1 || log "abrender 100k $which $i: rc $?"
     done
+    order=("${order[1]}" "${order[0]}")
   done
 }
 

@@ -5,6 +5,13 @@
 # at. The Vulkan loader and the validation layer go into .gl/ as .debs (docs/performance.md
 # "On a GPU").
 set -euo pipefail
+# BASELINE=path: another build's release `ispm`, for gpu-run.sh's `abrender`; resolved before
+# the `cd` below, and copied aside before `cargo build` can replace it.
+baseline=""
+if [ -n "${BASELINE:-}" ]; then
+  baseline=$(mktemp)
+  cp "$(realpath "$BASELINE")" "$baseline"
+fi
 cd "$(dirname "$0")/../.."
 grep -qx '/.gl/' .git/info/exclude 2>/dev/null || echo /.gl/ >>.git/info/exclude
 grep -qx '/.device/' .git/info/exclude 2>/dev/null || echo /.device/ >>.git/info/exclude
@@ -37,7 +44,7 @@ if [ -n "${TESTS:-}" ]; then
     case " $TESTS " in *" $(basename "$t") "*) ;; *) rm "$t" ;; esac
   done
 fi
-# SKIP_TESTS="a b …": leave these out (e.g. the CPU-only ones, when the payload and the references
+# SKIP_TESTS="a b …" (names, as TESTS): leave these out (e.g. the CPU-only ones, when the payload and the references
 # must fit one call's carry).
 for t in ${SKIP_TESTS:-}; do rm -f ".device/stage/tests/$t"; done
 # BENCHES="a b …": the `cargo bench` targets to carry too (run by gpu-run.sh's `cargobench`).
@@ -51,8 +58,7 @@ for line in sys.stdin:
         print(m["executable"])
 ' | while read -r exe; do cp "$exe" ".device/stage/benches/$bench"; done
 done
-# BASELINE=path: another build's release `ispm`, for gpu-run.sh's `abrender`.
-if [ -n "${BASELINE:-}" ]; then cp "$BASELINE" .device/stage/bin/ispm-baseline; fi
+if [ -n "$baseline" ]; then mv "$baseline" .device/stage/bin/ispm-baseline && chmod +x .device/stage/bin/ispm-baseline; fi
 cp target/debug/ispm .device/stage/bin/ispm-test
 cp target/release/ispm .device/stage/bin/ispm-release
 strip .device/stage/bin/* .device/stage/tests/*

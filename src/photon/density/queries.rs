@@ -208,12 +208,21 @@ fn run_radii(tree: &KdTree, k: usize, points: &[Vec3], out: &mut [f32]) {
         // rounding; one that holds too few is searched again with the next, then a heap).
         let bounded = last.and_then(|(q, d)| {
             let step = p.distance(q);
-            [GUESS, 1.0].into_iter().find_map(|alpha| {
+            // At the same point the guess is the safe bound: one search.
+            let alphas: &[f32] = if step > 0.0 { &[GUESS, 1.0] } else { &[1.0] };
+            for &alpha in alphas {
                 let bound = (d + alpha * step) * (1.0 + 1e-5) + 1e-30;
                 within.reset(bound * bound);
                 tree.search(p, &mut within);
-                within.nth(wanted)
-            })
+                if let Some(d2) = within.nth(wanted) {
+                    return Some(d2);
+                }
+                if within.overflow {
+                    // A wider bound would hold more still: the heap.
+                    return None;
+                }
+            }
+            None
         });
         let (d2, found) = bounded.map_or_else(
             || {

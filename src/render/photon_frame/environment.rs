@@ -58,7 +58,7 @@ impl PhotonFrame {
         let centre = (centre - self.plan.origin).as_vec3();
         let kernel = KernelSettings {
             footprint: 0.0,
-            ..self.kernel()
+            ..self.kernel_clamp
         };
         let gather = GatherMap::with_knn_radii(map, &self.radii, &kernel, centre);
         indirect_cube(

@@ -5,18 +5,15 @@
 //! estimate (`estimate.rs`).
 
 use super::buffers::PhotonBuffers;
-use super::{retrace, PhotonFrame};
+use super::{drawn, retrace, PhotonFrame};
 use crate::gpu::{Cmd, QueueRole};
 use crate::photon::density::{knn_radii, PhotonClass};
-use crate::photon::types::{pack_normal, BounceMapPhoton, Photon};
+use crate::photon::types::BounceMapPhoton;
 use crate::render::stats::FrameStats;
 use crate::timing;
 use crate::timing::pass_id::PassId;
 use rayon::prelude::*;
 use std::ops::Range;
-
-/// Photons copied at a time into the staging buffers (3 MiB).
-const WRITE_CHUNK: usize = 1 << 16;
 
 impl PhotonFrame {
     /// Box C, on the host once the readback has completed: traces the re-traced lights'
@@ -85,13 +82,12 @@ impl PhotonFrame {
             let mut start = 0;
             for light in traced.light_photons() {
                 let own = &radii[start..start + light.len()];
-                packed.par_extend(light.par_iter().zip(own).map(|(p, &r)| Photon {
-                    normal: pack_normal(p.normal, r),
-                    ..*p
-                }));
+                packed.par_extend(
+                    (light.par_iter().zip(own)).map(|(p, &r)| drawn(p, r, glam::Vec3::ZERO)),
+                );
                 start += light.len();
             }
-            self.buffers.write(packed.chunks(WRITE_CHUNK))
+            self.buffers.write([packed.as_slice()])
         })?;
         stats.photon_buffers = self.buffers.counts.iter().filter(|&&n| n > 0).count();
         stats.bounce_map_buffers = self.bounce_map_buffers();

@@ -275,8 +275,6 @@ impl PhotonFrame {
             },
             base_seed: settings.seed,
             sample: 0,
-            // The footprint floor of the image the estimate is made at (the low one when
-            // subsampling).
             plan,
             capacity,
             caustic_share,
