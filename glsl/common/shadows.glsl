@@ -33,6 +33,34 @@ vec3 shadow_lookup_point(ShadowView view, GpuLight light, vec3 p, vec3 n, vec3 w
     return p + n * (0.5 * h) + wi * along;
 }
 
+// The mean of nine bilinear depth-compare taps one texel apart around `uv` in layer `layer`
+// (3x3 bilinear PCF), from the 4x4 texels they cover: four gathers of 2x2 compares instead of
+// nine filtered lookups of 2x2 each. Texel i of a row (i = 0..3, from the one left of the
+// centre tap's footprint) is in the taps with total weight 1 - f, 1, 1, f, f the bilinear
+// fraction at `uv`; the product of a row's and a column's weights is the texel's share of the
+// nine taps, so the sum is the taps' sum (up to the filter's sub-texel rounding).
+float pcf3x3(vec2 uv, float layer, float depth) {
+    float size = 1.0 / frame.params.x; // the atlas layer's side in texels
+    vec2 t = uv * size - 0.5;
+    vec2 base = floor(t);
+    vec2 f = t - base;
+    vec4 wx = vec4(1.0 - f.x, 1.0, 1.0, f.x);
+    vec4 wy = vec4(1.0 - f.y, 1.0, 1.0, f.y);
+    float sum = 0.0;
+    for (int by = 0; by < 2; ++by) {
+        for (int bx = 0; bx < 2; ++bx) {
+            // The 2x2 texels base + (2bx - 1, 2by - 1) + {0, 1}²: gathered at their shared
+            // corner. Components: x (i0, j1), y (i1, j1), z (i1, j0), w (i0, j0).
+            vec2 corner = (base + vec2(2 * bx, 2 * by)) / size;
+            vec4 c = textureGather(shadow_atlas, vec3(corner, layer), depth);
+            float x0 = wx[2 * bx], x1 = wx[2 * bx + 1];
+            float y0 = wy[2 * by], y1 = wy[2 * by + 1];
+            sum += c.w * x0 * y0 + c.z * x1 * y0 + c.x * x0 * y1 + c.y * x1 * y1;
+        }
+    }
+    return sum / 9.0;
+}
+
 float shadow_visibility(GpuLight light, vec3 p, vec3 n, vec3 wi) {
     uint first = light.shadow.y;
     vec3 q = shadow_lookup_point(shadow_views[first], light, p, n, wi);
@@ -64,15 +92,7 @@ float shadow_visibility(GpuLight light, vec3 p, vec3 n, vec3 wi) {
         // point the light reaches, so a point outside is not lit through this view.
         return light.shadow.x == LIGHT_SPOT ? 0.0 : 1.0;
     }
-    float step_uv = frame.params.x;
-    float sum = 0.0;
-    for (int y = -1; y <= 1; ++y) {
-        for (int x = -1; x <= 1; ++x) {
-            vec2 o = vec2(x, y) * step_uv;
-            sum += texture(shadow_atlas, vec4(uv + o, float(vi), ndc.z));
-        }
-    }
-    return sum / 9.0;
+    return pcf3x3(uv, float(vi), ndc.z);
 }
 
 // Direct light leaving camera-relative point `p` towards `wo`: `n` is the shading normal on
