@@ -53,12 +53,14 @@
 //! core (rayon). Consecutive points are near each other, and the last query's answer bounds the
 //! next one's: its k + 1 points lie within `d + |p − q|` of the new point `p`. So a query
 //! collects the squared distances below that bound (about k·(1 + |p − q|/d)² of them) and selects
-//! the (k + 1)-th (`select_nth_unstable_by_key`, on the distances' bits) instead of keeping a heap. The density changes little
-//! from one point to the next, so it first tries the tighter `d + 0.2·|p − q|` (`GUESS` in
-//! `queries.rs`): fewer points to collect and select from, enough for 93 % of the queries on a
-//! 100k-photon map, the rest searched again with the safe bound (1.4× less time in all). A query
-//! whose bound holds too few points (rounding) or too many for the buffer, and the first of a
-//! run, search with a max-heap of the k + 1 best instead. A bound that holds at least k + 1
+//! the (k + 1)-th (`select_nth_unstable_by_key`, on the distances' bits) instead of keeping a
+//! heap. The density changes little from one point to the next, so it first tries the tighter
+//! `d + 0.2·|p − q|` (`GUESS` in `queries.rs`): fewer points to collect and select from, enough
+//! for 93 % of the queries on a 100k-photon map, the rest searched again with the safe bound
+//! (with the selection on bits, 1.5× less time than the safe bound alone: 249 → 166 ms on one
+//! thread, `benches/host_estimate.rs`). A query whose bound holds too few points (rounding) or
+//! too many for the buffer, and the first of a run, search with a max-heap of the k + 1 best
+//! instead. A bound that holds at least k + 1
 //! points holds the k + 1 nearest, so every path finds the exact k-th distance, and the result
 //! does not depend on the number of threads. (On 200k points on the faces of a cube, k = 64, 2
 //! cores: a heap per query and the split plane's distance as the bound took about 600 ms; the
@@ -191,6 +193,15 @@ pub fn knn_radii<'a>(
     photons: impl IntoIterator<Item = &'a Photon>,
     neighbours: Neighbours,
 ) -> Vec<f32> {
+    knn_radii_and_caustics(photons, neighbours).0
+}
+
+/// [`knn_radii`], and how many of the photons are caustic photons ([`PhotonClass`]: each
+/// photon's class is read once, for both).
+pub fn knn_radii_and_caustics<'a>(
+    photons: impl IntoIterator<Item = &'a Photon>,
+    neighbours: Neighbours,
+) -> (Vec<f32>, usize) {
     let mut positions = [Vec::new(), Vec::new()];
     let mut index = [Vec::new(), Vec::new()];
     for (i, p) in photons.into_iter().enumerate() {
@@ -210,5 +221,5 @@ pub fn knn_radii<'a>(
             radii[index[c][id as usize]] = r;
         }
     }
-    radii
+    (radii, index[PhotonClass::Caustic as usize].len())
 }

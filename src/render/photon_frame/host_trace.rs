@@ -7,7 +7,7 @@
 use super::buffers::PhotonBuffers;
 use super::{drawn, retrace, PhotonFrame};
 use crate::gpu::{Cmd, QueueRole};
-use crate::photon::density::{knn_radii, PhotonClass};
+use crate::photon::density::knn_radii_and_caustics;
 use crate::photon::types::BounceMapPhoton;
 use crate::render::stats::FrameStats;
 use crate::timing;
@@ -56,14 +56,9 @@ impl PhotonFrame {
         // The kernel radii over every light's photons (module docs, "Kernel radii"), before
         // anything can fail: the radii always match the kept photons.
         let (traced, neighbours) = (&self.traced, self.neighbours);
-        self.radii = timing::timed("photon density", || knn_radii(traced.photons(), neighbours));
-        self.caustic_photons = (self.traced.light_photons())
-            .map(|light| {
-                (light.par_iter())
-                    .filter(|p| PhotonClass::of_photon(p) == PhotonClass::Caustic)
-                    .count()
-            })
-            .sum();
+        (self.radii, self.caustic_photons) = timing::timed("photon density", || {
+            knn_radii_and_caustics(traced.photons(), neighbours)
+        });
         let count = self.traced.photon_count();
         if !self.buffers.holds(count) {
             // The old buffers go to the graveyard, destroyed once the frames using them finish.

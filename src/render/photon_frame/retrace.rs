@@ -102,7 +102,7 @@ impl Traced {
 
     /// The photon map (origin-relative): every light's photons, light after light.
     pub fn photons(&self) -> impl Iterator<Item = &Photon> {
-        self.lights.iter().flat_map(|l| &l.photons)
+        self.light_photons().flatten()
     }
 
     /// The photon map's length.
@@ -181,19 +181,17 @@ impl Traced {
                 lights[light] = Some(self.take(light));
                 continue;
             }
-            let read_span = timing::span("bounce map read");
-            read(texels.clone(), &mut self.bounce_map[texels.clone()])?;
-            drop(read_span);
-            let _starts_span = timing::span("photon starts");
+            timing::timed("bounce map read", || {
+                read(texels.clone(), &mut self.bounce_map[texels.clone()])
+            })?;
             let emitted = self.bounce_map[texels]
                 .iter()
                 .filter(|p| p.eta != 0.0)
                 .count();
-            traced.push((
-                light,
-                emitted,
-                plan.photon_starts_from_origin(&self.bounce_map, views, frame.sample, frame.bvh),
-            ));
+            let starts = timing::timed("photon starts", || {
+                plan.photon_starts_from_origin(&self.bounce_map, views, frame.sample, frame.bvh)
+            });
+            traced.push((light, emitted, starts));
         }
         // One parallel trace of every re-traced light's starts; each light's photons are those
         // a trace of its starts alone makes (`trace_photon_groups`).
