@@ -48,6 +48,20 @@ pub struct AccessInfo {
 }
 
 impl Access {
+    /// The usage an image needs for this access (none for the accesses of buffers only).
+    pub fn image_usage(self) -> vk::ImageUsageFlags {
+        use vk::ImageUsageFlags as U;
+        match self {
+            Access::ColorAttachmentWrite | Access::ColorAttachmentBlend => U::COLOR_ATTACHMENT,
+            Access::DepthAttachmentWrite => U::DEPTH_STENCIL_ATTACHMENT,
+            Access::FragmentSampledRead | Access::ComputeSampledRead => U::SAMPLED,
+            Access::ComputeStorageWrite | Access::ComputeStorageRead => U::STORAGE,
+            Access::TransferSrc | Access::BlitSrc => U::TRANSFER_SRC,
+            Access::TransferDst => U::TRANSFER_DST,
+            _ => U::empty(),
+        }
+    }
+
     /// Every access, in declaration order (`Access as u32` indexes it).
     pub const ALL: [Access; 17] = [
         Access::Nothing,

@@ -8,7 +8,8 @@
 use super::access::Access;
 use super::device::{Gpu, QueueRole, Retired, TimelinePoint};
 use super::error::{vk_err, GpuResult};
-use super::resources::{Buffer, Image};
+use super::image::Image;
+use super::resources::Buffer;
 use super::timestamps::Timestamps;
 use super::tracker::{Barrier, Tracker};
 use ash::vk;
@@ -255,7 +256,7 @@ impl Resource<'_> {
     fn same(&self, other: &Resource) -> bool {
         match (self, other) {
             (Resource::Buffer(a), Resource::Buffer(b)) => a.raw == b.raw,
-            (Resource::Image(a), Resource::Image(b)) => a.raw == b.raw,
+            (Resource::Image(a), Resource::Image(b)) => a.is(b),
             _ => false,
         }
     }
@@ -349,6 +350,9 @@ impl<'a> Cmd<'a> {
             }
             match resource {
                 Resource::Image(image) => {
+                    // Made by now: a check that its usage covers the access, with the image's
+                    // name, before the validation layer would report it at the command.
+                    image.require(to.image_usage(), format_args!("{to:?}"));
                     if let Some(b) = tracker.state(&image.resting).next(to, self.family, true) {
                         images.push(image_barrier(image, &b));
                     }
@@ -425,7 +429,7 @@ fn image_barrier(image: &Image, b: &Barrier) -> vk::ImageMemoryBarrier2<'static>
         .new_layout(b.new_layout)
         .src_queue_family_index(src_family)
         .dst_queue_family_index(dst_family)
-        .image(image.raw)
+        .image(image.raw())
         .subresource_range(vk::ImageSubresourceRange {
             aspect_mask: image.aspect(),
             base_mip_level: 0,

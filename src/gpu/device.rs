@@ -17,9 +17,11 @@
 mod choice;
 mod create;
 mod graveyard;
+mod planned;
 
 pub use choice::{device_type_rank, list_devices, DeviceProperties};
 pub(super) use graveyard::Retired;
+pub(crate) use planned::{PlannedImage, WaitingWrite};
 
 use super::clock::DeviceClock;
 use super::error::{vk_err, GpuResult};
@@ -113,6 +115,8 @@ pub struct Gpu {
     roles: [usize; 3],
     allocator: ManuallyDrop<Mutex<Allocator>>,
     graveyard: Mutex<Vec<(Vec<u64>, Retired)>>,
+    /// The images planned but not made yet, and the descriptor writes waiting for them.
+    planned: Mutex<planned::Planned>,
     /// How timestamps are put on the host clock (`clock.rs`).
     pub(super) clock: DeviceClock,
     pub validation: bool,

@@ -36,6 +36,8 @@ pub enum GpuError {
         name: String,
         source: gpu_allocator::AllocationError,
     },
+    #[error("image {0} was planned but no pass declared a use of it")]
+    UnusedImage(String),
 }
 
 pub type GpuResult<T> = Result<T, GpuError>;

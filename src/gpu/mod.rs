@@ -3,8 +3,9 @@
 //! | file | owns |
 //! |---|---|
 //! | `instance.rs` | instance, validation layer + synchronization validation, debug messenger |
-//! | `device.rs` | [`Gpu`]: its queues with one timeline each, allocator; `device/`: `choice.rs` (which physical device), `create.rs` ([`Gpu::new`]), `graveyard.rs` (deferred destruction) |
-//! | `resources.rs` | RAII [`Buffer`], [`Image`], [`Sampler`] with debug names |
+//! | `device.rs` | [`Gpu`]: its queues with one timeline each, allocator; `device/`: `choice.rs` (which physical device), `create.rs` ([`Gpu::new`]), `graveyard.rs` (deferred destruction), `planned.rs` ([`Gpu::make_planned`]: the planned images, the descriptor writes waiting for them) |
+//! | `resources.rs` | RAII [`Buffer`], [`Sampler`] with debug names |
+//! | `image.rs` | [`Image`]: planned, then made with the usage its passes declare |
 //! | `access.rs` | the [`Access`] vocabulary and its table of sync2 stages/accesses/layouts |
 //! | `uses.rs` | a pass's declared [`Use`]s: its descriptor layout, writes and barriers from one list |
 //! | `tracker.rs` | per-recording resource states: the barrier (and queue hand-off) each use needs |
@@ -28,6 +29,7 @@ mod clock;
 mod cmd;
 mod device;
 mod error;
+mod image;
 mod instance;
 mod overlay;
 mod pipeline;
@@ -50,13 +52,14 @@ pub use device::{
     TimelinePoint,
 };
 pub use error::{GpuError, GpuResult};
+pub use image::{Image, ImageDesc, ViewKind};
 pub use instance::validation_requested;
 pub use overlay::{OverlayFrame, OverlayPass};
 pub use pipeline::{
     Binding, BindingKind, Blend, ComputeDesc, Depth, DescriptorLayout, DescriptorSet, GraphicsDesc,
     Pipeline, SpecConstant, VertexAttribute, Write,
 };
-pub use resources::{Buffer, Filter, Image, ImageDesc, MemoryLocation, Sampler, ViewKind};
+pub use resources::{Buffer, Filter, MemoryLocation, Sampler};
 pub use shaders::{table as shader_table, Shader, Stage};
 pub use swapchain::{Presented, Swapchain};
 pub use timestamps::Timestamps;

@@ -7,9 +7,11 @@
 //! An id a stage does not declare is ignored (Vulkan 1.3 §10.8: a map entry whose
 //! `constantID` the module does not use has no effect), so one list serves every stage.
 
+use super::device::WaitingWrite;
 use super::device::{Gpu, Retired};
 use super::error::{vk_err, GpuResult};
-use super::resources::{Buffer, Image, Sampler};
+use super::image::Image;
+use super::resources::{Buffer, Sampler};
 use super::shaders::{Module, Shader};
 use ash::vk;
 use std::sync::Arc;
@@ -159,22 +161,15 @@ impl DescriptorLayout {
                         range: vk::WHOLE_SIZE,
                     }],
                 )),
-                Write::Image { image, sampler } => image_infos.push((
-                    b,
-                    [vk::DescriptorImageInfo {
-                        sampler: sampler.raw,
-                        image_view: image.view,
-                        image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-                    }],
-                )),
-                Write::StorageImage(image) => image_infos.push((
-                    b,
-                    [vk::DescriptorImageInfo {
-                        sampler: vk::Sampler::null(),
-                        image_view: image.view,
-                        image_layout: vk::ImageLayout::GENERAL,
-                    }],
-                )),
+                Write::Image { image, sampler } => {
+                    let layout = vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL;
+                    self.image_write(set, b, (image, sampler.raw, layout), &mut image_infos)
+                }
+                Write::StorageImage(image) => {
+                    let layout = vk::ImageLayout::GENERAL;
+                    let none = vk::Sampler::null();
+                    self.image_write(set, b, (image, none, layout), &mut image_infos)
+                }
             }
         }
         let mut vk_writes = Vec::new();
@@ -200,10 +195,43 @@ impl DescriptorLayout {
         // (callers update only sets they own and have waited for).
         unsafe { self.gpu.raw().update_descriptor_sets(&vk_writes, &[]) };
     }
+
+    /// The write of one image binding: now if the image is made, else once
+    /// [`Gpu::make_planned`] has made it (`planned.rs`).
+    fn image_write<'b>(
+        &self,
+        set: DescriptorSet,
+        binding: &'b Binding,
+        (image, sampler, layout): (&Image, vk::Sampler, vk::ImageLayout),
+        now: &mut Vec<(&'b Binding, [vk::DescriptorImageInfo; 1])>,
+    ) {
+        if image.is_made() {
+            self.gpu.forget_write(set.0, binding.binding);
+            now.push((
+                binding,
+                [vk::DescriptorImageInfo {
+                    sampler,
+                    image_view: image.view(),
+                    image_layout: layout,
+                }],
+            ));
+        } else {
+            self.gpu.defer_write(WaitingWrite {
+                pool: self.pool,
+                set: set.0,
+                binding: binding.binding,
+                ty: binding.kind.vk(),
+                image: image.planned_ref(),
+                sampler,
+                layout,
+            });
+        }
+    }
 }
 
 impl Drop for DescriptorLayout {
     fn drop(&mut self) {
+        self.gpu.forget_writes(self.pool);
         self.gpu.retire(Retired::DescriptorPool(self.pool));
         self.gpu.retire(Retired::DescriptorSetLayout(self.raw));
     }

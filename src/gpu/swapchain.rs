@@ -18,8 +18,8 @@
 
 use super::device::{Gpu, QueueRole, TimelinePoint};
 use super::error::{vk_err, GpuError, GpuResult};
+use super::image::Image;
 use super::overlay::{OverlayFrame, OverlayPass};
-use super::resources::Image;
 use super::Access;
 use crate::timing::pass_id::PassId;
 use ash::vk;

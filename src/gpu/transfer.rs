@@ -4,7 +4,8 @@
 
 use super::access::Access;
 use super::device::{Gpu, QueueRole};
-use super::resources::{Buffer, Image, ImageDesc, MemoryLocation};
+use super::image::{Image, ImageDesc};
+use super::resources::{Buffer, MemoryLocation};
 use ash::vk;
 use std::sync::Arc;
 

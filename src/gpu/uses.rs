@@ -12,14 +12,15 @@
 //!                                                  └──────── one batched barrier before the pass (Cmd::uses)
 //! ```
 //!
-//! and the image usage each image must have been made with ([`Use::usage`], checked when the
-//! set is written). The stage half of each access is the pass's: compute or graphics
+//! and the image usage of each image ([`Use::usage`]): declared to a planned image when the
+//! set is written, so that it is made with the union of its passes' uses (`image.rs`). The stage half of each access is the pass's: compute or graphics
 //! ([`Shaders`]).
 
 use super::access::Access;
 use super::cmd::{Cmd, Resource};
+use super::image::Image;
 use super::pipeline::{BindingKind, Write};
-use super::resources::{Buffer, Image, Sampler};
+use super::resources::{Buffer, Sampler};
 use ash::vk;
 
 /// Where a pass's shaders run: the stage half of the accesses it declares.
@@ -117,21 +118,17 @@ pub fn kinds(uses: &[Use]) -> Vec<BindingKind> {
     uses.iter().map(Use::kind).collect()
 }
 
-/// The descriptor writes of `uses`, bindings 0, 1, 2… in order.
+/// The descriptor writes of `uses`, bindings 0, 1, 2… in order; each image's use is declared
+/// to it ([`Image::require`]): added to the usage of an image still planned, checked against
+/// one made.
 ///
 /// # Panics
-/// When an image lacks the usage its binding needs (a programming error the validation layer
-/// would otherwise report later, further from its cause).
+/// When a made image lacks the usage its binding needs (its use was declared after
+/// [`crate::gpu::Gpu::make_planned`] made it).
 pub fn writes<'a>(uses: &[Use<'a>]) -> Vec<Write<'a>> {
     for u in uses {
         if let Use::Sampled(image, _) | Use::Storage(image) | Use::StorageRead(image) = u {
-            assert!(
-                image.usage.contains(u.usage()),
-                "{} is bound as {:?} but was made without {:?}",
-                image.name,
-                u.kind(),
-                u.usage()
-            );
+            image.require(u.usage(), format_args!("{:?}", u.kind()));
         }
     }
     uses.iter().map(Use::write).collect()

@@ -37,7 +37,7 @@ pub struct AccumulatePass {
 
 impl AccumulatePass {
     pub fn new(gpu: &Arc<Gpu>, radiance: &Image) -> anyhow::Result<Self> {
-        let accumulation = Image::new(
+        let accumulation = Image::planned(
             gpu,
             &ImageDesc {
                 name: "accumulation",
@@ -45,10 +45,10 @@ impl AccumulatePass {
                 width: radiance.width,
                 height: radiance.height,
                 layers: 1,
-                usage: vk::ImageUsageFlags::STORAGE,
+                usage: vk::ImageUsageFlags::empty(),
                 view: ViewKind::D2,
             },
-        )?;
+        );
         let kernel = ComputeKernel::new(
             gpu,
             PassId::Accumulate.name(),

@@ -120,7 +120,7 @@ impl DenoisePass {
         (total, global): (&Image, &Image),
         subsample: u32,
     ) -> anyhow::Result<Self> {
-        let scratch = Image::new(
+        let scratch = Image::planned(
             gpu,
             &ImageDesc {
                 name: "indirect.denoise_scratch",
@@ -128,10 +128,10 @@ impl DenoisePass {
                 width: global.width,
                 height: global.height,
                 layers: 1,
-                usage: vk::ImageUsageFlags::STORAGE,
+                usage: vk::ImageUsageFlags::empty(),
                 view: ViewKind::D2,
             },
-        )?;
+        );
         let sampler = Sampler::new(gpu, "denoise.nearest", Filter::Nearest, false)?;
         let from_global = Self::uses(gbuffer, total, (global, &scratch), &sampler);
         let from_scratch = Self::uses(gbuffer, total, (&scratch, global), &sampler);

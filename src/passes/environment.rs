@@ -122,7 +122,7 @@ impl EnvironmentPass {
             .map(|face| frame_layout.allocate(&uses::writes(&Self::uses(face, inputs, &shadow))))
             .collect::<Result<Vec<_>, _>>()?;
         let image = |name, format, usage, view| {
-            Image::new(
+            Image::planned(
                 gpu,
                 &ImageDesc {
                     name,
@@ -138,15 +138,15 @@ impl EnvironmentPass {
         let cube = image(
             "environment.cube",
             FORMAT,
-            vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
+            vk::ImageUsageFlags::COLOR_ATTACHMENT,
             ViewKind::Cube,
-        )?;
+        );
         let depth = image(
             "environment.depth",
             DEPTH,
             vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
             ViewKind::D2Array,
-        )?;
+        );
         let attributes = super::vertex_attributes();
         let pipeline = Pipeline::graphics(
             gpu,

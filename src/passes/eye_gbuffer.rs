@@ -37,7 +37,9 @@ pub struct GBuffer {
 
 impl GBuffer {
     /// A G-buffer of `layers` layers (one per view), named `name.position` etc., sampled as
-    /// `view` (light G-buffers are always arrays, even of one layer).
+    /// `view` (light G-buffers are always arrays, even of one layer). Planned: the passes that
+    /// read it add their uses (`gpu/image.rs`); its own are the attachments it is drawn into,
+    /// and the colour images are read back (`Renderer::read_gbuffer`).
     pub fn new(
         gpu: &Arc<Gpu>,
         name: &str,
@@ -45,12 +47,10 @@ impl GBuffer {
         height: u32,
         layers: u32,
         view: ViewKind,
-    ) -> anyhow::Result<GBuffer> {
-        let color = vk::ImageUsageFlags::COLOR_ATTACHMENT
-            | vk::ImageUsageFlags::SAMPLED
-            | vk::ImageUsageFlags::TRANSFER_SRC;
+    ) -> GBuffer {
+        let color = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
         let image = |part: &str, format, usage| {
-            Image::new(
+            Image::planned(
                 gpu,
                 &ImageDesc {
                     name: &format!("{name}.{part}"),
@@ -63,17 +63,17 @@ impl GBuffer {
                 },
             )
         };
-        Ok(GBuffer {
-            position: image("position", POSITION, color)?,
-            normal: image("normal", NORMAL, color)?,
-            albedo: image("albedo", ALBEDO, color)?,
-            material: image("material", MATERIAL, color)?,
+        GBuffer {
+            position: image("position", POSITION, color),
+            normal: image("normal", NORMAL, color),
+            albedo: image("albedo", ALBEDO, color),
+            material: image("material", MATERIAL, color),
             depth: image(
                 "depth",
                 DEPTH,
-                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
-            )?,
-        })
+                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+            ),
+        }
     }
 }
 

@@ -99,79 +99,54 @@ const _: () = assert!(std::mem::offset_of!(Push, offset) == 32);
 const _: () = assert!(std::mem::offset_of!(Push, share) == 48);
 const _: () = assert!(size_of::<Push>() == 64);
 
-/// The indirect-radiance target (alpha: number of volumes that touched the pixel).
-pub fn target(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<Image> {
-    Ok(Image::new(
+/// The indirect-radiance target (alpha: number of volumes that touched the pixel). Planned,
+/// as are the other targets below: the estimator that writes them and the passes that read
+/// them add their uses (`gpu/image.rs`); this one is read back (`Renderer::read_indirect`).
+pub fn target(gpu: &Arc<Gpu>, width: u32, height: u32) -> Image {
+    planned(
         gpu,
-        &ImageDesc {
-            name: "indirect",
-            format: FORMAT,
-            width,
-            height,
-            layers: 1,
-            // TRANSFER_DST: the value check's test seam (`value_check.rs`); STORAGE: the
-            // support normalisation rewrites it in place (`passes/support.rs`).
-            usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
-                | vk::ImageUsageFlags::SAMPLED
-                | vk::ImageUsageFlags::STORAGE
-                | vk::ImageUsageFlags::TRANSFER_SRC
-                | vk::ImageUsageFlags::TRANSFER_DST,
-            view: ViewKind::D2,
-        },
-    )?)
+        "indirect",
+        (width, height),
+        vk::ImageUsageFlags::TRANSFER_SRC,
+    )
 }
 
 /// The two low-resolution targets of `--subsample N > 1`: `[irradiance, glossy]`.
-pub fn low_targets(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<[Image; 2]> {
-    let image = |name: &str| {
-        Image::new(
-            gpu,
-            &ImageDesc {
-                name,
-                format: FORMAT,
-                width,
-                height,
-                layers: 1,
-                // TRANSFER_DST: the value check's test seam (`value_check.rs`); STORAGE: the
-                // support normalisation rewrites them (`passes/support.rs`).
-                usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
-                    | vk::ImageUsageFlags::SAMPLED
-                    | vk::ImageUsageFlags::STORAGE
-                    | vk::ImageUsageFlags::TRANSFER_DST,
-                view: ViewKind::D2,
-            },
-        )
-    };
-    Ok([
-        image("indirect.low_irradiance")?,
-        image("indirect.low_glossy")?,
-    ])
+pub fn low_targets(gpu: &Arc<Gpu>, width: u32, height: u32) -> [Image; 2] {
+    let none = vk::ImageUsageFlags::empty();
+    ["indirect.low_irradiance", "indirect.low_glossy"]
+        .map(|name| planned(gpu, name, (width, height), none))
 }
 
 /// The global photons' share of the estimate beside the full-resolution [`target`] (or, at
 /// `--subsample N > 1`, beside the [`low_targets`], at their size), for the support
 /// normalisation (`passes/support.rs`): `[global, weight]`, global's RGB what the global photons
 /// alone added and its alpha their `Σ κ·r`, weight's R their `Σ κ` (and at low resolution its
-/// GBA their share of the glossy target).
-pub fn support_targets(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<[Image; 2]> {
-    let image = |name: &str| {
-        Image::new(
-            gpu,
-            &ImageDesc {
-                name,
-                format: FORMAT,
-                width,
-                height,
-                layers: 1,
-                // TRANSFER_SRC: the tests read the measured fraction back.
-                usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
-                    | vk::ImageUsageFlags::STORAGE
-                    | vk::ImageUsageFlags::TRANSFER_SRC,
-                view: ViewKind::D2,
-            },
-        )
-    };
-    Ok([image("indirect.global")?, image("indirect.global_weight")?])
+/// GBA their share of the glossy target). Read back: the tests read the measured fraction.
+pub fn support_targets(gpu: &Arc<Gpu>, width: u32, height: u32) -> [Image; 2] {
+    let read_back = vk::ImageUsageFlags::TRANSFER_SRC;
+    ["indirect.global", "indirect.global_weight"]
+        .map(|name| planned(gpu, name, (width, height), read_back))
+}
+
+fn planned(
+    gpu: &Arc<Gpu>,
+    name: &str,
+    (width, height): (u32, u32),
+    usage: vk::ImageUsageFlags,
+) -> Image {
+    Image::planned(
+        gpu,
+        &ImageDesc {
+            name,
+            format: FORMAT,
+            width,
+            height,
+            layers: 1,
+            usage,
+            view: ViewKind::D2,
+        },
+    )
 }
 
 /// The most photon buffers one pass draws from (the descriptor pool's size). At lavapipe's
@@ -200,13 +175,20 @@ pub struct PhotonVolumesPass {
 
 impl PhotonVolumesPass {
     /// The full-resolution pass at `subsample` 1, else the 1/`subsample` one, with the
-    /// über-BSDF lobes of `variant` compiled in.
+    /// über-BSDF lobes of `variant` compiled in, drawing into `targets` (the images
+    /// [`Self::record`] is given; their colour-attachment use is declared here).
     pub fn new(
         gpu: &Arc<Gpu>,
         inputs: &PhotonVolumeInputs,
-        subsample: u32,
+        (subsample, targets): (u32, &[&Image]),
         variant: BsdfVariant,
     ) -> anyhow::Result<Self> {
+        for target in targets {
+            target.require(
+                vk::ImageUsageFlags::COLOR_ATTACHMENT,
+                "a photon volumes target",
+            );
+        }
         let graphics = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         let sampler = Sampler::new(gpu, "photon_volumes.nearest", Filter::Nearest, false)?;
         let uses = |photons| Self::uses(inputs, photons, &sampler);

@@ -16,9 +16,10 @@ pub struct ShadowMapPass {
     pipeline: Pipeline,
 }
 
-/// The depth array every light view renders into.
-pub fn atlas(gpu: &Arc<Gpu>, resolution: u32, layers: u32) -> GpuResult<Image> {
-    Image::new(
+/// The depth array every light view renders into (planned: the passes that sample it add
+/// their use).
+pub fn atlas(gpu: &Arc<Gpu>, resolution: u32, layers: u32) -> Image {
+    Image::planned(
         gpu,
         &ImageDesc {
             name: "shadow_atlas",
@@ -26,7 +27,7 @@ pub fn atlas(gpu: &Arc<Gpu>, resolution: u32, layers: u32) -> GpuResult<Image> {
             width: resolution,
             height: resolution,
             layers: layers.max(1),
-            usage: vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
+            usage: vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
             view: ViewKind::D2Array,
         },
     )

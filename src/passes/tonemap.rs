@@ -22,9 +22,10 @@ pub struct TonemapPass {
     sampler: Sampler,
 }
 
-/// The 8-bit output image.
-pub fn output(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<Image> {
-    Ok(Image::new(
+/// The 8-bit output image (planned: the tonemapping and debug views add their uses; its own
+/// is the copy out of it, read back or blitted to a window).
+pub fn output(gpu: &Arc<Gpu>, width: u32, height: u32) -> Image {
+    Image::planned(
         gpu,
         &ImageDesc {
             name: "tonemap.output",
@@ -32,10 +33,10 @@ pub fn output(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<Image> 
             width,
             height,
             layers: 1,
-            usage: vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC,
+            usage: vk::ImageUsageFlags::TRANSFER_SRC,
             view: ViewKind::D2,
         },
-    )?)
+    )
 }
 
 impl TonemapPass {

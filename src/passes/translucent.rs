@@ -44,15 +44,24 @@ pub struct TranslucentPass {
 
 impl TranslucentPass {
     /// The pass with the über-BSDF lobes of `variant` compiled in (delta lobes must be on:
-    /// they are what it draws).
+    /// they are what it draws), drawing over `radiance` with the eye's `depth` (the images
+    /// [`Self::record`] is given; their attachment uses are declared here).
     pub fn new(
         gpu: &Arc<Gpu>,
         scene: &GpuScene,
         inputs: &TranslucentInputs,
-        radiance_format: vk::Format,
-        depth_format: vk::Format,
+        (radiance, depth): (&Image, &Image),
         variant: BsdfVariant,
     ) -> anyhow::Result<Self> {
+        radiance.require(
+            vk::ImageUsageFlags::COLOR_ATTACHMENT,
+            "the translucent pass's target",
+        );
+        depth.require(
+            vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+            "the translucent pass's depth",
+        );
+        let (radiance_format, depth_format) = (radiance.format, depth.format);
         let graphics = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         let (texture_layout, material_sets) =
             material_texture_sets(gpu, PassId::Translucent.name(), scene)?;

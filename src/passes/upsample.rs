@@ -71,8 +71,9 @@ pub fn low_size(width: u32, height: u32, n: u32) -> (u32, u32) {
 }
 
 /// The full-resolution indirect radiance this pass writes (alpha: volumes per low-res sample).
-pub fn output(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<Image> {
-    Ok(Image::new(
+/// Planned: the passes that bind it add their uses; its own is the copy out of it (read back).
+pub fn output(gpu: &Arc<Gpu>, width: u32, height: u32) -> Image {
+    Image::planned(
         gpu,
         &ImageDesc {
             name: "indirect",
@@ -80,14 +81,10 @@ pub fn output(gpu: &Arc<Gpu>, width: u32, height: u32) -> anyhow::Result<Image> 
             width,
             height,
             layers: 1,
-            // TRANSFER_DST: the value check's test seam (`value_check.rs`).
-            usage: vk::ImageUsageFlags::STORAGE
-                | vk::ImageUsageFlags::SAMPLED
-                | vk::ImageUsageFlags::TRANSFER_SRC
-                | vk::ImageUsageFlags::TRANSFER_DST,
+            usage: vk::ImageUsageFlags::TRANSFER_SRC,
             view: ViewKind::D2,
         },
-    )?)
+    )
 }
 
 /// What the upsample reads.

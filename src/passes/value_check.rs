@@ -254,6 +254,13 @@ pub struct ValueCheckPass {
     injections: Vec<Injection>,
 }
 
+/// Declares the value check's use of an HDR image it will check ([`ValueCheckPass::image`]),
+/// while the image is planned: the check samples it, and its test seam copies texels into it.
+pub fn watch(image: &Image) {
+    let usage = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST;
+    image.require(usage, "an image the value check reads");
+}
+
 impl ValueCheckPass {
     /// The pass for `frames` frames in flight.
     pub fn new(gpu: &Arc<Gpu>, frames: usize) -> anyhow::Result<Self> {

@@ -372,6 +372,7 @@ impl Renderer {
                     radiance: &self.radiance,
                 },
             )?);
+            self.gpu.make_planned()?;
             self.photon_map = None;
         } else if let Some(photons) = &mut self.photons {
             if plan.photon_mask() != self.plan.photon_mask() {
@@ -461,6 +462,11 @@ impl Renderer {
     /// The scene's triangle count (for statistics).
     pub fn triangles(&self) -> usize {
         self.scene.triangles
+    }
+
+    /// The HDR radiance the frame accumulates into (RGBA32F).
+    pub fn radiance(&self) -> &Image {
+        &self.radiance
     }
 
     /// The tonemapped image the last submitted frame draws (RGBA8, sRGB-encoded values).

@@ -52,8 +52,7 @@ impl TranslucentFrame {
         scene: &Scene,
         gpu_scene: &GpuScene,
         resources: &TranslucentResources,
-        depth_format: vk::Format,
-        radiance_format: vk::Format,
+        (depth, radiance): (&Image, &Image),
         variant: BsdfVariant,
     ) -> anyhow::Result<Option<Self>> {
         let delta = gpu_scene.delta_bounds(scene);
@@ -78,7 +77,7 @@ impl TranslucentFrame {
             variant,
         )?;
         let texels = 6 * INDIRECT_FACE_SIZE * INDIRECT_FACE_SIZE;
-        let indirect = Image::new(
+        let indirect = Image::planned(
             gpu,
             &ImageDesc {
                 name: "environment.indirect",
@@ -86,10 +85,11 @@ impl TranslucentFrame {
                 width: INDIRECT_FACE_SIZE,
                 height: INDIRECT_FACE_SIZE,
                 layers: 6,
-                usage: vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
+                // Copied into from the staging buffer; the translucent pass samples it.
+                usage: vk::ImageUsageFlags::TRANSFER_DST,
                 view: ViewKind::Cube,
             },
-        )?;
+        );
         let indirect_staging = Buffer::new(
             gpu,
             "environment.indirect.staging",
@@ -112,8 +112,7 @@ impl TranslucentFrame {
                 environment_map: &environment.cube,
                 environment_indirect: &indirect,
             },
-            radiance_format,
-            depth_format,
+            (radiance, depth),
             variant,
         )?;
         let bounds = gpu_scene.bounds;

@@ -3,7 +3,8 @@
 
 use super::{Cmd, Resource};
 use crate::gpu::access::Access;
-use crate::gpu::resources::{aspect_of, Buffer, Image};
+use crate::gpu::image::{aspect_of, Image};
+use crate::gpu::resources::Buffer;
 use ash::vk;
 use std::ops::Range;
 
@@ -31,7 +32,7 @@ impl Cmd<'_> {
         unsafe {
             self.device().cmd_copy_image_to_buffer(
                 self.raw,
-                image.raw,
+                image.raw(),
                 vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
                 buffer.raw,
                 &[region],
@@ -107,7 +108,7 @@ impl Cmd<'_> {
             self.device().cmd_copy_buffer_to_image(
                 self.raw,
                 buffer.raw,
-                image.raw,
+                image.raw(),
                 vk::ImageLayout::TRANSFER_DST_OPTIMAL,
                 &[region],
             )
@@ -128,7 +129,7 @@ impl Cmd<'_> {
         // SAFETY: recording state; both buffers are live and the region fits both.
         unsafe {
             self.device()
-                .cmd_copy_buffer(self.raw, src.raw, dst.raw, &[region])
+                .cmd_copy_buffer(self.raw, src.raw(), dst.raw, &[region])
         };
     }
 
@@ -165,7 +166,7 @@ impl Cmd<'_> {
         // (asserted above).
         unsafe {
             self.device()
-                .cmd_copy_buffer(self.raw, src.raw, dst.raw, &regions)
+                .cmd_copy_buffer(self.raw, src.raw(), dst.raw, &regions)
         };
     }
 
@@ -274,7 +275,7 @@ impl Cmd<'_> {
         unsafe {
             self.device().cmd_blit_image(
                 self.raw,
-                src.raw,
+                src.raw(),
                 vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
                 dst,
                 vk::ImageLayout::TRANSFER_DST_OPTIMAL,

@@ -224,6 +224,7 @@ impl Gpu {
             roles,
             allocator: ManuallyDrop::new(Mutex::new(allocator)),
             graveyard: Mutex::new(Vec::new()),
+            planned: Mutex::default(),
             clock,
             validation,
             physical,

@@ -13,7 +13,7 @@ use crate::passes::eye_gbuffer::{EyeGBufferPass, GBuffer};
 use crate::passes::shadow_map::ShadowMapPass;
 use crate::passes::tonemap::TonemapPass;
 use crate::passes::value_check::ValueCheckPass;
-use crate::passes::{shadow_map, tonemap};
+use crate::passes::{shadow_map, tonemap, value_check};
 use crate::photon::bsdf::BsdfVariant;
 use crate::plan::lighting::LightSetup;
 use crate::plan::SceneAnalysis;
@@ -100,10 +100,13 @@ impl Renderer {
             settings.height,
             1,
             ViewKind::D2,
-        )?;
+        );
         let shadow_atlas =
-            shadow_map::atlas(gpu, settings.shadow_resolution, setup.views.len() as u32)?;
-        let radiance = Image::new(
+            shadow_map::atlas(gpu, settings.shadow_resolution, setup.views.len() as u32);
+        // Planned, as are the G-buffer, the shadow atlas and the other images the passes
+        // share: each pass declares its use as it is made below, and `make_planned` at the end
+        // makes every image with the union (`gpu/image.rs`). Its own use: read back.
+        let radiance = Image::planned(
             gpu,
             &ImageDesc {
                 name: "radiance",
@@ -111,18 +114,11 @@ impl Renderer {
                 width: settings.width,
                 height: settings.height,
                 layers: 1,
-                // Written by imageStore (direct, composite), then drawn over by the
-                // translucent pass as a colour attachment.
-                // TRANSFER_DST: the value check's test seam (`passes/value_check.rs`).
-                usage: vk::ImageUsageFlags::STORAGE
-                    | vk::ImageUsageFlags::COLOR_ATTACHMENT
-                    | vk::ImageUsageFlags::SAMPLED
-                    | vk::ImageUsageFlags::TRANSFER_SRC
-                    | vk::ImageUsageFlags::TRANSFER_DST,
+                usage: vk::ImageUsageFlags::TRANSFER_SRC,
                 view: ViewKind::D2,
             },
-        )?;
-        let display = tonemap::output(gpu, settings.width, settings.height)?;
+        );
+        let display = tonemap::output(gpu, settings.width, settings.height);
         let accumulate =
             if settings.accumulate && (settings.method == Method::Ispm || plan.accumulate) {
                 Some(AccumulatePass::new(gpu, &radiance)?)
@@ -147,6 +143,7 @@ impl Renderer {
         )?;
         let tonemap = TonemapPass::new(gpu, &radiance, &display)?;
         let value_check = if settings.check_values {
+            value_check::watch(&radiance);
             Some(ValueCheckPass::new(gpu, FRAMES_IN_FLIGHT)?)
         } else {
             None
@@ -179,13 +176,14 @@ impl Renderer {
                     shadow_views: &view_buffer,
                     shadow_atlas: &shadow_atlas,
                 },
-                gbuffer.depth.format,
-                radiance.format,
+                (&gbuffer.depth, &radiance),
                 settings.bsdf_variant,
             )?
         } else {
             None
         };
+        // Every pass is made, and has declared its uses: the planned images can be made.
+        gpu.make_planned()?;
         let slots = (0..FRAMES_IN_FLIGHT)
             .map(|i| {
                 Ok(FrameSlot {

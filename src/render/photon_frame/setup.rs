@@ -22,6 +22,7 @@ use crate::passes::photon_tiles::PhotonTilesPass;
 use crate::passes::photon_volumes::{self, PhotonVolumeInputs, PhotonVolumesPass};
 use crate::passes::support::SupportPass;
 use crate::passes::upsample::{self, UpsampleInputs, UpsamplePass};
+use crate::passes::value_check;
 use crate::photon::bvh::SceneBvh;
 use crate::photon::density::Neighbours;
 use crate::photon::emit::photon_budget;
@@ -112,7 +113,7 @@ impl PhotonFrame {
             capacity.extent.1.max(1),
             views as u32,
             ViewKind::D2Array,
-        )?;
+        );
         let light_pass = LightGBufferPass::new(gpu, gpu_scene, views)?;
         let view_buffer = Buffer::constants(
             gpu,
@@ -164,7 +165,7 @@ impl PhotonFrame {
                     (FRAMES_IN_FLIGHT, targets),
                 )?),
                 Density::Volumes | Density::Auto => Estimator::Volumes(Box::new(
-                    PhotonVolumesPass::new(gpu, &inputs, subsample, variant)?,
+                    PhotonVolumesPass::new(gpu, &inputs, (subsample, targets), variant)?,
                 )),
             })
         };
@@ -174,13 +175,13 @@ impl PhotonFrame {
         let caustics_apart = subsample > 1 && effects.fine_photons.needed;
         let (width, height) = (radiance.width, radiance.height);
         let (indirect, subsampled) = if subsample == 1 {
-            (photon_volumes::target(gpu, width, height)?, None)
+            (photon_volumes::target(gpu, width, height), None)
         } else {
             let indirect = match caustics_apart && density != Density::Tiled {
                 // The fine photons' volumes draw into it (the tiled gather writes it as the
                 // upsample does, as a storage image).
-                true => photon_volumes::target(gpu, width, height)?,
-                false => upsample::output(gpu, width, height)?,
+                true => photon_volumes::target(gpu, width, height),
+                false => upsample::output(gpu, width, height),
             };
             let fine = match caustics_apart {
                 true => {
@@ -188,7 +189,7 @@ impl PhotonFrame {
                     // `indirect` alone.
                     let support = match density {
                         Density::Tiled => None,
-                        _ => Some(photon_volumes::support_targets(gpu, width, height)?),
+                        _ => Some(photon_volumes::support_targets(gpu, width, height)),
                     };
                     let targets: Vec<&Image> = std::iter::once(&indirect)
                         .chain(support.iter().flatten())
@@ -201,7 +202,7 @@ impl PhotonFrame {
                 false => None,
             };
             let (w, h) = upsample::low_size(width, height, subsample);
-            let low = photon_volumes::low_targets(gpu, w, h)?;
+            let low = photon_volumes::low_targets(gpu, w, h);
             let upsample_inputs = UpsampleInputs {
                 materials: &gpu_scene.materials,
                 gbuffer,
@@ -215,7 +216,7 @@ impl PhotonFrame {
                 settings.upsample,
                 settings.bsdf_variant,
             )?;
-            let images = photon_volumes::support_targets(gpu, w, h)?;
+            let images = photon_volumes::support_targets(gpu, w, h);
             let pass = SupportPass::new(gpu, (frame, gbuffer), (&low[0], Some(&low[1])), &images)?;
             let support = (images, pass);
             (
@@ -230,12 +231,19 @@ impl PhotonFrame {
             )
         };
         let support = if subsample == 1 {
-            let images = photon_volumes::support_targets(gpu, width, height)?;
+            let images = photon_volumes::support_targets(gpu, width, height);
             let pass = SupportPass::new(gpu, (frame, gbuffer), (&indirect, None), &images)?;
             Some((images, pass))
         } else {
             None
         };
+        if settings.check_values {
+            value_check::watch(&indirect);
+            subsampled
+                .iter()
+                .flat_map(|s| &s.low)
+                .for_each(value_check::watch);
+        }
         let targets = estimate_targets(&indirect, support.as_ref(), subsampled.as_ref());
         let estimator = estimator(subsample, &targets)?;
         let composite = CompositePass::new(gpu, &indirect, radiance)?;
