@@ -62,9 +62,12 @@ fn planned_images_get_their_makers_usage_and_the_uses_their_passes_declare() {
     // The pass's declared uses (Sampled(hdr), Storage(ldr)) are in the usage already.
     assert_eq!(hdr.usage(), U::TRANSFER_DST | U::SAMPLED);
     assert_eq!(ldr.usage(), U::TRANSFER_SRC | U::STORAGE);
+    assert_eq!(gpu.waiting_descriptor_writes(), 2);
     gpu.make_planned().expect("made");
+    assert_eq!(gpu.waiting_descriptor_writes(), 0);
     assert!(hdr.is_made() && ldr.is_made());
     assert_eq!(hdr.usage(), U::TRANSFER_DST | U::SAMPLED);
+    assert_eq!(ldr.usage(), U::TRANSFER_SRC | U::STORAGE);
     let planned = tonemap(&gpu, &pass, &hdr, &mut ldr);
 
     // The same pass over images made at once with every flag stated: its descriptor set is
@@ -74,10 +77,9 @@ fn planned_images_get_their_makers_usage_and_the_uses_their_passes_declare() {
     let pass = TonemapPass::new(&gpu, &hdr, &ldr).expect("pass");
     let made = tonemap(&gpu, &pass, &hdr, &mut ldr);
     assert_eq!(planned, made);
-    assert!(
-        made.iter().any(|&b| b != 0),
-        "the ramp tonemaps to something"
-    );
+    // Colour, not only the alpha the tonemapping writes as 1 everywhere.
+    let rgb = |p: &[u8]| p[..3] != [0, 0, 0];
+    assert!(made.chunks(4).any(rgb), "the ramp tonemaps to some colour");
     gpu.wait_idle().expect("idle");
     assert_validation_clean(&gpu);
 }
@@ -90,6 +92,34 @@ fn a_use_declared_after_its_image_is_made_names_the_image_and_the_use() {
     let ldr = Image::planned(&gpu, &desc("late.ldr", LDR, U::TRANSFER_SRC));
     gpu.make_planned().expect("made");
     let _ = TonemapPass::new(&gpu, &hdr, &ldr);
+}
+
+#[test]
+fn a_pass_dropped_before_its_images_are_made_leaves_no_write_behind() {
+    let gpu = gpu();
+    let hdr = Image::planned(&gpu, &desc("dropped.hdr", HDR, U::TRANSFER_DST));
+    let ldr = Image::planned(&gpu, &desc("dropped.ldr", LDR, U::TRANSFER_SRC));
+    // Its set's bindings of the two images wait; the pass (and its descriptor pool) goes first,
+    // taking its waiting writes with it.
+    let pass = TonemapPass::new(&gpu, &hdr, &ldr).expect("pass");
+    assert_eq!(gpu.waiting_descriptor_writes(), 2);
+    drop(pass);
+    assert_eq!(gpu.waiting_descriptor_writes(), 0);
+    gpu.make_planned().expect("made");
+    // The usage it declared stays (the images were made for it).
+    assert_eq!(hdr.usage(), U::TRANSFER_DST | U::SAMPLED);
+    gpu.wait_idle().expect("idle");
+    assert_validation_clean(&gpu);
+}
+
+#[test]
+#[should_panic(expected = "barrier.ldr is used as ColorAttachmentWrite but was made without")]
+fn a_command_using_an_image_in_a_way_it_was_not_made_for_names_the_image() {
+    let gpu = gpu();
+    let ldr = Image::new(&gpu, &desc("barrier.ldr", LDR, U::STORAGE)).expect("image");
+    let _ = gpu.one_shot(QueueRole::Graphics, "wrong use", |cmd| {
+        cmd.transition(&ldr, ispm::gpu::Access::ColorAttachmentWrite);
+    });
 }
 
 #[test]
@@ -112,8 +142,11 @@ fn the_frames_radiance_is_a_colour_attachment_only_where_the_scene_has_glass() {
     };
     let usage = |name| {
         let scene = bundled::resolve(Some(name)).expect("bundled");
-        let renderer = Renderer::new(&gpu, &scene, settings.clone()).expect("renderer");
+        let mut renderer = Renderer::new(&gpu, &scene, settings.clone()).expect("renderer");
         assert!(renderer.radiance().is_made());
+        // A frame, so that every descriptor binding that waited for its image is used.
+        let frame = renderer.render().expect("frame");
+        assert!(frame.hdr.iter().any(|&v| v > 0.0), "{name} renders black");
         renderer.radiance().usage()
     };
     // Written by the direct pass and the composite, read by the tonemapping, read back.

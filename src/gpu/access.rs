@@ -58,7 +58,13 @@ impl Access {
             Access::ComputeStorageWrite | Access::ComputeStorageRead => U::STORAGE,
             Access::TransferSrc | Access::BlitSrc => U::TRANSFER_SRC,
             Access::TransferDst => U::TRANSFER_DST,
-            _ => U::empty(),
+            Access::Nothing
+            | Access::GraphicsStorageRead
+            | Access::AnyShaderStorageRead
+            | Access::AnyShaderUniformRead
+            | Access::VertexInput
+            | Access::IndexInput
+            | Access::HostRead => U::empty(),
         }
     }
 

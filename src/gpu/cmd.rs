@@ -350,9 +350,9 @@ impl<'a> Cmd<'a> {
             }
             match resource {
                 Resource::Image(image) => {
-                    // Made by now: a check that its usage covers the access, with the image's
-                    // name, before the validation layer would report it at the command.
-                    image.require(to.image_usage(), format_args!("{to:?}"));
+                    // A check that it is made with a usage that covers the access, naming the
+                    // image, before the validation layer would report it at the command.
+                    image.expect_usage(to.image_usage(), format_args!("{to:?}"));
                     if let Some(b) = tracker.state(&image.resting).next(to, self.family, true) {
                         images.push(image_barrier(image, &b));
                     }

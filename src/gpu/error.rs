@@ -36,7 +36,7 @@ pub enum GpuError {
         name: String,
         source: gpu_allocator::AllocationError,
     },
-    #[error("image {0} was planned but no pass declared a use of it")]
+    #[error("image {0} has no usage: no pass declared a use of it")]
     UnusedImage(String),
 }
 

@@ -76,7 +76,7 @@ pub(super) struct ImageCell {
 /// The Vulkan objects of a made image.
 pub(super) struct Made {
     raw: vk::Image,
-    allocation: Option<Allocation>,
+    allocation: Allocation,
     pub(super) view: vk::ImageView,
     layer_views: Vec<vk::ImageView>,
 }
@@ -135,7 +135,8 @@ impl Image {
     }
 
     /// Declares a use of the image: added to its usage while it is planned, checked once it
-    /// is made.
+    /// is made. Declared on the thread that plans the image and calls
+    /// [`Gpu::make_planned`] (a renderer's construction).
     ///
     /// # Panics
     /// When the image is made without `usage`: the use was declared too late (after
@@ -152,6 +153,15 @@ impl Image {
         } else {
             self.cell.usage.fetch_or(usage.as_raw(), Ordering::Relaxed);
         }
+    }
+
+    /// Checks that the image, made, has `usage` (a command's use of it: `Cmd::barriers`).
+    ///
+    /// # Panics
+    /// When it is not made yet, or was made without `usage`.
+    pub(super) fn expect_usage(&self, usage: vk::ImageUsageFlags, what: impl std::fmt::Display) {
+        self.cell.made();
+        self.require(usage, what);
     }
 
     /// Whether its Vulkan objects exist yet.
@@ -291,7 +301,7 @@ impl ImageCell {
         // view fails below.
         let mut made = Made {
             raw,
-            allocation: Some(allocation),
+            allocation,
             view: vk::ImageView::null(),
             layer_views: Vec::new(),
         };
@@ -339,14 +349,13 @@ impl ImageCell {
         Ok(())
     }
 
-    fn retire(&self, mut made: Made) {
-        if let Some(a) = made.allocation.take() {
-            let mut views = std::mem::take(&mut made.layer_views);
-            if made.view != vk::ImageView::null() {
-                views.push(made.view);
-            }
-            self.gpu.retire(Retired::Image(made.raw, a, views));
+    fn retire(&self, made: Made) {
+        let mut views = made.layer_views;
+        if made.view != vk::ImageView::null() {
+            views.push(made.view);
         }
+        self.gpu
+            .retire(Retired::Image(made.raw, made.allocation, views));
     }
 }
 

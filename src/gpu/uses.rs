@@ -103,7 +103,8 @@ impl<'a> Use<'a> {
         })
     }
 
-    /// The image usage the resource must have been made with (none for buffers).
+    /// The image usage this use needs (none for buffers): added to a planned image, checked
+    /// against a made one ([`writes`]).
     pub fn usage(&self) -> vk::ImageUsageFlags {
         match self {
             Use::Sampled(..) => vk::ImageUsageFlags::SAMPLED,

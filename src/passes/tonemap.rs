@@ -22,8 +22,9 @@ pub struct TonemapPass {
     sampler: Sampler,
 }
 
-/// The 8-bit output image (planned: the tonemapping and debug views add their uses; its own
-/// is the copy out of it, read back or blitted to a window).
+/// The 8-bit output image (planned: the tonemapping adds its use; its own is the copy out of
+/// it, read back or blitted to a window; the debug views, made later, write it as the
+/// tonemapping does).
 pub fn output(gpu: &Arc<Gpu>, width: u32, height: u32) -> Image {
     Image::planned(
         gpu,

@@ -361,7 +361,7 @@ impl Renderer {
             // frame is made now, as a new renderer for this camera would have it.
             let mut source = self.source.clone();
             source.camera = camera;
-            self.photons = Some(PhotonFrame::new(
+            let photons = PhotonFrame::new(
                 &self.gpu,
                 &source,
                 &self.scene,
@@ -371,8 +371,10 @@ impl Renderer {
                     gbuffer: &self.gbuffer,
                     radiance: &self.radiance,
                 },
-            )?);
+            )?;
+            // Its images, planned as it was made (`gpu/image.rs`).
             self.gpu.make_planned()?;
+            self.photons = Some(photons);
             self.photon_map = None;
         } else if let Some(photons) = &mut self.photons {
             if plan.photon_mask() != self.plan.photon_mask() {

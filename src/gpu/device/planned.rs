@@ -7,11 +7,16 @@
 //! images with the usage every pass declared, then are written. Both lists hold their images
 //! weakly: a planned image dropped before it is made is never made, and its waiting writes are
 //! dropped with it; a descriptor layout dropped first forgets the writes into its pool.
+//!
+//! Entries are kept per thread: `make_planned` makes what its own thread planned, so two
+//! renderers made at once on one device (tests on parallel threads) do not make each other's
+//! images before their passes have declared their uses.
 
 use super::Gpu;
 use crate::gpu::error::GpuResult;
 use ash::vk;
 use std::sync::{Arc, Weak};
+use std::thread::ThreadId;
 
 /// What the device needs of a planned image: to make it, and its view once made.
 pub(crate) trait PlannedImage: Send + Sync {
@@ -23,8 +28,8 @@ pub(crate) trait PlannedImage: Send + Sync {
 /// The [`Gpu`]'s planned images and waiting writes.
 #[derive(Default)]
 pub(crate) struct Planned {
-    images: Vec<Weak<dyn PlannedImage>>,
-    writes: Vec<WaitingWrite>,
+    images: Vec<(ThreadId, Weak<dyn PlannedImage>)>,
+    writes: Vec<(ThreadId, WaitingWrite)>,
 }
 
 /// One image binding of a descriptor set, waiting for its image to be made.
@@ -46,7 +51,8 @@ impl Gpu {
 
     /// Puts `image` on the list [`Gpu::make_planned`] makes.
     pub(crate) fn plan_image(&self, image: &Arc<dyn PlannedImage>) {
-        self.planned().images.push(Arc::downgrade(image));
+        let here = std::thread::current().id();
+        self.planned().images.push((here, Arc::downgrade(image)));
     }
 
     /// Keeps `write` until its image is made (it replaces a write still waiting for the same
@@ -55,8 +61,8 @@ impl Gpu {
         let mut planned = self.planned();
         planned
             .writes
-            .retain(|w| (w.set, w.binding) != (write.set, write.binding));
-        planned.writes.push(write);
+            .retain(|(_, w)| (w.set, w.binding) != (write.set, write.binding));
+        planned.writes.push((std::thread::current().id(), write));
     }
 
     /// Forgets a write waiting for `binding` of `set`: that binding was written since.
@@ -65,38 +71,73 @@ impl Gpu {
         if !planned.writes.is_empty() {
             planned
                 .writes
-                .retain(|w| (w.set, w.binding) != (set, binding));
+                .retain(|(_, w)| (w.set, w.binding) != (set, binding));
         }
+    }
+
+    /// How many descriptor bindings wait for their images, on any thread (tests, `planned.rs`'
+    /// bookkeeping).
+    pub fn waiting_descriptor_writes(&self) -> usize {
+        self.planned().writes.len()
     }
 
     /// Forgets every write waiting for a set of `pool` (its layout is being dropped).
     pub(crate) fn forget_writes(&self, pool: vk::DescriptorPool) {
-        self.planned().writes.retain(|w| w.pool != pool);
+        self.planned().writes.retain(|(_, w)| w.pool != pool);
     }
 
-    /// Makes every planned image, each with its maker's usage and the uses the passes declared
-    /// ([`crate::gpu::uses::writes`], [`crate::gpu::Image::require`]), then writes the descriptor
-    /// bindings that waited for them. Call it once the passes that bind the planned images are
-    /// made, before the first recording that uses them.
+    /// Makes every image planned on this thread, each with its maker's usage and the uses the
+    /// passes declared ([`crate::gpu::uses::writes`], [`crate::gpu::Image::require`]), then
+    /// writes the descriptor bindings that waited for them. Call it once the passes that bind
+    /// the planned images are made, before the first recording that uses them. When an image
+    /// fails to be made (out of memory), the others are still made and their bindings written,
+    /// and the first error is returned; the failed image stays planned.
+    ///
+    /// The sets written must not be in use by the GPU, and the samplers their waiting writes
+    /// name must still live: both hold for sets a pass allocated and has not used yet (a set
+    /// with a waiting binding cannot have been used: it was incomplete), whose samplers the
+    /// pass owns beside the set's layout (dropping the layout forgets its writes).
     pub fn make_planned(&self) -> GpuResult<()> {
-        let images = std::mem::take(&mut self.planned().images);
-        for image in images.iter().filter_map(Weak::upgrade) {
-            image.make()?;
+        let here = std::thread::current().id();
+        let mine: Vec<_> = {
+            let mut planned = self.planned();
+            let (mine, others) = std::mem::take(&mut planned.images)
+                .into_iter()
+                .partition(|(thread, _)| *thread == here);
+            planned.images = others;
+            mine
+        };
+        let mut first_error = None;
+        for (thread, image) in mine {
+            let Some(cell) = image.upgrade() else {
+                continue;
+            };
+            if let Err(e) = cell.make() {
+                self.planned().images.push((thread, image));
+                first_error.get_or_insert(e);
+            }
         }
         let mut ready = Vec::new();
         {
             let mut planned = self.planned();
-            for w in std::mem::take(&mut planned.writes) {
-                match w.image.upgrade().map(|i| i.made_view()) {
-                    Some(Some(view)) => ready.push((w, view)),
-                    Some(None) => planned.writes.push(w),
-                    None => {}
+            for (thread, w) in std::mem::take(&mut planned.writes) {
+                if thread != here {
+                    planned.writes.push((thread, w));
+                    continue;
+                }
+                // Kept alive (`_image`) until the writes below are done.
+                let Some(image) = w.image.upgrade() else {
+                    continue;
+                };
+                match image.made_view() {
+                    Some(view) => ready.push((w, view, image)),
+                    None => planned.writes.push((thread, w)),
                 }
             }
         }
         let infos: Vec<_> = ready
             .iter()
-            .map(|(w, view)| {
+            .map(|(w, view, _image)| {
                 [vk::DescriptorImageInfo {
                     sampler: w.sampler,
                     image_view: *view,
@@ -107,7 +148,7 @@ impl Gpu {
         let writes: Vec<_> = ready
             .iter()
             .zip(&infos)
-            .map(|((w, _), info)| {
+            .map(|((w, _, _), info)| {
                 vk::WriteDescriptorSet::default()
                     .dst_set(w.set)
                     .dst_binding(w.binding)
@@ -115,10 +156,10 @@ impl Gpu {
                     .image_info(info)
             })
             .collect();
-        // SAFETY: the sets belong to live pools (a dropped layout forgot its writes), the
-        // samplers to the passes that own those sets, the views to images just made; no set
-        // has been used by the GPU yet, since its bindings were incomplete until now.
+        // SAFETY: the sets belong to live pools (a dropped layout forgot its writes); the
+        // samplers live and the sets are unused by the GPU (the caller's obligations above);
+        // the views are of images made and still alive (upgraded above).
         unsafe { self.raw().update_descriptor_sets(&writes, &[]) };
-        Ok(())
+        first_error.map_or(Ok(()), Err)
     }
 }
