@@ -17,7 +17,7 @@
 //! ([`Shaders`]).
 
 use super::access::Access;
-use super::cmd::{Cmd, Resource};
+use super::cmd::{Attachment, Cmd, Resource};
 use super::image::Image;
 use super::pipeline::{BindingKind, Write};
 use super::resources::{Buffer, Sampler};
@@ -140,5 +140,14 @@ impl Cmd<'_> {
     pub fn uses(&self, shaders: Shaders, uses: &[Use]) {
         let accesses: Vec<_> = uses.iter().filter_map(|u| u.access(shaders)).collect();
         self.barriers(&accesses);
+    }
+
+    /// Begins a raster pass that uses `uses` and draws into `colors` (+ `depth`): the barriers
+    /// for both in one batch, then dynamic rendering ([`Cmd::begin_rendering`]).
+    pub fn begin_pass(&self, uses: &[Use], colors: &[Attachment], depth: Option<&Attachment>) {
+        let accesses: Vec<_> = (uses.iter())
+            .filter_map(|u| u.access(Shaders::Graphics))
+            .collect();
+        self.begin_rendering_after(&accesses, colors, depth);
     }
 }

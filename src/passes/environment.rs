@@ -21,7 +21,7 @@ use super::eye_gbuffer::{draw_instances, material_texture_sets};
 use crate::gpu::scene::{Draw, GpuScene};
 use crate::gpu::{
     uses, vk, Attachment, Binding, Blend, Buffer, Cmd, Depth, DescriptorLayout, DescriptorSet,
-    Filter, Gpu, GraphicsDesc, Image, ImageDesc, Load, Pipeline, Sampler, Shaders, Use, ViewKind,
+    Filter, Gpu, GraphicsDesc, Image, ImageDesc, Load, Pipeline, Sampler, Use, ViewKind,
 };
 use crate::layout::{DrawPush, FrameUniforms, Vertex};
 use crate::photon::bsdf::BsdfVariant;
@@ -246,9 +246,11 @@ impl EnvironmentPass {
         let uses: Vec<Use> = (self.faces.iter())
             .flat_map(|face| Self::uses(face, inputs, &self.shadow))
             .collect();
-        cmd.uses(Shaders::Graphics, &uses);
         for (face, set) in self.face_sets.iter().enumerate() {
-            cmd.begin_rendering(
+            // The uses wait with the first face's attachments.
+            let uses = if face == 0 { &uses[..] } else { &[] };
+            cmd.begin_pass(
+                uses,
                 &[Attachment {
                     image: &self.cube,
                     layer: face as u32,

@@ -37,8 +37,8 @@
 use super::eye_gbuffer::{GBuffer, DEPTH};
 use crate::gpu::{
     uses, vk, Access, Attachment, Binding, Blend, Buffer, Cmd, Depth, DescriptorLayout,
-    DescriptorSet, Filter, Gpu, GraphicsDesc, Image, ImageDesc, Load, Pipeline, Sampler, Shaders,
-    Use, VertexAttribute, ViewKind,
+    DescriptorSet, Filter, Gpu, GraphicsDesc, Image, ImageDesc, Load, Pipeline, Sampler, Use,
+    VertexAttribute, ViewKind,
 };
 use crate::layout::shared_constants::{BILLBOARD_INSIDE, BILLBOARD_MARGIN};
 use crate::photon::bsdf::BsdfVariant;
@@ -334,7 +334,6 @@ impl PhotonVolumesPass {
             .filter(|(_, &count)| count > 0)
             .flat_map(|((photons, _), _)| Self::uses(inputs, photons, &self.sampler))
             .collect();
-        cmd.uses(Shaders::Graphics, &uses);
         let colors: Vec<Attachment> = (targets.iter().enumerate())
             .map(|(i, &image)| Attachment {
                 image,
@@ -350,7 +349,7 @@ impl PhotonVolumesPass {
             layer: 0,
             load: Load::Keep,
         };
-        cmd.begin_rendering(&colors, (self.subsample == 1).then_some(&depth));
+        cmd.begin_pass(&uses, &colors, (self.subsample == 1).then_some(&depth));
         for ((_, &set), &count) in drawn() {
             if count == 0 {
                 continue;

@@ -11,7 +11,7 @@ use super::eye_gbuffer::{draw_instances, material_texture_sets};
 use crate::gpu::scene::{Draw, GpuScene};
 use crate::gpu::{
     uses, vk, Attachment, Binding, Blend, Buffer, Cmd, Depth, DescriptorLayout, DescriptorSet,
-    Filter, Gpu, GraphicsDesc, Image, Load, Pipeline, Sampler, Shaders, Use,
+    Filter, Gpu, GraphicsDesc, Image, Load, Pipeline, Sampler, Use,
 };
 use crate::layout::{DrawPush, Vertex};
 use crate::photon::bsdf::BsdfVariant;
@@ -141,8 +141,8 @@ impl TranslucentPass {
     ) {
         let _scope = cmd.scope(PassId::Translucent.name());
         let uses = Self::uses(inputs, (&self.shadow, &self.linear));
-        cmd.uses(Shaders::Graphics, &uses);
-        cmd.begin_rendering(
+        cmd.begin_pass(
+            &uses,
             &[Attachment {
                 image: radiance,
                 layer: 0,

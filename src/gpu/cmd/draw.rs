@@ -10,15 +10,27 @@ impl Cmd<'_> {
     /// Begins dynamic rendering into `colors` (+ `depth`), with viewport and scissor set to the
     /// full extent of the first attachment. Transitions the attachments first.
     pub fn begin_rendering(&self, colors: &[Attachment], depth: Option<&Attachment>) {
+        self.begin_rendering_after(&[], colors, depth);
+    }
+
+    /// [`Self::begin_rendering`], with the accesses `before` (a raster pass's declared uses:
+    /// [`Cmd::begin_pass`]) in the same batch of barriers as the attachments'.
+    pub fn begin_rendering_after(
+        &self,
+        before: &[(Resource, Access)],
+        colors: &[Attachment],
+        depth: Option<&Attachment>,
+    ) {
         let extent = colors
             .first()
             .or(depth)
             .map(|a| a.image.extent())
             .unwrap_or_default();
         // Read-write: a blending pipeline reads the attachment even after a clear.
-        let uses: Vec<_> = colors
-            .iter()
-            .map(|c| (Resource::Image(c.image), Access::ColorAttachmentBlend))
+        let uses: Vec<_> = (before.iter().copied())
+            .chain(
+                (colors.iter()).map(|c| (Resource::Image(c.image), Access::ColorAttachmentBlend)),
+            )
             .chain(depth.map(|d| (Resource::Image(d.image), Access::DepthAttachmentWrite)))
             .collect();
         self.barriers(&uses);
