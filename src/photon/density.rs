@@ -52,15 +52,16 @@
 //! [`knn_radii`] queries the points in the tree's own order, in runs of [`QUERY_RUN`] on every
 //! core (rayon). Consecutive points are near each other, and the last query's answer bounds the
 //! next one's: its k + 1 points lie within `d + |p − q|` of the new point `p`. So a query
-//! collects the squared distances below that bound (about k·(1 + |p − q|/d)² of them) and selects
-//! the (k + 1)-th (`select_nth_unstable_by_key`, on the distances' bits) instead of keeping a
-//! heap. The density changes little from one point to the next, so it first tries the tighter
-//! `d + 0.2·|p − q|` (`GUESS` in `queries.rs`): fewer points to collect and select from, enough
-//! for 93 % of the queries on a 100k-photon map, the rest searched again with the safe bound
-//! (with the selection on bits, 1.5× less time than the safe bound alone: 249 → 166 ms on one
-//! thread, `benches/host_estimate.rs`). A query whose bound holds too few points (rounding) or
-//! too many for the buffer, and the first of a run, search with a max-heap of the k + 1 best
-//! instead. A bound that holds at least k + 1
+//! collects the squared distances below a bound and selects the (k + 1)-th
+//! (`select_nth_unstable_by_key`, on the distances' bits) instead of keeping a heap. The density
+//! changes little from one point to the next, so it first tries the tighter `d + 0.2·|p − q|`
+//! (`GUESS` in `queries.rs`): fewer points to collect and select from, enough for 93 % of the
+//! queries on a 100k-photon map; the rest are searched again with the safe `d + |p − q|`
+//! (about k·(1 + |p − q|/d)² points). `benches/host_estimate.rs`, one thread: the guess 233 →
+//! 165 ms (1.41×, `queries.rs`), the guess and the selection on bits together 249 → 166 ms
+//! (1.5×, against the safe bound with `total_cmp`). A bound that overflows the buffer goes
+//! straight to a max-heap of the k + 1 best, as do a bound that holds too few points
+//! (rounding) and the first query of a run. A bound that holds at least k + 1
 //! points holds the k + 1 nearest, so every path finds the exact k-th distance, and the result
 //! does not depend on the number of threads. (On 200k points on the faces of a cube, k = 64, 2
 //! cores: a heap per query and the split plane's distance as the bound took about 600 ms; the

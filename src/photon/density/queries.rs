@@ -10,8 +10,9 @@ use rayon::prelude::*;
 /// The fraction of the step from the last query that a bounded query first adds to the last
 /// query's radius (module docs of [`crate::photon::density`], "The k-d tree"). On
 /// `benches/host_estimate.rs`'s 100k-photon map (131 723 global photons, k = 64, one thread,
-/// 2026-11-27): 0 misses for 50 % of the queries, 0.1 for 20 %, 0.2 for 7 %, 0.3 for 2.7 %, 0.5
-/// for 0.7 %; 0.2 took the least time, 165 ms against 233 ms with the safe bound alone (1.0).
+/// 2026-11-27), the share of queries whose guess holds too few points: 50 % with a guess of 0,
+/// 20 % with 0.1, 7 % with 0.2, 2.7 % with 0.3, 0.7 % with 0.5; 0.2 took the least time, 165 ms
+/// against 233 ms with the safe bound alone (1.0).
 const GUESS: f32 = 0.2;
 
 /// The most squared distances a bounded query collects before it falls back to a heap.
@@ -186,21 +187,48 @@ impl Collect for Within {
 
 /// The kNN radius of every point of one class (module docs, "Radius"), in tree order.
 pub(super) fn class_radii(tree: &KdTree, k: usize) -> Vec<f32> {
+    class_radii_by_path(tree, k).0
+}
+
+/// How many queries each search answered: the guessed bound, the safe bound, the heap.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(super) struct Paths {
+    pub guess: usize,
+    pub safe: usize,
+    pub heap: usize,
+}
+
+impl std::ops::Add for Paths {
+    type Output = Paths;
+    fn add(self, o: Paths) -> Paths {
+        Paths {
+            guess: self.guess + o.guess,
+            safe: self.safe + o.safe,
+            heap: self.heap + o.heap,
+        }
+    }
+}
+
+/// [`class_radii`], and which search answered how many queries (tests).
+pub(super) fn class_radii_by_path(tree: &KdTree, k: usize) -> (Vec<f32>, Paths) {
     // The point itself is its own nearest: its k + 1 nearest hold k neighbours.
     let k = k.clamp(1, MAX_K - 1);
     let mut out = vec![0.0; tree.len()];
-    out.par_chunks_mut(QUERY_RUN)
+    let paths = out
+        .par_chunks_mut(QUERY_RUN)
         .zip(tree.points().par_chunks(QUERY_RUN))
-        .for_each(|(out, points)| run_radii(tree, k, points, out));
-    out
+        .map(|(out, points)| run_radii(tree, k, points, out))
+        .reduce(Paths::default, |a, b| a + b);
+    (out, paths)
 }
 
 /// The kNN radii of a run of `points` (consecutive in tree order) into `out`, each query bounded
-/// by the last one's answer (module docs, "The k-d tree").
-fn run_radii(tree: &KdTree, k: usize, points: &[Vec3], out: &mut [f32]) {
+/// by the last one's answer (module docs, "The k-d tree"), and which search answered each.
+fn run_radii(tree: &KdTree, k: usize, points: &[Vec3], out: &mut [f32]) -> Paths {
     let wanted = (k + 1).min(tree.len());
     let mut within = Within::new();
     let mut last: Option<(Vec3, f32)> = None;
+    let mut paths = Paths::default();
     for (r, &p) in out.iter_mut().zip(points) {
         // The last query's `wanted` points lie within d + |p − q| of p; the density changes
         // little from one point to the next, so first try d + GUESS·|p − q|, which holds
@@ -211,10 +239,15 @@ fn run_radii(tree: &KdTree, k: usize, points: &[Vec3], out: &mut [f32]) {
             // At the same point the guess is the safe bound: one search.
             let alphas: &[f32] = if step > 0.0 { &[GUESS, 1.0] } else { &[1.0] };
             for &alpha in alphas {
-                let bound = (d + alpha * step) * (1.0 + 1e-5) + 1e-30;
-                within.reset(bound * bound);
+                let bound = (d + alpha * step) * (1.0 + 1e-5);
+                // Above 0 even at d = 0 (duplicates): points at distance 0 are below it.
+                within.reset((bound * bound).max(f32::MIN_POSITIVE));
                 tree.search(p, &mut within);
                 if let Some(d2) = within.nth(wanted) {
+                    match alpha == GUESS {
+                        true => paths.guess += 1,
+                        false => paths.safe += 1,
+                    }
                     return Some(d2);
                 }
                 if within.overflow {
@@ -226,6 +259,7 @@ fn run_radii(tree: &KdTree, k: usize, points: &[Vec3], out: &mut [f32]) {
         });
         let (d2, found) = bounded.map_or_else(
             || {
+                paths.heap += 1;
                 let mut nearest = Nearest::new(wanted);
                 tree.search(p, &mut nearest);
                 (nearest.kth(), nearest.len)
@@ -243,4 +277,5 @@ fn run_radii(tree: &KdTree, k: usize, points: &[Vec3], out: &mut [f32]) {
             d
         };
     }
+    paths
 }

@@ -102,12 +102,9 @@ fn brute_force_radii(photons: &[Photon], neighbours: Neighbours) -> Vec<f32> {
         .collect()
 }
 
-#[test]
-fn every_radius_equals_brute_force_whichever_search_finds_it() {
-    // Runs of queries bounded by the last one's answer (its tighter guess first, the safe
-    // bound where the guess holds too few), heap searches where the bound is
-    // too tight (duplicates: d = 0) or holds more than the buffer (a tight cluster of 1500
-    // photons next to sparse ones), both classes mixed.
+/// A tight cluster of 1500 photons next to 1500 sparse ones (a third of them caustic), with
+/// 30 duplicated sparse positions.
+fn clustered_photons() -> Vec<Photon> {
     let mut rng = Rng::new(21);
     let mut photons = Vec::new();
     for i in 0..1500 {
@@ -120,6 +117,16 @@ fn every_radius_equals_brute_force_whichever_search_finds_it() {
             photons.push(photon_at(sparse, 1e-4));
         }
     }
+    photons
+}
+
+#[test]
+fn every_radius_equals_brute_force_whichever_search_finds_it() {
+    // Runs of queries bounded by the last one's answer (its tighter guess first, the safe
+    // bound where the guess holds too few), heap searches where the bound holds more than
+    // the buffer (the cluster beside sparse photons), duplicates (d = 0), both classes mixed
+    // (`each_search_answers_some_queries` checks that every path runs).
+    let photons = clustered_photons();
     for (caustic, global) in [(1, 1), (5, 8), (32, 64), (200, 255)] {
         let neighbours = Neighbours { caustic, global };
         assert_eq!(
@@ -127,6 +134,22 @@ fn every_radius_equals_brute_force_whichever_search_finds_it() {
             brute_force_radii(&photons, neighbours),
             "k = {neighbours:?}"
         );
+    }
+}
+
+#[test]
+fn each_search_answers_some_queries() {
+    // The photons of the brute-force test above, as one class: the guessed bound, the safe
+    // bound and the heap each answer some of its queries, so that test covers all three.
+    let positions: Vec<Vec3> = clustered_photons().iter().map(|p| p.position).collect();
+    let tree = KdTree::new(&positions);
+    for k in [8, 64] {
+        let (_, paths) = queries::class_radii_by_path(&tree, k);
+        assert!(
+            paths.guess > 0 && paths.safe > 0 && paths.heap > 0,
+            "k = {k}: {paths:?}"
+        );
+        assert_eq!(paths.guess + paths.safe + paths.heap, positions.len());
     }
 }
 
