@@ -65,21 +65,6 @@ mod setup;
 
 use buffers::{BounceBuffers, PhotonBuffers};
 
-/// Photons `range` of `traced`'s photon map as the GPU draws it: light after light, each normal
-/// packed with its kNN radius from `radii` (photon-map order), `offset` added to each position.
-fn drawn_photons<'a>(
-    traced: &'a Traced,
-    radii: &'a [f32],
-    offset: glam::Vec3,
-    range: std::ops::Range<usize>,
-) -> impl Iterator<Item = Photon> + 'a {
-    debug_assert_eq!(traced.photon_count(), radii.len());
-    let end = range.end.min(radii.len());
-    (traced.photons().skip(range.start))
-        .zip(&radii[range.start.min(end)..end])
-        .map(move |(p, &r)| drawn(p, r, offset))
-}
-
 /// A stored photon as the GPU draws it: its normal packed with its kNN radius `r`, `offset`
 /// added to its position.
 fn drawn(p: &Photon, r: f32, offset: glam::Vec3) -> Photon {
@@ -165,8 +150,9 @@ pub struct PhotonFrame {
     tile_stats: Option<crate::passes::photon_tiles::TileStats>,
     /// Caustic photons (`photon::density::PhotonClass`) in the last traced photon map.
     caustic_photons: usize,
-    /// The photon map as uploaded (normals packed with the radii): a second copy of the map on
-    /// the host, kept to reuse its memory (as large as the largest map so far).
+    /// The photon map as uploaded: light after light, normals packed with the radii
+    /// ([`drawn`]). What the tiled estimator bins and [`Self::photon_map`] gives; rebuilt by
+    /// every trace (empty until one succeeds), its memory reused.
     packed: Vec<Photon>,
 }
 
@@ -380,13 +366,13 @@ impl PhotonFrame {
     /// `origin − eye`, in f32), and normals packed with the photons' kNN radii, as uploaded
     /// (`photon::types::pack_normal`; [`Self::kernel`] turns a radius into the kernel's).
     pub fn photon_map(&self) -> Vec<Photon> {
-        drawn_photons(
-            &self.traced,
-            &self.radii,
-            self.eye_offset(),
-            0..self.radii.len(),
-        )
-        .collect()
+        let offset = self.eye_offset();
+        (self.packed.iter())
+            .map(|p| Photon {
+                position: p.position + offset,
+                ..*p
+            })
+            .collect()
     }
 
     /// Light `light`'s share of the last photon map: its photons (positions relative to the

@@ -23,8 +23,7 @@
 //! `EffectsPlan::fine_photons`), a frame without
 //! caustic photons skips it, and `--subsample-caustics` turns the split off for comparison.
 
-use super::retrace::Traced;
-use super::{drawn_photons, estimate_targets, fine_split, Estimator, PhotonFrame};
+use super::{estimate_targets, fine_split, Estimator, PhotonFrame};
 use crate::gpu::{Access, Buffer, Cmd, Image, Resource};
 use crate::passes::debug_view::PhotonSources;
 use crate::passes::eye_gbuffer::GBuffer;
@@ -38,11 +37,11 @@ use crate::photon::kernel::{KernelSettings, Share};
 use crate::photon::types::{unpack_direction, unpack_normal, BounceMapPhoton, Photon};
 use crate::timing;
 
-/// The photon map as the estimators draw it: the host's copy the tiled estimator bins, the
-/// photons in each photon buffer, and the threads binning may use.
+/// The photon map as the estimators draw it: the host's copy the tiled estimator bins (as
+/// uploaded, [`PhotonFrame::packed`]), the photons in each photon buffer, and the threads
+/// binning may use.
 struct Drawn<'a> {
-    traced: &'a Traced,
-    radii: &'a [f32],
+    photons: &'a [Photon],
     counts: &'a [u32],
     threads: usize,
 }
@@ -94,8 +93,9 @@ impl Estimator {
                 let lists = timing::timed(tiles::SPAN, || {
                     tiles::bin(
                         |range| {
-                            drawn_photons(map.traced, map.radii, glam::Vec3::ZERO, range)
-                                .map(of_share)
+                            let end = range.end.min(map.photons.len());
+                            let photons = &map.photons[range.start.min(end)..end];
+                            photons.iter().copied().map(of_share)
                         },
                         map.counts,
                         (kernel, offset),
@@ -188,8 +188,7 @@ impl PhotonFrame {
         let offset = self.eye_offset();
         let (size, subsample) = self.screen_size;
         let map = Drawn {
-            traced: &self.traced,
-            radii: &self.radii,
+            photons: &self.packed,
             counts: &self.buffers.counts,
             // The tiled estimator bins on every core where the device has its own (module
             // docs of `tiles`).

@@ -27,6 +27,8 @@ impl PhotonFrame {
             lights_at_max_resolution: plan.lights_at_max_resolution.clone(),
             ..Default::default()
         };
+        // Empty until this trace has packed its map: never an older map's photons.
+        self.packed.clear();
         if plan.texels == 0 {
             self.buffers.counts.fill(0);
             self.traced.clear();
@@ -73,7 +75,6 @@ impl PhotonFrame {
         // with their radii (on every core, in order), then copied to the staging buffers.
         let (traced, radii, packed) = (&self.traced, &self.radii, &mut self.packed);
         timing::timed("upload write", || {
-            packed.clear();
             let mut start = 0;
             for light in traced.light_photons() {
                 let own = &radii[start..start + light.len()];
@@ -82,6 +83,7 @@ impl PhotonFrame {
                 );
                 start += light.len();
             }
+            debug_assert_eq!(start, radii.len());
             self.buffers.write([packed.as_slice()])
         })?;
         stats.photon_buffers = self.buffers.counts.iter().filter(|&&n| n > 0).count();
