@@ -10,6 +10,7 @@ set -euo pipefail
 baseline=""
 if [ -n "${BASELINE:-}" ]; then
   baseline=$(mktemp)
+  trap 'rm -f "$baseline"' EXIT # a failed build leaves no copy behind (moved when it succeeds)
   cp "$(realpath "$BASELINE")" "$baseline"
 fi
 cd "$(dirname "$0")/../.."
