@@ -1,7 +1,7 @@
 //! Image usage derived from the passes' declared uses (`src/gpu/image.rs`): a planned image is
 //! made with its maker's own usage and every use the passes declared before
 //! `Gpu::make_planned`, its descriptor bindings written once it is made; a use declared too
-//! late, or an image nobody uses, is reported by name.
+//! late, or an image nobody uses, is reported by name; each thread makes its own plan.
 
 mod common;
 
@@ -30,6 +30,14 @@ fn desc(name: &str, format: vk::Format, usage: U) -> ImageDesc<'_> {
 const HDR: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 const LDR: vk::Format = vk::Format::R8G8B8A8_UNORM;
 
+/// A planned HDR image the tonemapping reads (copied into) and an LDR one it writes (read
+/// back): `{name}.hdr`, `{name}.ldr`.
+fn planned_pair(gpu: &Arc<Gpu>, name: &str) -> (Image, Image) {
+    let hdr = Image::planned(gpu, &desc(&format!("{name}.hdr"), HDR, U::TRANSFER_DST));
+    let ldr = Image::planned(gpu, &desc(&format!("{name}.ldr"), LDR, U::TRANSFER_SRC));
+    (hdr, ldr)
+}
+
 /// Fills `hdr` with a ramp, tonemaps it into `ldr` with `pass` and reads `ldr` back.
 fn tonemap(gpu: &Arc<Gpu>, pass: &TonemapPass, hdr: &Image, ldr: &mut Image) -> Vec<u8> {
     let texels: Vec<f32> = (0..8 * 4 * 4).map(|i| i as f32 / 64.0).collect();
@@ -55,8 +63,7 @@ fn tonemap(gpu: &Arc<Gpu>, pass: &TonemapPass, hdr: &Image, ldr: &mut Image) -> 
 fn planned_images_get_their_makers_usage_and_the_uses_their_passes_declare() {
     let gpu = gpu();
     // The makers' own uses: copied into, read back.
-    let hdr = Image::planned(&gpu, &desc("planned.hdr", HDR, U::TRANSFER_DST));
-    let mut ldr = Image::planned(&gpu, &desc("planned.ldr", LDR, U::TRANSFER_SRC));
+    let (hdr, mut ldr) = planned_pair(&gpu, "planned");
     let pass = TonemapPass::new(&gpu, &hdr, &ldr).expect("pass");
     assert!(!hdr.is_made() && !ldr.is_made());
     // The pass's declared uses (Sampled(hdr), Storage(ldr)) are in the usage already.
@@ -88,8 +95,7 @@ fn planned_images_get_their_makers_usage_and_the_uses_their_passes_declare() {
 #[should_panic(expected = "late.hdr is used as SampledImage but was made without SAMPLED")]
 fn a_use_declared_after_its_image_is_made_names_the_image_and_the_use() {
     let gpu = gpu();
-    let hdr = Image::planned(&gpu, &desc("late.hdr", HDR, U::TRANSFER_DST));
-    let ldr = Image::planned(&gpu, &desc("late.ldr", LDR, U::TRANSFER_SRC));
+    let (hdr, ldr) = planned_pair(&gpu, "late");
     gpu.make_planned().expect("made");
     let _ = TonemapPass::new(&gpu, &hdr, &ldr);
 }
@@ -97,8 +103,7 @@ fn a_use_declared_after_its_image_is_made_names_the_image_and_the_use() {
 #[test]
 fn a_pass_dropped_before_its_images_are_made_leaves_no_write_behind() {
     let gpu = gpu();
-    let hdr = Image::planned(&gpu, &desc("dropped.hdr", HDR, U::TRANSFER_DST));
-    let ldr = Image::planned(&gpu, &desc("dropped.ldr", LDR, U::TRANSFER_SRC));
+    let (hdr, ldr) = planned_pair(&gpu, "dropped");
     // Its set's bindings of the two images wait; the pass (and its descriptor pool) goes first,
     // taking its waiting writes with it.
     let pass = TonemapPass::new(&gpu, &hdr, &ldr).expect("pass");
@@ -123,11 +128,41 @@ fn a_command_using_an_image_in_a_way_it_was_not_made_for_names_the_image() {
 }
 
 #[test]
-fn a_planned_image_no_pass_uses_is_an_error_naming_it() {
+fn a_planned_image_no_pass_uses_is_an_error_naming_it_and_the_others_are_made() {
     let gpu = gpu();
-    let _unused = Image::planned(&gpu, &desc("nobody.uses.me", HDR, U::empty()));
+    let unused = Image::planned(&gpu, &desc("nobody.uses.me", HDR, U::empty()));
+    let (hdr, ldr) = planned_pair(&gpu, "beside");
+    let _pass = TonemapPass::new(&gpu, &hdr, &ldr).expect("pass");
     let error = gpu.make_planned().expect_err("nothing to make it for");
     assert!(error.to_string().contains("nobody.uses.me"), "{error}");
+    // The others are made and their bindings written; the unused one stays planned, and is
+    // made once something declares a use of it.
+    assert!(hdr.is_made() && ldr.is_made() && !unused.is_made());
+    assert_eq!(gpu.waiting_descriptor_writes(), 0);
+    unused.require(U::SAMPLED, "a late reader");
+    gpu.make_planned().expect("made now");
+    assert!(unused.is_made());
+    gpu.wait_idle().expect("idle");
+    assert_validation_clean(&gpu);
+}
+
+#[test]
+fn each_thread_makes_only_the_images_it_planned() {
+    let gpu = gpu();
+    let (hdr, ldr) = planned_pair(&gpu, "mine");
+    let _pass = TonemapPass::new(&gpu, &hdr, &ldr).expect("pass");
+    // Another thread (another renderer being made on the same device) makes its own plan only:
+    // these images' passes may not have declared every use yet.
+    std::thread::scope(|s| {
+        s.spawn(|| gpu.make_planned().expect("nothing of its own"));
+    });
+    assert!(!hdr.is_made() && !ldr.is_made());
+    assert_eq!(gpu.waiting_descriptor_writes(), 2);
+    gpu.make_planned().expect("made");
+    assert!(hdr.is_made() && ldr.is_made());
+    assert_eq!(gpu.waiting_descriptor_writes(), 0);
+    gpu.wait_idle().expect("idle");
+    assert_validation_clean(&gpu);
 }
 
 #[test]
