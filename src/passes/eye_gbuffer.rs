@@ -36,10 +36,14 @@ pub struct GBuffer {
 }
 
 impl GBuffer {
+    /// The colour images: position, normal, albedo, material.
+    pub fn colours(&self) -> [&Image; 4] {
+        [&self.position, &self.normal, &self.albedo, &self.material]
+    }
+
     /// A G-buffer of `layers` layers (one per view), named `name.position` etc., sampled as
     /// `view` (light G-buffers are always arrays, even of one layer). Planned: the passes that
-    /// read it add their uses (`gpu/image.rs`); its own are the attachments it is drawn into,
-    /// and the colour images are read back (`Renderer::read_gbuffer`).
+    /// read it add their uses (`gpu/image.rs`); its own are the attachments it is drawn into.
     pub fn new(
         gpu: &Arc<Gpu>,
         name: &str,
@@ -48,7 +52,7 @@ impl GBuffer {
         layers: u32,
         view: ViewKind,
     ) -> GBuffer {
-        let color = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
+        let color = vk::ImageUsageFlags::COLOR_ATTACHMENT;
         let image = |part: &str, format, usage| {
             Image::planned(
                 gpu,
@@ -175,12 +179,7 @@ impl GBufferPass {
             load: Load::Clear([0.0; 4]),
         };
         cmd.begin_rendering(
-            &[
-                clear(&gbuffer.position),
-                clear(&gbuffer.normal),
-                clear(&gbuffer.albedo),
-                clear(&gbuffer.material),
-            ],
+            &gbuffer.colours().map(clear),
             Some(&Attachment {
                 image: &gbuffer.depth,
                 layer: view.layer,

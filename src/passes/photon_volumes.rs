@@ -122,11 +122,11 @@ pub fn low_targets(gpu: &Arc<Gpu>, width: u32, height: u32) -> [Image; 2] {
 /// `--subsample N > 1`, beside the [`low_targets`], at their size), for the support
 /// normalisation (`passes/support.rs`): `[global, weight]`, global's RGB what the global photons
 /// alone added and its alpha their `Σ κ·r`, weight's R their `Σ κ` (and at low resolution its
-/// GBA their share of the glossy target). Read back: the tests read the measured fraction.
+/// GBA their share of the glossy target).
 pub fn support_targets(gpu: &Arc<Gpu>, width: u32, height: u32) -> [Image; 2] {
-    let read_back = vk::ImageUsageFlags::TRANSFER_SRC;
+    let none = vk::ImageUsageFlags::empty();
     ["indirect.global", "indirect.global_weight"]
-        .map(|name| planned(gpu, name, (width, height), read_back))
+        .map(|name| planned(gpu, name, (width, height), none))
 }
 
 fn planned(

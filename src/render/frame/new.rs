@@ -101,6 +101,10 @@ impl Renderer {
             1,
             ViewKind::D2,
         );
+        for image in gbuffer.colours() {
+            // Read back by `read_gbuffer` (tests).
+            image.require(vk::ImageUsageFlags::TRANSFER_SRC, "a read-back");
+        }
         let shadow_atlas =
             shadow_map::atlas(gpu, settings.shadow_resolution, setup.views.len() as u32);
         // Planned, as are the G-buffer, the shadow atlas and the other images the passes

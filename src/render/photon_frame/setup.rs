@@ -232,6 +232,8 @@ impl PhotonFrame {
         };
         let support = if subsample == 1 {
             let images = photon_volumes::support_targets(gpu, width, height);
+            // Read back by `read_support_fraction` (tests).
+            images[1].require(vk::ImageUsageFlags::TRANSFER_SRC, "a read-back");
             let pass = SupportPass::new(gpu, (frame, gbuffer), (&indirect, None), &images)?;
             Some((images, pass))
         } else {
