@@ -135,3 +135,24 @@ fn environment_cube(bencher: Bencher, emitted: usize) {
     let gather = GatherMap::with_knn_radii(photon_map, &radii, &kernel, centre);
     bencher.bench(|| indirect_cube(&SCENE, &bvh, &gather, centre, kernel.gather_exponent_max()));
 }
+
+/// The same in the bundled `caustic-ring` (the metal ring's cube, centred in the ring 0.1 m
+/// above the floor), whose kNN radii span two orders of magnitude: the ring's focused caustic
+/// beside the sparse light it scatters over the floor.
+#[divan::bench(args = [10_000, PHOTONS], sample_count = 10)]
+fn environment_cube_caustic_ring(bencher: Bencher, emitted: usize) {
+    let scene = ispm::scene::bundled::resolve(Some("caustic-ring")).expect("bundled scene");
+    let bvh = SceneBvh::new(&scene);
+    let settings = TraceSettings {
+        max_bounces: 16,
+        seed: 3,
+        variant: BsdfVariant::ALL,
+        store_on: StoreOn::FiniteLobes,
+    };
+    let map = trace_from_lights(&scene, &bvh, &emit_photons(&scene, emitted, 1), &settings);
+    let radii = knn_radii(map.photons.iter(), Neighbours::for_photons(emitted));
+    let kernel = KernelSettings::scene_relative(&scene.bounds(), emitted, None);
+    let centre = glam::Vec3::new(0.0, 0.1, 0.0);
+    let gather = GatherMap::with_knn_radii(map, &radii, &kernel, centre);
+    bencher.bench(|| indirect_cube(&scene, &bvh, &gather, centre, kernel.gather_exponent_max()));
+}

@@ -145,6 +145,32 @@ struct Oriented {
     eta: f32,
 }
 
+/// A BSDF with its outgoing direction fixed ([`Bsdf::towards`]).
+pub struct Towards<'a> {
+    bsdf: &'a Bsdf,
+    o: Oriented,
+    c: [Vec3; 4],
+    c_mean: [f32; 4],
+}
+
+impl Towards<'_> {
+    /// [`Bsdf::eval`] at this `wo` and normals, the same bits.
+    pub fn eval(&self, wi: Vec3) -> Vec3 {
+        let f = (|| {
+            let wi = unit(wi)?;
+            let cos_i = Bsdf::reflected_cos(&self.o, wi)?;
+            Some(
+                self.bsdf
+                    .eval_and_pdf_oriented(&self.o, &self.c, &self.c_mean, wi, cos_i)
+                    .0,
+            )
+        })()
+        .unwrap_or(Vec3::ZERO);
+        debug_assert!(f.is_finite() && f.min_element() >= 0.0, "eval = {f}");
+        f
+    }
+}
+
 fn mean(v: Vec3) -> f32 {
     (v.x + v.y + v.z) * (1.0 / 3.0)
 }
@@ -378,19 +404,22 @@ impl Bsdf {
 
     /// f(wo, wi) of the non-delta lobes (Lambertian + glossy), without the cosine.
     pub fn eval(&self, wo: Vec3, wi: Vec3, n_s: Vec3, n_g: Vec3) -> Vec3 {
-        let f = (|| {
-            let o = self.orient(wo, n_s, n_g)?;
-            let wi = unit(wi)?;
-            let cos_i = Self::reflected_cos(&o, wi)?;
-            let c = self.lobe_reflectances(&o);
-            Some(
-                self.eval_and_pdf_oriented(&o, &c, &c.map(mean), wi, cos_i)
-                    .0,
-            )
-        })()
-        .unwrap_or(Vec3::ZERO);
-        debug_assert!(f.is_finite() && f.min_element() >= 0.0, "eval = {f}");
-        f
+        self.towards(wo, n_s, n_g)
+            .map_or(Vec3::ZERO, |towards| towards.eval(wi))
+    }
+
+    /// [`Bsdf::eval`] for one `wo` and many `wi` (a photon gather): what depends only on `wo`
+    /// and the normals (the orientation, the lobes' weights) once. `None` where `eval` is 0 for
+    /// every `wi` (a degenerate `wo` or normal).
+    pub fn towards(&self, wo: Vec3, n_s: Vec3, n_g: Vec3) -> Option<Towards<'_>> {
+        let o = self.orient(wo, n_s, n_g)?;
+        let c = self.lobe_reflectances(&o);
+        Some(Towards {
+            bsdf: self,
+            o,
+            c,
+            c_mean: c.map(mean),
+        })
     }
 
     /// Solid-angle pdf with which [`Bsdf::sample`] returns `wi` through a non-delta lobe,

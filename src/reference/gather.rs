@@ -62,22 +62,25 @@ impl GatherMap {
     }
 
     fn with_radii(map: PhotonMap, radii: Vec<(f32, f32)>) -> Self {
-        let cell = radii.iter().map(|r| r.0).fold(0.0f32, f32::max);
-        let grid = PhotonGrid::new(&map.photons, cell);
+        // The kernel is 0 outside the sphere of radius r_xy (`kernel_weight`).
+        let extents: Vec<f32> = radii.iter().map(|r| r.0).collect();
+        let grid = PhotonGrid::new(&map.photons, &extents);
         Self { map, radii, grid }
     }
 
     /// Indirect radiance reflected towards `wo` at `hit`: `Σ f·Φ·κ`.
     pub fn radiance(&self, hit: &Hit, bsdf: &Bsdf, wo: Vec3) -> Vec3 {
         let mut sum = Vec3::ZERO;
+        let Some(bsdf) = bsdf.towards(wo, hit.shading_normal, hit.geometric_normal) else {
+            return sum;
+        };
         self.grid.for_each_near(hit.position, |i| {
             let p = &self.map.photons[i];
             let (r_xy, r_z) = self.radii[i];
             let kappa = kernel_weight(p.position, p.normal, r_xy, r_z, hit.position);
             if kappa > 0.0 {
                 let (wi, _) = unpack_direction(p.direction);
-                let f = bsdf.eval(wo, wi, hit.shading_normal, hit.geometric_normal);
-                sum += f * p.power * kappa;
+                sum += bsdf.eval(wi) * p.power * kappa;
             }
         });
         sum

@@ -1,15 +1,42 @@
-//! A hashed uniform grid over stored photons for the gather: cell size = the largest kernel
-//! radius, so the photons whose kernels can cover a point lie in the 27 cells around it.
-//! Built by a counting sort (deterministic), queried without allocation per photon.
+//! Hashed uniform grids over stored photons for the gather, one per class of kernel radius, so
+//! that a query visits the photons whose kernels are about as large as the cells it looks in.
+//! Built by counting sorts (deterministic), queried without allocation per photon.
+//!
+//! ```text
+//!   class c holds the photons with radius in (R/2^(c+1), R/2^c]   (R: the largest radius;
+//!   cell of class c = R/2^c                                         the last class: all smaller)
+//!   a query at p visits, per class whose photons' box (grown by a cell) holds p, the 27 cells
+//!   around p, and of their photons those whose kernel sphere holds p
+//! ```
+//!
+//! One grid with the largest radius as its cell (what this was before) made every query look at
+//! every photon within 1.5 R: where kNN radii span two orders of magnitude (a focused caustic
+//! beside sparse global photons) a gather visited hundreds of photons for the tens whose kernels
+//! hold it (docs/performance.md, "Gathering by radius class").
 
 use crate::photon::types::Photon;
-use glam::{IVec3, Vec3};
+use glam::{IVec3, Vec3, Vec4};
+
+/// Most radius classes; photons smaller than R/2^(CLASSES − 1) share the last.
+const CLASSES: usize = 8;
 
 pub struct PhotonGrid {
+    classes: Vec<Class>,
+}
+
+/// The grid of one radius class.
+struct Class {
     cell: f32,
+    /// The class's photons' bounds, grown by one cell: a query outside skips the class.
+    lo: Vec3,
+    hi: Vec3,
     mask: u32,
-    /// `starts[b]..starts[b + 1]` indexes `order` for bucket b.
+    /// `starts[b]..starts[b + 1]` indexes `points` and `order` for bucket b.
     starts: Vec<u32>,
+    /// Position and squared radius of each photon, in bucket order (the sphere test reads only
+    /// these, contiguously).
+    points: Vec<Vec4>,
+    /// The photon index of each entry of `points`.
     order: Vec<u32>,
 }
 
@@ -20,19 +47,63 @@ fn bucket(c: IVec3, mask: u32) -> u32 {
     h & mask
 }
 
+/// The cell of class `class` (module docs).
+fn cell_size(largest: f32, class: usize) -> f32 {
+    largest / (1u32 << class) as f32
+}
+
+fn cell_of(p: Vec3, cell: f32) -> IVec3 {
+    (p / cell).floor().as_ivec3()
+}
+
 impl PhotonGrid {
-    /// `cell` must be ≥ every kernel radius that will be queried.
-    pub fn new(photons: &[Photon], cell: f32) -> Self {
-        let cell = if cell > 0.0 && cell.is_finite() {
-            cell
-        } else {
-            1.0
-        };
-        let size = photons.len().max(1).next_power_of_two() as u32;
-        let mask = size - 1;
-        let keys: Vec<u32> = photons
+    /// The grids of `photons` with kernel radii `radii` (a photon is visited where the sphere
+    /// of its radius holds the query point; radius 0 or not finite: never).
+    pub fn new(photons: &[Photon], radii: &[f32]) -> Self {
+        debug_assert_eq!(photons.len(), radii.len());
+        let usable = |r: f32| r > 0.0 && r.is_finite();
+        let largest = radii
             .iter()
-            .map(|p| bucket(Self::cell_of(p.position, cell), mask))
+            .copied()
+            .filter(|&r| usable(r))
+            .fold(0.0f32, f32::max);
+        let mut members: Vec<Vec<u32>> = vec![Vec::new(); CLASSES];
+        for (i, &r) in radii.iter().enumerate() {
+            if usable(r) {
+                // r ≤ largest, so the ratio is ≥ 1 and the class ≥ 0; the cell must hold r
+                // whatever log2 rounded.
+                let mut class = ((largest / r).log2().floor() as usize).min(CLASSES - 1);
+                while class > 0 && r > cell_size(largest, class) {
+                    class -= 1;
+                }
+                members[class].push(i as u32);
+            }
+        }
+        let classes = members
+            .iter()
+            .enumerate()
+            .filter(|(_, m)| !m.is_empty())
+            .map(|(c, m)| Class::new(photons, radii, m, cell_size(largest, c)))
+            .collect();
+        Self { classes }
+    }
+
+    /// Calls `visit(index)` once for every photon whose kernel sphere holds `p`
+    /// (`|p − position| < radius`), class after class.
+    pub fn for_each_near(&self, p: Vec3, mut visit: impl FnMut(usize)) {
+        for class in &self.classes {
+            class.for_each_near(p, &mut visit);
+        }
+    }
+}
+
+impl Class {
+    fn new(photons: &[Photon], radii: &[f32], members: &[u32], cell: f32) -> Self {
+        let size = members.len().next_power_of_two() as u32;
+        let mask = size - 1;
+        let keys: Vec<u32> = members
+            .iter()
+            .map(|&i| bucket(cell_of(photons[i as usize].position, cell), mask))
             .collect();
         let mut starts = vec![0u32; size as usize + 1];
         for &k in &keys {
@@ -42,27 +113,41 @@ impl PhotonGrid {
             starts[i + 1] += starts[i];
         }
         let mut fill = starts.clone();
-        let mut order = vec![0u32; photons.len()];
-        for (i, &k) in keys.iter().enumerate() {
-            order[fill[k as usize] as usize] = i as u32;
+        let mut order = vec![0u32; members.len()];
+        for (&i, &k) in members.iter().zip(&keys) {
+            order[fill[k as usize] as usize] = i;
             fill[k as usize] += 1;
         }
+        let points = order
+            .iter()
+            .map(|&i| {
+                let r = radii[i as usize];
+                photons[i as usize].position.extend(r * r)
+            })
+            .collect();
+        let (lo, hi) = members.iter().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), &i| {
+                let p = photons[i as usize].position;
+                (lo.min(p), hi.max(p))
+            },
+        );
         Self {
             cell,
+            lo: lo - cell,
+            hi: hi + cell,
             mask,
             starts,
+            points,
             order,
         }
     }
 
-    fn cell_of(p: Vec3, cell: f32) -> IVec3 {
-        (p / cell).floor().as_ivec3()
-    }
-
-    /// Calls `visit(index)` once for every photon in the 27 cells around `p` (and possibly
-    /// others that share their buckets: the caller's kernel test rejects those).
-    pub fn for_each_near(&self, p: Vec3, mut visit: impl FnMut(usize)) {
-        let c = Self::cell_of(p, self.cell);
+    fn for_each_near(&self, p: Vec3, visit: &mut impl FnMut(usize)) {
+        if p.cmplt(self.lo).any() || p.cmpgt(self.hi).any() {
+            return;
+        }
+        let c = cell_of(p, self.cell);
         let mut buckets = [0u32; 27];
         let mut n = 0;
         for dz in -1..=1 {
@@ -73,6 +158,7 @@ impl PhotonGrid {
                 }
             }
         }
+        // Neighbouring cells may share a bucket: each bucket once.
         buckets.sort_unstable();
         let mut last = None;
         for b in buckets {
@@ -80,9 +166,11 @@ impl PhotonGrid {
                 continue;
             }
             last = Some(b);
-            let (s, e) = (self.starts[b as usize], self.starts[b as usize + 1]);
-            for &i in &self.order[s as usize..e as usize] {
-                visit(i as usize);
+            let range = self.starts[b as usize] as usize..self.starts[b as usize + 1] as usize;
+            for (q, &i) in self.points[range.clone()].iter().zip(&self.order[range]) {
+                if (q.truncate() - p).length_squared() < q.w {
+                    visit(i as usize);
+                }
             }
         }
     }
@@ -93,28 +181,54 @@ mod tests {
     use super::*;
     use crate::photon::rng::Rng;
 
+    /// Radii over three orders of magnitude (every class, the last one's smaller ones too), a
+    /// zero and a NaN: each photon whose sphere holds the query is visited once, no other.
     #[test]
-    fn grid_visits_every_photon_within_the_cell_size_exactly_once() {
+    fn grid_visits_exactly_the_photons_whose_sphere_holds_the_point_once() {
         let mut rng = Rng::new(5);
-        let mut point = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 4.0 - 2.0;
+        let mut unit = move || rng.next_f32();
+        let point = |u: &mut dyn FnMut() -> f32| Vec3::new(u(), u(), u()) * 4.0 - 2.0;
         let photons: Vec<Photon> = (0..3000)
             .map(|_| Photon {
-                position: point(),
+                position: point(&mut unit),
                 ..Photon::default()
             })
             .collect();
-        let r = 0.3;
-        let grid = PhotonGrid::new(&photons, r);
-        for _ in 0..200 {
-            let q = point();
+        let mut radii: Vec<f32> = (0..photons.len())
+            .map(|_| 0.6 * 1000f32.powf(-unit()))
+            .collect();
+        radii[0] = 0.0;
+        radii[1] = f32::NAN;
+        let grid = PhotonGrid::new(&photons, &radii);
+        assert!(grid.classes.len() == CLASSES, "every class used");
+        // Photons whose sphere held a query: all, and those of radius under 6 mm (the classes
+        // past the fifth).
+        let (mut covered, mut small) = (0, 0);
+        for q in 0..400 {
+            // Half the queries inside some photon's kernel, whatever its size.
+            let p = if q % 2 == 0 {
+                let r = radii[q].max(0.001);
+                photons[q].position + point(&mut unit) * (0.1 * r)
+            } else {
+                point(&mut unit)
+            };
             let mut seen = vec![0u32; photons.len()];
-            grid.for_each_near(q, |i| seen[i] += 1);
-            for (i, p) in photons.iter().enumerate() {
-                assert!(seen[i] <= 1, "photon {i} visited twice");
-                if (p.position - q).length() < r {
-                    assert_eq!(seen[i], 1, "photon {i} within r missed");
-                }
+            grid.for_each_near(p, |i| seen[i] += 1);
+            for (i, ph) in photons.iter().enumerate() {
+                let holds = (ph.position - p).length_squared() < radii[i] * radii[i];
+                assert_eq!(
+                    seen[i],
+                    u32::from(holds),
+                    "photon {i} (radius {})",
+                    radii[i]
+                );
+                covered += usize::from(holds);
+                small += usize::from(holds && radii[i] < 0.006);
             }
         }
+        assert!(
+            covered > 500 && small > 50,
+            "covered {covered}, small {small}"
+        );
     }
 }
