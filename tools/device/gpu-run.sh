@@ -65,6 +65,8 @@ fi
 mkdir -p target/debug target/tmp # CARGO_TARGET_TMPDIR of the tests
 cp .device/bin/ispm-test target/debug/ispm # the binary the tests spawn (CARGO_BIN_EXE_ispm)
 R=.device/bin/ispm-release
+# Every bundled scene (ispm::scene::bundled::BUNDLED), the stages' default; SCENES="a b" picks.
+BUNDLED="cornell-box caustic-ring glass-sphere diffuse-box thin-walls facing-mirrors glass-cube"
 
 {
   nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.mem,temperature.gpu,utilization.gpu \
@@ -169,7 +171,7 @@ bench() {
 }
 stage_bench() {
   mkdir -p "$OUT/bench"
-  for scene in cornell-box caustic-ring glass-sphere diffuse-box; do
+  for scene in ${SCENES:-$BUNDLED}; do
     bench "$scene-640x480" "$scene" --size 640x480 --frames 20 --chunks 5 --compare-density
   done
   for n in 1 4; do
@@ -184,7 +186,7 @@ stage_bench() {
 # 100k photons.
 stage_subsample() {
   mkdir -p "$OUT/bench"
-  for scene in cornell-box caustic-ring glass-sphere diffuse-box; do
+  for scene in ${SCENES:-$BUNDLED}; do
     bench "$scene-sub4-high" "$scene" --size 640x480 --frames 20 --warmup 2 --chunks 5 \
       --quality high --subsample 1 --compare-subsample 4
     bench "$scene-sub4-100k" "$scene" --size 640x480 --frames 20 --warmup 2 --chunks 5 \
@@ -243,12 +245,12 @@ stage_crashes() {
 # `sweeps NAME SIZE ISPM_GRID BASELINE_GRID SECONDS`: the headline's accuracy-vs-time sweep of
 # every bundled scene at SIZE against the cached references, ISPM's grid then the CPU
 # photon-gather baseline's on this machine's cores, into $OUT/NAME; each scene (SCENES, default
-# all four bundled ones) given an equal share of SECONDS (never past BUDGET).
+# every bundled one) given an equal share of SECONDS (never past BUDGET).
 sweeps() {
   local name=$1 size=$2 ispm=$3 baseline=$4 seconds=$5
   mkdir -p "$OUT/$name"
   [ "$seconds" -gt "$(left)" ] && seconds=$(left)
-  local scenes=(${SCENES:-cornell-box caustic-ring glass-sphere diffuse-box})
+  local scenes=(${SCENES:-$BUNDLED})
   local share=$((seconds / ${#scenes[@]}))
   for scene in "${scenes[@]}"; do
     local end=$(($(date +%s) + share)) grid t
