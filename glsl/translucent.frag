@@ -4,8 +4,14 @@
 //   mirror lobe:     the environment cube maps (direct + the photons' indirect light) in the
 //                    reflected direction
 //   refraction lobe: the environment cube maps in the refracted direction (Snell, eta of the
-//                    side the viewer is on; total internal reflection reflects); a ray that
-//                    enters an object leaves it again through its bounding sphere
+//                    side the viewer is on; total internal reflection reflects)
+// A reflected or refracted ray first meets the object's own surface (`follow`): the far side
+// of a glass, a ring's inner wall in the other, total internal reflection inside a prism,
+// traced through a BVH of the mesh's own triangles (src/passes/translucent/object_bvh.rs); each
+// surface it meets reflects or refracts it as the über-BSDF says (the heavier lobe followed,
+// the other looked up in the environment), until it leaves the object and looks the
+// environment up. Other delta objects are not in the cube, nor traced: a ray between two of
+// them sees what is behind the other.
 // The lobe weights are the über-BSDF's own (bsdf_lobe_reflectances: Fresnel-weighted when the
 // material asks for it), so what the eye sees matches what photons do at the surface.
 // Lookups are projected onto the scene's bounding box from the cube's centre (parallax
@@ -23,6 +29,12 @@ layout(set = 0, binding = 5) uniform Environment { EnvironmentUniforms env; };
 layout(set = 0, binding = 6) uniform samplerCube environment_map;
 // The photons' indirect light from the same centre (src/render/photon_frame/environment.rs).
 layout(set = 0, binding = 7) uniform samplerCube environment_indirect;
+// The delta meshes' own triangles (src/passes/translucent/object_bvh.rs); this draw's tree is
+// draw.material.z - 1 (0: none).
+layout(std430, set = 0, binding = 8) readonly buffer ObjectNodes { ObjectNode object_nodes[]; };
+layout(std430, set = 0, binding = 9) readonly buffer ObjectTriangles {
+    ObjectTriangle object_triangles[];
+};
 layout(set = 1, binding = 0) uniform sampler2D base_color;
 layout(push_constant) uniform Push { DrawPush draw; };
 
@@ -50,26 +62,165 @@ vec3 environment(vec3 p, vec3 dir) {
         + env.centre.w * texture(environment_indirect, lookup).rgb;
 }
 
-// Radiance arriving at `p` along `t`, a direction refracted into a closed object: the ray
-// leaves through the object's bounding sphere (exact for spheres, an approximation otherwise)
-// and refracts out there; total internal reflection at the exit continues along the reflected
-// direction from the exit point.
-vec3 through_object(vec3 p, vec3 t, float ior) {
-    vec3 c = vec3(draw.normal0.w, draw.normal1.w, draw.normal2.w);
-    float r = uintBitsToFloat(draw.material.y);
-    vec3 o = p - c;
-    float b = dot(o, t);
-    float disc = b * b - (dot(o, o) - r * r);
-    if (!(r > 0.0) || !(disc >= 0.0)) {
-        return environment(p, t);
+// Surfaces of the object a ray meets before it leaves it, and how many a ray follows.
+const int MAX_OWN_SURFACES = 8;
+// Depth of the traversal stack: a median-split tree of 2^24 triangles is 23 deep.
+const int OBJECT_STACK = 32;
+
+// Where the object-space ray o + t·d (inv = 1/d) enters box `b` within (t_min, t_max), or
+// +inf when it misses it.
+float box_entry(ObjectNode b, vec3 o, vec3 inv, float t_min, float t_max) {
+    vec3 t0 = (b.lo.xyz - o) * inv;
+    vec3 t1 = (b.hi.xyz - o) * inv;
+    vec3 near3 = min(t0, t1);
+    vec3 far3 = max(t0, t1);
+    float near = max(max(near3.x, near3.y), max(near3.z, t_min));
+    float far = min(min(far3.x, far3.y), min(far3.z, t_max));
+    return near <= far ? near : 1.0 / 0.0;
+}
+
+// The closest triangle of the tree at `root` that the object-space ray o + t·d meets at
+// t in (t_min, t_hit): its t and interpolated (object-space, not unit) normal. Children are
+// visited nearer first, and a box the ray enters beyond the closest hit so far is skipped.
+bool object_hit(uint root, vec3 o, vec3 d, float t_min, inout float t_hit, out vec3 n_hit) {
+    vec3 inv = 1.0 / mix(d, vec3(1e-30), equal(d, vec3(0.0)));
+    uint stack[OBJECT_STACK];
+    int depth = 0;
+    bool found = false;
+    uint hit = 0u;
+    vec2 hit_uv = vec2(0.0);
+    n_hit = vec3(0.0);
+    uint node = root;
+    if (box_entry(object_nodes[root], o, inv, t_min, t_hit) > t_hit) {
+        return false;
     }
-    vec3 exit = p + max(-b + sqrt(disc), 0.0) * t;
-    vec3 n_out = normalize(exit - c);
-    vec3 out_dir = refract(t, -n_out, ior);
-    if (dot(out_dir, out_dir) == 0.0) {
-        out_dir = reflect(t, -n_out);
+    while (true) {
+        ObjectNode b = object_nodes[node];
+        uint first = floatBitsToUint(b.lo.w);
+        uint count = floatBitsToUint(b.hi.w);
+        if (count == 0u) {
+            float a = box_entry(object_nodes[first], o, inv, t_min, t_hit);
+            float c = box_entry(object_nodes[first + 1u], o, inv, t_min, t_hit);
+            uint near_child = a <= c ? first : first + 1u;
+            uint far_child = a <= c ? first + 1u : first;
+            float near_t = min(a, c);
+            float far_t = max(a, c);
+            if (near_t <= t_hit) {
+                if (far_t <= t_hit && depth < OBJECT_STACK) {
+                    stack[depth++] = far_child;
+                }
+                node = near_child;
+                continue;
+            }
+        } else {
+            for (uint i = first; i < first + count; ++i) {
+                // Möller–Trumbore on the positions alone (the normals are read for the hit).
+                vec3 p0 = object_triangles[i].p0.xyz;
+                vec3 e1 = object_triangles[i].p1.xyz - p0;
+                vec3 e2 = object_triangles[i].p2.xyz - p0;
+                vec3 pv = cross(d, e2);
+                float det = dot(e1, pv);
+                if (abs(det) < 1e-30) {
+                    continue;
+                }
+                float inv_det = 1.0 / det;
+                vec3 s = o - p0;
+                float u = dot(s, pv) * inv_det;
+                vec3 q = cross(s, e1);
+                float v = dot(d, q) * inv_det;
+                float t = dot(e2, q) * inv_det;
+                if (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > t_min && t < t_hit) {
+                    t_hit = t;
+                    hit = i;
+                    hit_uv = vec2(u, v);
+                    found = true;
+                }
+            }
+        }
+        if (depth == 0) {
+            break;
+        }
+        node = stack[--depth];
     }
-    return environment(exit, out_dir);
+    if (found) {
+        ObjectTriangle tri = object_triangles[hit];
+        n_hit = (1.0 - hit_uv.x - hit_uv.y) * tri.n0.xyz + hit_uv.x * tri.n1.xyz
+            + hit_uv.y * tri.n2.xyz;
+        if (dot(n_hit, n_hit) == 0.0) {
+            n_hit = cross(tri.p1.xyz - tri.p0.xyz, tri.p2.xyz - tri.p0.xyz);
+        }
+    }
+    return found;
+}
+
+// Radiance arriving at camera-relative `p` along unit `d`, a ray that has just left this
+// draw's object at p (reflected or refracted by it): the object's own surfaces it meets first
+// (module comment), then the environment.
+vec3 follow(Bsdf bsdf, vec3 p, vec3 d) {
+    uint root = draw.material.z;
+    if (root == 0u) {
+        return environment(p, d);
+    }
+    // The normal matrix is the inverse transpose of the model's linear part, so its transpose
+    // is that part's inverse.
+    mat3 normal_matrix = mat3(draw.normal0.xyz, draw.normal1.xyz, draw.normal2.xyz);
+    mat3 to_object = transpose(normal_matrix);
+    vec3 origin = draw.model[3].xyz;
+    // Past the surface the ray starts on (scale-relative).
+    float t_min = 1e-5 * frame.params.y;
+    vec3 weight = vec3(1.0);
+    vec3 sum = vec3(0.0);
+    for (int i = 0; i < MAX_OWN_SURFACES; ++i) {
+        // t along the object-space ray is the world distance (the map is linear).
+        vec3 o = to_object * (p - origin);
+        vec3 od = to_object * d;
+        float t = 3.4e38;
+        vec3 n_object;
+        if (!object_hit(root - 1u, o, od, t_min, t, n_object)) {
+            return sum + weight * environment(p, d);
+        }
+        vec3 q = p + t * d;
+        vec3 n_mesh = normalize(normal_matrix * n_object);
+        vec3 wo = -d;
+        BsdfOriented or;
+        if (!bsdf_orient(bsdf, wo, n_mesh, n_mesh, or)) {
+            return sum;
+        }
+        vec3 c[4];
+        bsdf_lobe_reflectances(bsdf, or, c);
+        if (any(greaterThan(c[LOBE_LAMBERTIAN] + c[LOBE_GLOSSY], vec3(0.0)))) {
+            vec3 n = dot(n_mesh, wo) < 0.0 ? -n_mesh : n_mesh;
+            sum += weight * direct_light(bsdf, q, n, n_mesh, wo);
+        }
+        vec3 wr = vec3(0.0);
+        vec3 wt = vec3(0.0);
+        float eta;
+        float r = any(greaterThan(c[LOBE_MIRROR], vec3(0.0)))
+                && bsdf_sample_direction(bsdf, LOBE_MIRROR, or, vec2(0.0), wr, eta)
+            ? dot(c[LOBE_MIRROR], vec3(1.0)) : 0.0;
+        float tr = any(greaterThan(c[LOBE_REFRACTION], vec3(0.0)))
+                && bsdf_sample_direction(bsdf, LOBE_REFRACTION, or, vec2(0.0), wt, eta)
+            ? dot(c[LOBE_REFRACTION], vec3(1.0)) : 0.0;
+        if (r + tr <= 0.0) {
+            return sum;
+        }
+        // The heavier lobe goes on through the object; the other looks the environment up.
+        if (tr >= r) {
+            if (r > 0.0) {
+                sum += weight * c[LOBE_MIRROR] * environment(q, wr);
+            }
+            weight *= c[LOBE_REFRACTION];
+            d = wt;
+        } else {
+            if (tr > 0.0) {
+                sum += weight * c[LOBE_REFRACTION] * environment(q, wt);
+            }
+            weight *= c[LOBE_MIRROR];
+            d = wr;
+        }
+        p = q;
+    }
+    return sum + weight * environment(p, d);
 }
 
 void main() {
@@ -93,14 +244,11 @@ void main() {
         float eta;
         if (any(greaterThan(c[LOBE_MIRROR], vec3(0.0)))
             && bsdf_sample_direction(bsdf, LOBE_MIRROR, o, vec2(0.0), wi, eta)) {
-            radiance += c[LOBE_MIRROR] * environment(p, wi);
+            radiance += c[LOBE_MIRROR] * follow(bsdf, p, wi);
         }
         if (any(greaterThan(c[LOBE_REFRACTION], vec3(0.0)))
             && bsdf_sample_direction(bsdf, LOBE_REFRACTION, o, vec2(0.0), wi, eta)) {
-            // Entering (eta = ior > 1 seen from outside): leave through the far side too.
-            bool entered = eta != 1.0 && dot(wi, n_mesh) < 0.0 && side > 0.0;
-            radiance += c[LOBE_REFRACTION]
-                * (entered ? through_object(p, wi, bsdf.ior) : environment(p, wi));
+            radiance += c[LOBE_REFRACTION] * follow(bsdf, p, wi);
         }
     }
     out_radiance = vec4(max(radiance, vec3(0.0)), 1.0);

@@ -133,6 +133,77 @@ fn caustic_ring_mirror_reflects_the_floor() {
     );
 }
 
+/// A glass cube (0.6 m, η = 1.5) floating 0.3 m over a floor whose colour changes from red to
+/// green at x = 0.275, seen from 30 m straight above: an eye ray through the top face crosses
+/// two parallel faces at near-normal incidence and lands a few millimetres from below where it
+/// entered, so the top face shows the floor under it: red near its corners on the red side and
+/// 0.25 m off the centre, green beside the cube. (Leaving the cube through its bounding sphere,
+/// as the pass did before it traced the cube's own triangles, bent the rays near the corners
+/// by tens of degrees: the corners showed black or the far green floor; checked.) The floor
+/// under the cube is in its shadow: the refracted sun's caustic photons light it.
+#[test]
+fn a_glass_cube_shows_the_floor_straight_through_its_far_face() {
+    use ispm::scene::authoring::{cuboid, quad, GltfWriter, MaterialSpec};
+    let edge = 0.275;
+    let mut w = GltfWriter::default();
+    let red = w.material(&MaterialSpec::diffuse("red", [0.8, 0.1, 0.1]));
+    let green = w.material(&MaterialSpec::diffuse("green", [0.1, 0.8, 0.1]));
+    // quad's half-sizes: along z, then along x.
+    let left = w.mesh(
+        "floor-red",
+        &quad(
+            Vec3::new((edge - 2.0) / 2.0, 0.0, 0.0),
+            Vec3::Y,
+            2.0,
+            (edge + 2.0) / 2.0,
+        ),
+        red,
+    );
+    let right = w.mesh(
+        "floor-green",
+        &quad(
+            Vec3::new((edge + 2.0) / 2.0, 0.0, 0.0),
+            Vec3::Y,
+            2.0,
+            (2.0 - edge) / 2.0,
+        ),
+        green,
+    );
+    w.mesh_node("floor-red", left, Vec3::ZERO, glam::Quat::IDENTITY);
+    w.mesh_node("floor-green", right, Vec3::ZERO, glam::Quat::IDENTITY);
+    let glass = w.material(&MaterialSpec::glass("glass"));
+    let cube = w.mesh("cube", &cuboid(Vec3::splat(0.3)), glass);
+    w.mesh_node("cube", cube, Vec3::new(0.0, 0.6, 0.0), glam::Quat::IDENTITY);
+    w.sun("sun", Vec3::NEG_Y, [1.0; 3], 3.0);
+    // A pixel is 10 mm on the cube's top face.
+    w.camera("camera", Vec3::new(0.0, 30.0, 0.1), Vec3::ZERO, 0.04);
+    let scene = common::hard::load_glb("glass-cube-over-two-colours", &w.glb());
+    let frames = render(&scene, Method::Ispm, 1);
+    let frame = &frames[0];
+    let path = save("glass_cube_far_face", frame);
+    assert_finite_and_non_negative(frame, "glass cube");
+    let points = [
+        (Vec3::new(0.25, 0.9, 0.0), true),
+        (Vec3::new(-0.27, 0.9, -0.27), true),
+        (Vec3::new(-0.27, 0.9, 0.27), true),
+        (Vec3::new(0.45, 0.0, 0.0), false),
+    ];
+    for (p, red_side) in points {
+        let c = radiance_at(&scene, frame, p, 0);
+        assert!(
+            c.max_element() > 0.02,
+            "{p}: {c} is dark ({})",
+            path.display()
+        );
+        assert!(
+            (c.x > 2.0 * c.y) == red_side && (c.y > 2.0 * c.x) != red_side,
+            "{p}: {c} should show the {} floor ({})",
+            if red_side { "red" } else { "green" },
+            path.display()
+        );
+    }
+}
+
 #[test]
 fn environment_map_is_rendered_once_and_reused() {
     let scene = bundled::resolve(Some("caustic-ring")).expect("bundled scene");

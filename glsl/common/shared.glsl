@@ -70,9 +70,27 @@ struct BounceView {
 struct DrawPush {
     mat4 model;       // object -> camera-relative world (eye) or object -> light clip (shadow)
     vec4 normal0;     // xyz: columns of the object -> world normal matrix (inverse transpose);
-    vec4 normal1;     // w of the three: the instance's bounding-sphere centre relative to the
-    vec4 normal2;     // origin the draws were made for (the camera)
-    uvec4 material;   // x: material index; y: bounding-sphere radius (float bits)
+    vec4 normal1;     // w: 0
+    vec4 normal2;
+    uvec4 material;   // x: material index; z: 1 + the root of the BVH over the mesh's own
+                      // triangles (translucent pass; 0: none); y, w: 0
+};
+
+// A node of the BVH over one delta mesh's own triangles, object space (storage buffer, std430;
+// src/passes/translucent/object_bvh.rs).
+struct ObjectNode {
+    vec4 lo;  // xyz: low corner; w: bits of the first child (inner) or first triangle (leaf)
+    vec4 hi;  // xyz: high corner; w: bits of the leaf's triangle count (0: inner node)
+};
+
+// One triangle of a delta mesh, object space, with its vertices' normals (storage buffer, std430).
+struct ObjectTriangle {
+    vec4 p0;
+    vec4 p1;
+    vec4 p2;
+    vec4 n0;
+    vec4 n1;
+    vec4 n2;
 };
 
 // What one value check counted in one buffer (storage buffer, std430; src/passes/value_check.rs).

@@ -28,47 +28,23 @@ pub struct InstanceDraw {
     pub material: u32,
     /// World-from-object, in double precision.
     pub transform: DMat4,
-    /// World-space bounding sphere (centre of the bounds, farthest vertex): the translucent
-    /// pass treats a refracting object as this sphere where the ray leaves it.
-    pub sphere: (DVec3, f32),
 }
 
 /// Instance `i` of `scene` as drawn at its current transform.
 fn instance_draw(scene: &Scene, i: usize) -> InstanceDraw {
     let inst = &scene.instances[i];
-    let transform = inst.transform.as_dmat4();
-    let world: Vec<DVec3> = scene.meshes[inst.mesh]
-        .positions
-        .iter()
-        .map(|p| transform.transform_point3(p.as_dvec3()))
-        .collect();
     InstanceDraw {
         mesh: inst.mesh,
         material: scene.meshes[inst.mesh].material as u32,
-        transform,
-        sphere: bounding_sphere(&world),
+        transform: inst.transform.as_dmat4(),
     }
-}
-
-/// The bounding sphere of `points`: the centre of their bounds and the farthest of them.
-fn bounding_sphere(points: &[DVec3]) -> (DVec3, f32) {
-    let Some(first) = points.first() else {
-        return (DVec3::ZERO, 0.0);
-    };
-    let (lo, hi) = points
-        .iter()
-        .fold((*first, *first), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
-    let centre = 0.5 * (lo + hi);
-    let radius = points
-        .iter()
-        .map(|p| p.distance(centre))
-        .fold(0.0, f64::max);
-    (centre, radius as f32)
 }
 
 /// What a raster pass needs to draw one instance.
 #[derive(Clone, Copy, Debug)]
 pub struct Draw {
+    /// The scene mesh drawn.
+    pub mesh: usize,
     pub range: MeshRange,
     pub push: DrawPush,
 }
@@ -270,15 +246,15 @@ impl GpuScene {
                     .inverse()
                     .transpose()
                     .as_mat3();
-                let centre = (inst.sphere.0 - origin).as_vec3();
                 Draw {
+                    mesh: inst.mesh,
                     range: self.meshes[inst.mesh],
                     push: DrawPush {
                         model: model.as_mat4(),
-                        normal0: normal.x_axis.extend(centre.x),
-                        normal1: normal.y_axis.extend(centre.y),
-                        normal2: normal.z_axis.extend(centre.z),
-                        material: UVec4::new(inst.material, inst.sphere.1.to_bits(), 0, 0),
+                        normal0: normal.x_axis.extend(0.0),
+                        normal1: normal.y_axis.extend(0.0),
+                        normal2: normal.z_axis.extend(0.0),
+                        material: UVec4::new(inst.material, 0, 0, 0),
                     },
                 }
             })

@@ -120,6 +120,39 @@ const _: () = assert!(offset_of!(DrawPush, normal1) == 80);
 const _: () = assert!(offset_of!(DrawPush, normal2) == 96);
 const _: () = assert!(offset_of!(DrawPush, material) == 112);
 
+/// `ObjectNode` (storage buffer, std430): a node of the BVH over one delta mesh's own
+/// triangles, in object space (`passes/translucent/object_bvh.rs`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ObjectNode {
+    /// xyz: the bounds' low corner; w: the bits of the first child's index (an inner node: the
+    /// second is the next) or of the first triangle's (a leaf).
+    pub lo: Vec4,
+    /// xyz: the bounds' high corner; w: the bits of the leaf's triangle count (0: inner node).
+    pub hi: Vec4,
+}
+const _: () = assert!(size_of::<ObjectNode>() == 32);
+const _: () = assert!(offset_of!(ObjectNode, hi) == 16);
+
+/// `ObjectTriangle` (storage buffer, std430): one triangle of a delta mesh, object space, with
+/// its vertices' normals (w unused).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ObjectTriangle {
+    pub p0: Vec4,
+    pub p1: Vec4,
+    pub p2: Vec4,
+    pub n0: Vec4,
+    pub n1: Vec4,
+    pub n2: Vec4,
+}
+const _: () = assert!(size_of::<ObjectTriangle>() == 96);
+const _: () = assert!(offset_of!(ObjectTriangle, p1) == 16);
+const _: () = assert!(offset_of!(ObjectTriangle, p2) == 32);
+const _: () = assert!(offset_of!(ObjectTriangle, n0) == 48);
+const _: () = assert!(offset_of!(ObjectTriangle, n1) == 64);
+const _: () = assert!(offset_of!(ObjectTriangle, n2) == 80);
+
 /// `ValueCounters` (storage buffer, std430): what one value check counted in one buffer of a
 /// frame (`passes/value_check.rs`), summed with atomics.
 #[repr(C)]
@@ -225,5 +258,14 @@ pub const SHARED_LAYOUTS: &[LayoutDescription] = &[
         normal1,
         normal2,
         material
+    }),
+    describe!(ObjectNode { lo, hi }),
+    describe!(ObjectTriangle {
+        p0,
+        p1,
+        p2,
+        n0,
+        n1,
+        n2
     }),
 ];

@@ -1,21 +1,27 @@
 //! Translucent and mirror surfaces (graphics): the delta-material instances (glass, perfect
 //! mirrors), which the eye G-buffer leaves out, drawn forward over the finished opaque radiance
 //! with the eye depth test. Each fragment is its material's shadowed direct light (non-delta
-//! lobes) plus the environment cube map in the mirror and refracted directions, weighted by the
-//! über-BSDF's own (Fresnel) lobe reflectances (`translucent.frag`). The nearest delta surface
-//! wins (depth writes), and it replaces what is behind it: refraction reads the cube map, not
-//! the screen, so opaque surfaces seen through glass appear as the cube map saw them (direct
-//! light and the photons' indirect light, one refraction, from the cube's centre).
+//! lobes) plus what arrives in the mirror and refracted directions, weighted by the über-BSDF's
+//! own (Fresnel) lobe reflectances (`translucent.frag`): the ray first meets the object's own
+//! surfaces, traced through a BVH of the mesh's triangles ([`object_bvh`]), then the
+//! environment cube map. The nearest delta surface wins (depth writes), and it replaces what is
+//! behind it: refraction reads the cube map, not the screen, so opaque surfaces seen through
+//! glass appear as the cube map saw them (direct light and the photons' indirect light, from
+//! the cube's centre).
+
+pub mod object_bvh;
 
 use super::eye_gbuffer::{draw_instances, material_texture_sets};
 use crate::gpu::scene::{Draw, GpuScene};
 use crate::gpu::{
-    uses, vk, Attachment, Binding, Blend, Buffer, Cmd, Depth, DescriptorLayout, DescriptorSet,
-    Filter, Gpu, GraphicsDesc, Image, Load, Pipeline, Sampler, Use,
+    uses, vk, Access, Attachment, Binding, Blend, Buffer, Cmd, Depth, DescriptorLayout,
+    DescriptorSet, Filter, Gpu, GraphicsDesc, Image, Load, Pipeline, Sampler, Use,
 };
 use crate::layout::{DrawPush, Vertex};
 use crate::photon::bsdf::BsdfVariant;
+use crate::scene::Scene;
 use crate::timing::pass_id::PassId;
+use object_bvh::ObjectBvhs;
 use std::sync::Arc;
 
 /// What the translucent shader reads.
@@ -40,6 +46,11 @@ pub struct TranslucentPass {
     material_sets: Vec<DescriptorSet>,
     shadow: Sampler,
     linear: Sampler,
+    /// The delta meshes' own triangles (`object_bvh`): nodes, triangles, and per scene mesh
+    /// 1 + its tree's root (0: not a delta mesh).
+    object_nodes: Buffer,
+    object_triangles: Buffer,
+    object_roots: Vec<u32>,
 }
 
 impl TranslucentPass {
@@ -48,7 +59,7 @@ impl TranslucentPass {
     /// [`Self::record`] is given; their attachment uses are declared here).
     pub fn new(
         gpu: &Arc<Gpu>,
-        scene: &GpuScene,
+        (scene, meshes): (&GpuScene, &Scene),
         inputs: &TranslucentInputs,
         (radiance, depth): (&Image, &Image),
         variant: BsdfVariant,
@@ -72,7 +83,41 @@ impl TranslucentPass {
             false,
         )?;
         let linear = Sampler::new(gpu, "translucent.environment", Filter::Linear, false)?;
-        let uses = Self::uses(inputs, (&shadow, &linear));
+        let mut bvhs = ObjectBvhs::default();
+        let object_roots = meshes
+            .meshes
+            .iter()
+            .map(|m| {
+                let delta = scene.material_delta.get(m.material) == Some(&true);
+                if delta {
+                    bvhs.add(m) + 1
+                } else {
+                    0
+                }
+            })
+            .collect();
+        if bvhs.nodes.is_empty() {
+            // A scene drawn here has a delta mesh; an empty buffer cannot be bound.
+            bvhs.nodes.push(Default::default());
+            bvhs.triangles.push(Default::default());
+        }
+        let object_nodes = gpu.upload_buffer(
+            "translucent.object_nodes",
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            bytemuck::cast_slice(&bvhs.nodes),
+            Access::AnyShaderStorageRead,
+        )?;
+        let object_triangles = gpu.upload_buffer(
+            "translucent.object_triangles",
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            bytemuck::cast_slice(&bvhs.triangles),
+            Access::AnyShaderStorageRead,
+        )?;
+        let uses = Self::uses(
+            inputs,
+            (&shadow, &linear),
+            (&object_nodes, &object_triangles),
+        );
         let bindings = Binding::sequence(&uses::kinds(&uses), graphics);
         let layout = DescriptorLayout::new(gpu, PassId::Translucent.name(), &bindings, 1)?;
         let set = layout.allocate(&uses::writes(&uses))?;
@@ -108,6 +153,9 @@ impl TranslucentPass {
             material_sets,
             shadow,
             linear,
+            object_nodes,
+            object_triangles,
+            object_roots,
         })
     }
 
@@ -115,7 +163,8 @@ impl TranslucentPass {
     fn uses<'a>(
         inputs: &TranslucentInputs<'a>,
         (shadow, linear): (&'a Sampler, &'a Sampler),
-    ) -> [Use<'a>; 8] {
+        (object_nodes, object_triangles): (&'a Buffer, &'a Buffer),
+    ) -> [Use<'a>; 10] {
         [
             Use::Uniform(inputs.frame),
             Use::Read(inputs.materials),
@@ -125,6 +174,8 @@ impl TranslucentPass {
             Use::Uniform(inputs.environment),
             Use::Sampled(inputs.environment_map, linear),
             Use::Sampled(inputs.environment_indirect, linear),
+            Use::Read(object_nodes),
+            Use::Read(object_triangles),
         ]
     }
 
@@ -140,7 +191,20 @@ impl TranslucentPass {
         radiance: &mut Image,
     ) {
         let _scope = cmd.scope(PassId::Translucent.name());
-        let uses = Self::uses(inputs, (&self.shadow, &self.linear));
+        let uses = Self::uses(
+            inputs,
+            (&self.shadow, &self.linear),
+            (&self.object_nodes, &self.object_triangles),
+        );
+        // Each draw's tree (`DrawPush::material.z`).
+        let draws: Vec<Draw> = draws
+            .iter()
+            .map(|d| {
+                let mut d = *d;
+                d.push.material.z = self.object_roots.get(d.mesh).copied().unwrap_or(0);
+                d
+            })
+            .collect();
         cmd.begin_pass(
             &uses,
             &[Attachment {
@@ -156,7 +220,7 @@ impl TranslucentPass {
         );
         cmd.bind_pipeline(&self.pipeline);
         cmd.bind_sets(&self.pipeline, 0, &[self.set]);
-        draw_instances(cmd, &self.pipeline, scene, draws, &self.material_sets);
+        draw_instances(cmd, &self.pipeline, scene, &draws, &self.material_sets);
         cmd.end_rendering();
     }
 }

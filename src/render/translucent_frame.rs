@@ -101,7 +101,7 @@ impl TranslucentFrame {
         indirect_staging.write(0, &vec![0u8; texels as usize * 8])?;
         let pass = TranslucentPass::new(
             gpu,
-            gpu_scene,
+            (gpu_scene, scene),
             &TranslucentInputs {
                 frame: resources.frame,
                 materials: &gpu_scene.materials,

@@ -3,7 +3,7 @@
 //! ```text
 //!  set_pose(scene.pose_at(t))
 //!    ├─ set_instance_transforms: moved instances only
-//!    │    ├─ GpuScene: their transform and bounding sphere (host; draws push their matrices)
+//!    │    ├─ GpuScene: their transform (host; draws push their matrices)
 //!    │    ├─ effects plan made again (geometry changed; the static instances' closed
 //!    │    │  surfaces welded once, the moving ones each time: StaticEnclosures)
 //!    │    ├─ PhotonFrame: light views planned again (caustic windows follow moving glass),
