@@ -70,8 +70,8 @@ const int OBJECT_STACK = 32;
 // Where the object-space ray o + t·d (inv = 1/d) enters box `b` within (t_min, t_max), or
 // +inf when it misses it.
 float box_entry(ObjectNode b, vec3 o, vec3 inv, float t_min, float t_max) {
-    vec3 t0 = (b.lo.xyz - o) * inv;
-    vec3 t1 = (b.hi.xyz - o) * inv;
+    vec3 t0 = (b.lo - o) * inv;
+    vec3 t1 = (b.hi - o) * inv;
     vec3 near3 = min(t0, t1);
     vec3 far3 = max(t0, t1);
     float near = max(max(near3.x, near3.y), max(near3.z, t_min));
@@ -79,15 +79,19 @@ float box_entry(ObjectNode b, vec3 o, vec3 inv, float t_min, float t_max) {
     return near <= far ? near : 1.0 / 0.0;
 }
 
-// The closest triangle of the tree at `root` that the object-space ray o + t·d meets at
-// t in (t_min, t_hit): its t and interpolated (object-space, not unit) normal. Children are
-// visited nearer first, and a box the ray enters beyond the closest hit so far is skipped.
-bool object_hit(uint root, vec3 o, vec3 d, float t_min, inout float t_hit, out vec3 n_hit) {
-    vec3 inv = 1.0 / mix(d, vec3(1e-30), equal(d, vec3(0.0)));
+// The closest triangle of the tree at `root` but triangle `skip` that the object-space ray
+// o + t·d meets at t in (t_min, t_hit): its t, index (in `hit`) and interpolated
+// (object-space, not unit) normal. Children are visited nearer first; a child the ray enters
+// beyond the closest hit at the time it is reached is skipped.
+bool object_hit(uint root, uint skip, vec3 o, vec3 d, float t_min, inout float t_hit,
+                out uint hit, out vec3 n_hit) {
+    // Tiny components (zeros, subnormals) as ±1e-30: no infinity times zero in the slabs.
+    vec3 inv = 1.0 / mix(d, mix(vec3(1e-30), vec3(-1e-30), lessThan(d, vec3(0.0))),
+                         lessThan(abs(d), vec3(1e-30)));
     uint stack[OBJECT_STACK];
     int depth = 0;
     bool found = false;
-    uint hit = 0u;
+    hit = 0xffffffffu;
     vec2 hit_uv = vec2(0.0);
     n_hit = vec3(0.0);
     uint node = root;
@@ -96,8 +100,8 @@ bool object_hit(uint root, vec3 o, vec3 d, float t_min, inout float t_hit, out v
     }
     while (true) {
         ObjectNode b = object_nodes[node];
-        uint first = floatBitsToUint(b.lo.w);
-        uint count = floatBitsToUint(b.hi.w);
+        uint first = b.first;
+        uint count = b.count;
         if (count == 0u) {
             float a = box_entry(object_nodes[first], o, inv, t_min, t_hit);
             float c = box_entry(object_nodes[first + 1u], o, inv, t_min, t_hit);
@@ -114,6 +118,9 @@ bool object_hit(uint root, vec3 o, vec3 d, float t_min, inout float t_hit, out v
             }
         } else {
             for (uint i = first; i < first + count; ++i) {
+                if (i == skip) {
+                    continue;
+                }
                 // Möller–Trumbore on the positions alone (the normals are read for the hit).
                 vec3 p0 = object_triangles[i].p0.xyz;
                 vec3 e1 = object_triangles[i].p1.xyz - p0;
@@ -166,8 +173,11 @@ vec3 follow(Bsdf bsdf, vec3 p, vec3 d) {
     mat3 normal_matrix = mat3(draw.normal0.xyz, draw.normal1.xyz, draw.normal2.xyz);
     mat3 to_object = transpose(normal_matrix);
     vec3 origin = draw.model[3].xyz;
-    // Past the surface the ray starts on (scale-relative).
-    float t_min = 1e-5 * frame.params.y;
+    // Past the surface the ray starts on: relative to the scene's size, and to the distance
+    // from the camera (the rasterised position's own rounding). From the second surface on,
+    // the triangle just met is skipped as well: a ray leaving a flat triangle meets it no more.
+    float t_min = max(1e-5 * frame.params.y, 4e-7 * length(p));
+    uint last = 0xffffffffu;
     vec3 weight = vec3(1.0);
     vec3 sum = vec3(0.0);
     for (int i = 0; i < MAX_OWN_SURFACES; ++i) {
@@ -176,18 +186,18 @@ vec3 follow(Bsdf bsdf, vec3 p, vec3 d) {
         vec3 od = to_object * d;
         float t = 3.4e38;
         vec3 n_object;
-        if (!object_hit(root - 1u, o, od, t_min, t, n_object)) {
+        if (!object_hit(root - 1u, last, o, od, t_min, t, last, n_object)) {
             return sum + weight * environment(p, d);
         }
         vec3 q = p + t * d;
         vec3 n_mesh = normalize(normal_matrix * n_object);
         vec3 wo = -d;
-        BsdfOriented or;
-        if (!bsdf_orient(bsdf, wo, n_mesh, n_mesh, or)) {
+        BsdfOriented at;
+        if (!bsdf_orient(bsdf, wo, n_mesh, n_mesh, at)) {
             return sum;
         }
         vec3 c[4];
-        bsdf_lobe_reflectances(bsdf, or, c);
+        bsdf_lobe_reflectances(bsdf, at, c);
         if (any(greaterThan(c[LOBE_LAMBERTIAN] + c[LOBE_GLOSSY], vec3(0.0)))) {
             vec3 n = dot(n_mesh, wo) < 0.0 ? -n_mesh : n_mesh;
             sum += weight * direct_light(bsdf, q, n, n_mesh, wo);
@@ -196,10 +206,10 @@ vec3 follow(Bsdf bsdf, vec3 p, vec3 d) {
         vec3 wt = vec3(0.0);
         float eta;
         float r = any(greaterThan(c[LOBE_MIRROR], vec3(0.0)))
-                && bsdf_sample_direction(bsdf, LOBE_MIRROR, or, vec2(0.0), wr, eta)
+                && bsdf_sample_direction(bsdf, LOBE_MIRROR, at, vec2(0.0), wr, eta)
             ? dot(c[LOBE_MIRROR], vec3(1.0)) : 0.0;
         float tr = any(greaterThan(c[LOBE_REFRACTION], vec3(0.0)))
-                && bsdf_sample_direction(bsdf, LOBE_REFRACTION, or, vec2(0.0), wt, eta)
+                && bsdf_sample_direction(bsdf, LOBE_REFRACTION, at, vec2(0.0), wt, eta)
             ? dot(c[LOBE_REFRACTION], vec3(1.0)) : 0.0;
         if (r + tr <= 0.0) {
             return sum;

@@ -19,9 +19,10 @@ fn markdown_files() -> Vec<PathBuf> {
     files
 }
 
-/// Largest Markdown file: the largest today is under 120 KiB.
+/// Largest Markdown file: the largest today is under 130 KiB.
 const MAX_BYTES: u64 = 400 * 1024;
-/// Most times one line of prose (30 characters or more) may appear in a file.
+/// Most times one line of prose (30 characters or more, not a table row, not in a code block)
+/// may appear in a file.
 const MAX_REPEATS: usize = 8;
 
 #[test]
@@ -37,7 +38,14 @@ fn markdown_files_are_of_a_readable_size_and_repeat_no_line_many_times() {
         );
         let text = std::fs::read_to_string(&file).expect("UTF-8 Markdown");
         let mut seen: HashMap<&str, usize> = HashMap::new();
-        for line in text.lines().map(str::trim).filter(|l| l.len() >= 30) {
+        let mut in_code = false;
+        for line in text.lines().map(str::trim) {
+            if line.starts_with("```") {
+                in_code = !in_code;
+            }
+            if in_code || line.starts_with('|') || line.len() < 30 {
+                continue;
+            }
             let n = seen.entry(line).or_default();
             *n += 1;
             assert!(

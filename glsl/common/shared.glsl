@@ -79,8 +79,10 @@ struct DrawPush {
 // A node of the BVH over one delta mesh's own triangles, object space (storage buffer, std430;
 // src/passes/translucent/object_bvh.rs).
 struct ObjectNode {
-    vec4 lo;  // xyz: low corner; w: bits of the first child (inner) or first triangle (leaf)
-    vec4 hi;  // xyz: high corner; w: bits of the leaf's triangle count (0: inner node)
+    vec3 lo;     // low corner
+    uint first;  // inner node: its first child (the second is the next); leaf: first triangle
+    vec3 hi;     // high corner
+    uint count;  // a leaf's triangle count (0: inner node)
 };
 
 // One triangle of a delta mesh, object space, with its vertices' normals (storage buffer, std430).

@@ -29,9 +29,10 @@ pub enum Quality {
 }
 
 impl Quality {
-    /// The preset's knobs: points of the single-frame front of the four bundled scenes' sweeps
-    /// taken together, picked by `docs/tools/presets.py` (docs/accuracy.md §5.3: geometric
-    /// means over the scenes of the frame time and of the relMSE over each scene's best,
+    /// The preset's knobs: points of the single-frame front of the sweeps of the four bundled
+    /// scenes of ordinary content taken together, picked by `docs/tools/presets.py`
+    /// (docs/accuracy.md §5.3: geometric means over the scenes of the frame time and of the
+    /// relMSE over each scene's best,
     /// 160×120, lavapipe with the tiled gather, idle, 2026-11-26). The sweep re-run on
     /// 2026-11-27 (the references that resolve caustics, the fine photons at full resolution)
     /// makes the same rule pick 40k photons at N 4 for `high` and 160k at N 4 for

@@ -112,6 +112,8 @@ pub struct DrawPush {
     pub normal0: Vec4,
     pub normal1: Vec4,
     pub normal2: Vec4,
+    /// x: material index; z: 1 + the root of the mesh's own BVH (the translucent pass sets it;
+    /// 0: none); y, w: 0.
     pub material: UVec4,
 }
 const _: () = assert!(size_of::<DrawPush>() == 128);
@@ -125,14 +127,19 @@ const _: () = assert!(offset_of!(DrawPush, material) == 112);
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct ObjectNode {
-    /// xyz: the bounds' low corner; w: the bits of the first child's index (an inner node: the
-    /// second is the next) or of the first triangle's (a leaf).
-    pub lo: Vec4,
-    /// xyz: the bounds' high corner; w: the bits of the leaf's triangle count (0: inner node).
-    pub hi: Vec4,
+    /// The bounds' low corner.
+    pub lo: [f32; 3],
+    /// An inner node: its first child (the second is the next); a leaf: its first triangle.
+    pub first: u32,
+    /// The bounds' high corner.
+    pub hi: [f32; 3],
+    /// A leaf's triangle count (0: an inner node).
+    pub count: u32,
 }
 const _: () = assert!(size_of::<ObjectNode>() == 32);
+const _: () = assert!(offset_of!(ObjectNode, first) == 12);
 const _: () = assert!(offset_of!(ObjectNode, hi) == 16);
+const _: () = assert!(offset_of!(ObjectNode, count) == 28);
 
 /// `ObjectTriangle` (storage buffer, std430): one triangle of a delta mesh, object space, with
 /// its vertices' normals (w unused).
@@ -259,7 +266,12 @@ pub const SHARED_LAYOUTS: &[LayoutDescription] = &[
         normal2,
         material
     }),
-    describe!(ObjectNode { lo, hi }),
+    describe!(ObjectNode {
+        lo,
+        first,
+        hi,
+        count
+    }),
     describe!(ObjectTriangle {
         p0,
         p1,

@@ -89,7 +89,7 @@ impl TranslucentPass {
             .iter()
             .map(|m| {
                 let delta = scene.material_delta.get(m.material) == Some(&true);
-                if delta {
+                if delta && !m.triangles.is_empty() {
                     bvhs.add(m) + 1
                 } else {
                     0

@@ -16,7 +16,7 @@
 
 use crate::layout::{ObjectNode, ObjectTriangle};
 use crate::scene::Mesh;
-use glam::{Vec3, Vec4};
+use glam::Vec3;
 
 /// Most triangles in a leaf.
 pub const LEAF_SIZE: usize = 4;
@@ -29,9 +29,10 @@ pub struct ObjectBvhs {
 }
 
 impl ObjectBvhs {
-    /// Adds `mesh`'s tree; returns its root's index. A mesh without triangles gets a leaf of
-    /// none (empty bounds), which no ray hits.
+    /// Adds `mesh`'s tree; returns its root's index. `mesh` must have triangles (the caller
+    /// gives a mesh without any no tree: it draws nothing).
     pub fn add(&mut self, mesh: &Mesh) -> u32 {
+        debug_assert!(!mesh.triangles.is_empty());
         let first_triangle = self.triangles.len();
         let triangles: Vec<ObjectTriangle> = mesh
             .triangles
@@ -45,19 +46,27 @@ impl ObjectBvhs {
             .iter()
             .map(|t| (t.p0 + t.p1 + t.p2).truncate() / 3.0)
             .collect();
-        self.fill(root, &mut order, 0, &triangles, &centroids, first_triangle);
+        self.fill(
+            root,
+            &mut order,
+            (0, 0),
+            &triangles,
+            &centroids,
+            first_triangle,
+        );
         self.triangles
             .extend(order.iter().map(|&i| triangles[i as usize]));
         root as u32
     }
 
-    /// Makes node `node` over `order` (indices into `triangles`, which start at `offset` in
-    /// the shared array once placed in `order`'s order; `start` is `order`'s position there).
+    /// Makes node `node`, `depth` below the root, over `order` (indices into `triangles`,
+    /// which start at `offset` in the shared array once placed in `order`'s order; `start` is
+    /// `order`'s position there).
     fn fill(
         &mut self,
         node: usize,
         order: &mut [u32],
-        start: usize,
+        (start, depth): (usize, usize),
         triangles: &[ObjectTriangle],
         centroids: &[Vec3],
         offset: usize,
@@ -81,11 +90,16 @@ impl ObjectBvhs {
         } else {
             2
         };
+        // The shader's traversal stack (OBJECT_STACK in translucent.frag) holds 32: a median
+        // split is log2(triangles) deep.
+        debug_assert!(depth < 32, "an object BVH {depth} deep");
         // A leaf: few triangles, or centroids that no plane separates.
         if order.len() <= LEAF_SIZE || extent[axis].is_nan() || extent[axis] <= 0.0 {
             self.nodes[node] = ObjectNode {
-                lo: bounds_corner(lo, (offset + start) as u32),
-                hi: bounds_corner(hi, order.len() as u32),
+                lo: lo.to_array(),
+                first: (offset + start) as u32,
+                hi: hi.to_array(),
+                count: order.len() as u32,
             };
             return;
         }
@@ -97,25 +111,29 @@ impl ObjectBvhs {
         self.nodes.push(ObjectNode::default());
         self.nodes.push(ObjectNode::default());
         self.nodes[node] = ObjectNode {
-            lo: bounds_corner(lo, first_child as u32),
-            hi: bounds_corner(hi, 0),
+            lo: lo.to_array(),
+            first: first_child as u32,
+            hi: hi.to_array(),
+            count: 0,
         };
         let (left, right) = order.split_at_mut(mid);
-        self.fill(first_child, left, start, triangles, centroids, offset);
+        self.fill(
+            first_child,
+            left,
+            (start, depth + 1),
+            triangles,
+            centroids,
+            offset,
+        );
         self.fill(
             first_child + 1,
             right,
-            start + mid,
+            (start + mid, depth + 1),
             triangles,
             centroids,
             offset,
         );
     }
-}
-
-/// A corner of a node's bounds with `bits` in w.
-fn bounds_corner(p: Vec3, bits: u32) -> Vec4 {
-    p.extend(f32::from_bits(bits))
 }
 
 /// Triangle `t` of `mesh` with its vertices' normals (the face's where the mesh has none, or
@@ -157,7 +175,7 @@ mod tests {
         let mut stack = vec![root];
         while let Some(n) = stack.pop() {
             let node = bvhs.nodes[n as usize];
-            let (lo, hi) = (node.lo.truncate(), node.hi.truncate());
+            let (lo, hi) = (Vec3::from(node.lo), Vec3::from(node.hi));
             let inv = d.recip();
             let (t0, t1) = ((lo - o) * inv, (hi - o) * inv);
             let near = t0.min(t1).max_element().max(0.0);
@@ -168,7 +186,7 @@ mod tests {
             if near > far {
                 continue;
             }
-            let (first, count) = (node.lo.w.to_bits(), node.hi.w.to_bits());
+            let (first, count) = (node.first, node.count);
             if count == 0 {
                 stack.extend([first, first + 1]);
                 continue;
@@ -235,12 +253,12 @@ mod tests {
             let mut stack = vec![(*root, Vec3::NEG_INFINITY, Vec3::INFINITY)];
             while let Some((n, plo, phi)) = stack.pop() {
                 let node = bvhs.nodes[n as usize];
-                let (lo, hi) = (node.lo.truncate(), node.hi.truncate());
+                let (lo, hi) = (Vec3::from(node.lo), Vec3::from(node.hi));
                 assert!(
                     lo.cmpge(plo).all() && hi.cmple(phi).all(),
                     "child outside parent"
                 );
-                let (first, count) = (node.lo.w.to_bits(), node.hi.w.to_bits());
+                let (first, count) = (node.first, node.count);
                 if count == 0 {
                     stack.extend([(first, lo, hi), (first + 1, lo, hi)]);
                     continue;
