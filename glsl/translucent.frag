@@ -81,8 +81,8 @@ float box_entry(ObjectNode b, vec3 o, vec3 inv, float t_min, float t_max) {
 
 // The closest triangle of the tree at `root` but triangle `skip` that the object-space ray
 // o + t·d meets at t in (t_min, t_hit): its t, index (in `hit`) and interpolated
-// (object-space, not unit) normal. Children are visited nearer first; a child the ray enters
-// beyond the closest hit at the time it is reached is skipped.
+// (object-space, not unit) normal. Children are visited nearer first; a child is skipped when
+// the ray enters it beyond the closest hit found by the time its parent is visited.
 bool object_hit(uint root, uint skip, vec3 o, vec3 d, float t_min, inout float t_hit,
                 out uint hit, out vec3 n_hit) {
     // Tiny components (zeros, subnormals) as ±1e-30: no infinity times zero in the slabs.
@@ -90,7 +90,6 @@ bool object_hit(uint root, uint skip, vec3 o, vec3 d, float t_min, inout float t
                          lessThan(abs(d), vec3(1e-30)));
     uint stack[OBJECT_STACK];
     int depth = 0;
-    bool found = false;
     hit = 0xffffffffu;
     vec2 hit_uv = vec2(0.0);
     n_hit = vec3(0.0);
@@ -140,7 +139,6 @@ bool object_hit(uint root, uint skip, vec3 o, vec3 d, float t_min, inout float t
                     t_hit = t;
                     hit = i;
                     hit_uv = vec2(u, v);
-                    found = true;
                 }
             }
         }
@@ -149,6 +147,7 @@ bool object_hit(uint root, uint skip, vec3 o, vec3 d, float t_min, inout float t
         }
         node = stack[--depth];
     }
+    bool found = hit != 0xffffffffu;
     if (found) {
         ObjectTriangle tri = object_triangles[hit];
         n_hit = (1.0 - hit_uv.x - hit_uv.y) * tri.n0.xyz + hit_uv.x * tri.n1.xyz

@@ -101,17 +101,21 @@ impl TranslucentPass {
             bvhs.nodes.push(Default::default());
             bvhs.triangles.push(Default::default());
         }
-        let object_nodes = gpu.upload_buffer(
+        let storage = |name, bytes| {
+            gpu.upload_buffer(
+                name,
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+                bytes,
+                Access::AnyShaderStorageRead,
+            )
+        };
+        let object_nodes = storage(
             "translucent.object_nodes",
-            vk::BufferUsageFlags::STORAGE_BUFFER,
             bytemuck::cast_slice(&bvhs.nodes),
-            Access::AnyShaderStorageRead,
         )?;
-        let object_triangles = gpu.upload_buffer(
+        let object_triangles = storage(
             "translucent.object_triangles",
-            vk::BufferUsageFlags::STORAGE_BUFFER,
             bytemuck::cast_slice(&bvhs.triangles),
-            Access::AnyShaderStorageRead,
         )?;
         let uses = Self::uses(
             inputs,
