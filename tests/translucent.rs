@@ -204,6 +204,53 @@ fn a_glass_cube_shows_the_floor_straight_through_its_far_face() {
     }
 }
 
+/// Two mirrors face each other across a red box on a green floor. Each mirror is a probe of its
+/// own, so the floor beside the left mirror, reflected low in it, is looked up from the mirror
+/// and shows green. With one probe for both (centred between the mirrors, just above the box,
+/// as before each delta instance had its own) the same floor point is seen from above the box
+/// and the mirror showed red (checked with `MAX_PROBES` = 1).
+#[test]
+fn each_mirror_sees_the_floor_from_where_it_stands() {
+    use ispm::scene::authoring::{cuboid, quad, GltfWriter, MaterialSpec};
+    let mut w = GltfWriter::default();
+    let green = w.material(&MaterialSpec::diffuse("green", [0.1, 0.8, 0.1]));
+    let red = w.material(&MaterialSpec::diffuse("red", [0.8, 0.1, 0.1]));
+    let mirror = w.material(&MaterialSpec::mirror("mirror", [0.95; 3]));
+    let floor = w.mesh("floor", &quad(Vec3::ZERO, Vec3::Y, 2.0, 2.0), green);
+    w.mesh_node("floor", floor, Vec3::ZERO, glam::Quat::IDENTITY);
+    let block = w.mesh("block", &cuboid(Vec3::splat(0.25)), red);
+    w.mesh_node(
+        "block",
+        block,
+        Vec3::new(0.0, 0.25, 0.0),
+        glam::Quat::IDENTITY,
+    );
+    for (name, x, n) in [("left", -0.6, Vec3::X), ("right", 0.6, Vec3::NEG_X)] {
+        let mesh = w.mesh(name, &quad(Vec3::new(x, 0.6, 0.0), n, 0.8, 0.6), mirror);
+        w.mesh_node(name, mesh, Vec3::ZERO, glam::Quat::IDENTITY);
+    }
+    w.sun("sun", Vec3::NEG_Y, [1.0; 3], 3.0);
+    w.camera(
+        "camera",
+        Vec3::new(0.4, 0.9, 1.8),
+        Vec3::new(-0.6, 0.2, 0.3),
+        0.9,
+    );
+    let scene = common::hard::load_glb("mirrors-across-a-red-block", &w.glb());
+    let frames = render(&scene, Method::Ispm, 1);
+    let frame = &frames[0];
+    let path = save("each_mirror_sees_the_floor", frame);
+    assert_finite_and_non_negative(frame, "two mirrors");
+    // On the left mirror, low: its reflection meets the floor at about (-0.39, 0, 0), 0.14 m
+    // beside the block.
+    let c = radiance_at(&scene, frame, Vec3::new(-0.6, 0.15, 0.3), 1);
+    assert!(
+        c.y > 2.0 * c.x && c.y > 0.05,
+        "the left mirror shows {c} where the green floor is ({})",
+        path.display()
+    );
+}
+
 #[test]
 fn environment_map_is_rendered_once_and_reused() {
     let scene = bundled::resolve(Some("caustic-ring")).expect("bundled scene");

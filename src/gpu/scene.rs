@@ -43,6 +43,8 @@ fn instance_draw(scene: &Scene, i: usize) -> InstanceDraw {
 /// What a raster pass needs to draw one instance.
 #[derive(Clone, Copy, Debug)]
 pub struct Draw {
+    /// The scene instance drawn.
+    pub instance: usize,
     /// The scene mesh drawn.
     pub mesh: usize,
     pub range: MeshRange,
@@ -215,17 +217,19 @@ impl GpuScene {
             .unwrap_or(false)
     }
 
-    /// World-space bounds of the instances of delta materials (empty when there are none).
-    pub fn delta_bounds(&self, scene: &Scene) -> Aabb {
-        let mut b = Aabb::EMPTY;
-        for (inst, gpu) in scene.instances.iter().zip(&self.instances) {
+    /// Each instance of a delta material, in instance order: its index and world-space bounds.
+    pub fn delta_instances(&self, scene: &Scene) -> Vec<(usize, Aabb)> {
+        let mut delta = Vec::new();
+        for (i, (inst, gpu)) in scene.instances.iter().zip(&self.instances).enumerate() {
             if self.material_delta.get(gpu.material as usize) == Some(&true) {
+                let mut b = Aabb::EMPTY;
                 for &p in &scene.meshes[inst.mesh].positions {
                     b.grow(inst.transform.transform_point3(p));
                 }
+                delta.push((i, b));
             }
         }
-        b
+        delta
     }
 
     /// Every instance's draw with `clip_from_world` applied, where `origin` is subtracted
@@ -236,7 +240,8 @@ impl GpuScene {
         let to_relative = DMat4::from_translation(-origin);
         self.instances
             .iter()
-            .map(|inst| {
+            .enumerate()
+            .map(|(instance, inst)| {
                 let relative = to_relative * inst.transform;
                 let model = match clip_from_relative {
                     Some(clip) => clip * relative,
@@ -247,6 +252,7 @@ impl GpuScene {
                     .transpose()
                     .as_mat3();
                 Draw {
+                    instance,
                     mesh: inst.mesh,
                     range: self.meshes[inst.mesh],
                     push: DrawPush {

@@ -2,9 +2,10 @@
 //! one point, shaded forward with shadowed direct light plus emission (`environment.frag`). The
 //! translucent pass reflects and refracts it.
 //!
-//! * One cube per scene, centred on the bounds of the delta-material instances (a single mirror
-//!   or glass object sees itself from its own centre; several share one viewpoint). Delta
-//!   instances are not drawn into it.
+//! * One cube per probe: each delta-material instance is a probe centred on its own bounds
+//!   (`translucent_frame.rs` assigns them, at most `MAX_PROBES`), so two mirrors facing each
+//!   other each see the room from where they stand, not from a point between them. Delta
+//!   instances are not drawn into any cube.
 //! * Cached: rendered on the first frame and again only after [`EnvironmentPass::invalidate`]
 //!   (lights or instances moved; the cube holds radiance by world direction, so camera motion
 //!   does not invalidate it).
@@ -53,13 +54,14 @@ pub struct EnvironmentPass {
     pipeline: Pipeline,
     _frame_layout: DescriptorLayout,
     _texture_layout: DescriptorLayout,
-    /// One `FrameUniforms` per face.
+    /// One `FrameUniforms` per face, probe after probe (six a probe).
     faces: Vec<Buffer>,
     face_sets: Vec<DescriptorSet>,
     material_sets: Vec<DescriptorSet>,
     shadow: Sampler,
-    pub cube: Image,
-    depth: Image,
+    /// Each probe's cube, and the depth it is rendered with.
+    pub cubes: Vec<Image>,
+    depths: Vec<Image>,
     dirty: bool,
 }
 
@@ -95,12 +97,14 @@ pub fn texel_direction(face: usize, x: u32, y: u32, size: u32) -> Vec3 {
 }
 
 impl EnvironmentPass {
-    /// The pass with the über-BSDF lobes of `variant` compiled into its forward shading.
+    /// The pass for `probes` cubes, with the über-BSDF lobes of `variant` compiled into its
+    /// forward shading.
     pub fn new(
         gpu: &Arc<Gpu>,
         scene: &GpuScene,
         inputs: &EnvironmentInputs,
         variant: BsdfVariant,
+        probes: usize,
     ) -> anyhow::Result<Self> {
         let graphics = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         let (texture_layout, material_sets) =
@@ -111,11 +115,11 @@ impl EnvironmentPass {
             Filter::LinearCompare,
             false,
         )?;
-        let faces = (0..6)
+        let faces = (0..6 * probes)
             .map(|face| {
                 Buffer::constants(
                     gpu,
-                    &format!("environment.face[{face}]"),
+                    &format!("environment.probe[{}].face[{}]", face / 6, face % 6),
                     size_of::<FrameUniforms>() as u64,
                     vk::BufferUsageFlags::UNIFORM_BUFFER,
                 )
@@ -123,12 +127,13 @@ impl EnvironmentPass {
             .collect::<Result<Vec<_>, _>>()?;
         let kinds = uses::kinds(&Self::uses(&faces[0], inputs, &shadow));
         let bindings = Binding::sequence(&kinds, graphics);
-        let frame_layout = DescriptorLayout::new(gpu, "environment.frame", &bindings, 6)?;
+        let frame_layout =
+            DescriptorLayout::new(gpu, "environment.frame", &bindings, faces.len() as u32)?;
         let face_sets = faces
             .iter()
             .map(|face| frame_layout.allocate(&uses::writes(&Self::uses(face, inputs, &shadow))))
             .collect::<Result<Vec<_>, _>>()?;
-        let image = |name, format, usage, view| {
+        let image = |name: &str, format, usage, view| {
             Image::planned(
                 gpu,
                 &ImageDesc {
@@ -142,18 +147,26 @@ impl EnvironmentPass {
                 },
             )
         };
-        let cube = image(
-            "environment.cube",
-            FORMAT,
-            vk::ImageUsageFlags::COLOR_ATTACHMENT,
-            ViewKind::Cube,
-        );
-        let depth = image(
-            "environment.depth",
-            DEPTH,
-            vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
-            ViewKind::D2Array,
-        );
+        let cubes = (0..probes)
+            .map(|k| {
+                image(
+                    &format!("environment.probe[{k}].cube"),
+                    FORMAT,
+                    vk::ImageUsageFlags::COLOR_ATTACHMENT,
+                    ViewKind::Cube,
+                )
+            })
+            .collect();
+        let depths = (0..probes)
+            .map(|k| {
+                image(
+                    &format!("environment.probe[{k}].depth"),
+                    DEPTH,
+                    vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+                    ViewKind::D2Array,
+                )
+            })
+            .collect();
         let attributes = super::vertex_attributes();
         let pipeline = Pipeline::graphics(
             gpu,
@@ -186,8 +199,8 @@ impl EnvironmentPass {
             face_sets,
             material_sets,
             shadow,
-            cube,
-            depth,
+            cubes,
+            depths,
             dirty: true,
         })
     }
@@ -217,13 +230,16 @@ impl EnvironmentPass {
         self.dirty = true;
     }
 
-    /// Records the face uniforms: the eye's `frame` with each face's projection and the cube's
-    /// camera-relative `centre` as the viewer. A clean cube needs nothing, so nothing is written.
-    pub fn update(&self, cmd: &Cmd, frame: &FrameUniforms, centre: Vec3, near: f32) {
+    /// Records the face uniforms: the eye's `frame` with each face's projection and its probe's
+    /// camera-relative centre (`centres`, one per probe) as the viewer. Clean cubes need
+    /// nothing, so nothing is written.
+    pub fn update(&self, cmd: &Cmd, frame: &FrameUniforms, centres: &[Vec3], near: f32) {
         if !self.dirty {
             return;
         }
-        for (face, buffer) in self.faces.iter().enumerate() {
+        debug_assert_eq!(centres.len() * 6, self.faces.len());
+        for (i, buffer) in self.faces.iter().enumerate() {
+            let (centre, face) = (centres[i / 6], i % 6);
             let view_proj = face_view_proj(face, centre, near);
             let uniforms = FrameUniforms {
                 view_proj,
@@ -236,7 +252,8 @@ impl EnvironmentPass {
         }
     }
 
-    /// Renders the six faces from `draws` (camera-relative, opaque instances only) if dirty;
+    /// Renders every probe's six faces from `draws` (camera-relative, opaque instances only) if
+    /// dirty;
     /// `inputs` are the ones the pass was created with (the shadow atlas already rendered
     /// this frame).
     pub fn record(
@@ -253,19 +270,20 @@ impl EnvironmentPass {
         let uses: Vec<Use> = (self.faces.iter())
             .flat_map(|face| Self::uses(face, inputs, &self.shadow))
             .collect();
-        for (face, set) in self.face_sets.iter().enumerate() {
+        for (i, set) in self.face_sets.iter().enumerate() {
+            let (probe, face) = (i / 6, (i % 6) as u32);
             // The uses wait with the first face's attachments.
-            let uses = if face == 0 { &uses[..] } else { &[] };
+            let uses = if i == 0 { &uses[..] } else { &[] };
             cmd.begin_pass(
                 uses,
                 &[Attachment {
-                    image: &self.cube,
-                    layer: face as u32,
+                    image: &self.cubes[probe],
+                    layer: face,
                     load: Load::Clear([0.0, 0.0, 0.0, 1.0]),
                 }],
                 Some(&Attachment {
-                    image: &self.depth,
-                    layer: face as u32,
+                    image: &self.depths[probe],
+                    layer: face,
                     load: Load::Clear([0.0; 4]),
                 }),
             );
@@ -274,7 +292,7 @@ impl EnvironmentPass {
             draw_instances(cmd, &self.pipeline, scene, draws, &self.material_sets);
             cmd.end_rendering();
         }
-        // The translucent pass's declared use of the cube makes it wait for these faces.
+        // The translucent pass's declared use of the cubes makes it wait for these faces.
         self.dirty = false;
     }
 }

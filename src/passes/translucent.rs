@@ -7,7 +7,9 @@
 //! environment cube map. The nearest delta surface wins (depth writes), and it replaces what is
 //! behind it: refraction reads the cube map, not the screen, so opaque surfaces seen through
 //! glass appear as the cube map saw them (direct light and the photons' indirect light, from
-//! the cube's centre).
+//! the cube's centre). Each delta instance looks up the cubes of its probe (its own, while the
+//! scene has at most `MAX_PROBES` delta instances): one descriptor set a probe, bound before
+//! that probe's draws.
 
 pub mod object_bvh;
 
@@ -31,18 +33,26 @@ pub struct TranslucentInputs<'a> {
     pub lights: &'a Buffer,
     pub shadow_views: &'a Buffer,
     pub shadow_atlas: &'a Image,
+    /// One per probe.
+    pub probes: Vec<ProbeInputs<'a>>,
+}
+
+/// What one probe's draws look their environment up in.
+#[derive(Clone, Copy)]
+pub struct ProbeInputs<'a> {
     /// `EnvironmentUniforms`.
     pub environment: &'a Buffer,
-    pub environment_map: &'a Image,
+    pub map: &'a Image,
     /// The photons' indirect light seen from the same centre (`photon_frame/environment.rs`).
-    pub environment_indirect: &'a Image,
+    pub indirect: &'a Image,
 }
 
 pub struct TranslucentPass {
     pipeline: Pipeline,
     _layout: DescriptorLayout,
     _texture_layout: DescriptorLayout,
-    set: DescriptorSet,
+    /// One per probe.
+    sets: Vec<DescriptorSet>,
     material_sets: Vec<DescriptorSet>,
     shadow: Sampler,
     linear: Sampler,
@@ -117,14 +127,20 @@ impl TranslucentPass {
             "translucent.object_triangles",
             bytemuck::cast_slice(&bvhs.triangles),
         )?;
-        let uses = Self::uses(
-            inputs,
-            (&shadow, &linear),
-            (&object_nodes, &object_triangles),
-        );
-        let bindings = Binding::sequence(&uses::kinds(&uses), graphics);
-        let layout = DescriptorLayout::new(gpu, PassId::Translucent.name(), &bindings, 1)?;
-        let set = layout.allocate(&uses::writes(&uses))?;
+        let probe_uses = |probe| {
+            Self::uses(
+                inputs,
+                probe,
+                (&shadow, &linear),
+                (&object_nodes, &object_triangles),
+            )
+        };
+        let bindings = Binding::sequence(&uses::kinds(&probe_uses(&inputs.probes[0])), graphics);
+        let count = inputs.probes.len() as u32;
+        let layout = DescriptorLayout::new(gpu, PassId::Translucent.name(), &bindings, count)?;
+        let sets = (inputs.probes.iter())
+            .map(|probe| layout.allocate(&uses::writes(&probe_uses(probe))))
+            .collect::<Result<Vec<_>, _>>()?;
         let attributes = super::vertex_attributes();
         let pipeline = Pipeline::graphics(
             gpu,
@@ -153,7 +169,7 @@ impl TranslucentPass {
             pipeline,
             _layout: layout,
             _texture_layout: texture_layout,
-            set,
+            sets,
             material_sets,
             shadow,
             linear,
@@ -163,9 +179,10 @@ impl TranslucentPass {
         })
     }
 
-    /// What the pass uses, in the shaders' binding order.
+    /// What the pass uses with `probe`'s set, in the shaders' binding order.
     fn uses<'a>(
         inputs: &TranslucentInputs<'a>,
+        probe: &ProbeInputs<'a>,
         (shadow, linear): (&'a Sampler, &'a Sampler),
         (object_nodes, object_triangles): (&'a Buffer, &'a Buffer),
     ) -> [Use<'a>; 10] {
@@ -175,31 +192,36 @@ impl TranslucentPass {
             Use::Read(inputs.lights),
             Use::Read(inputs.shadow_views),
             Use::Sampled(inputs.shadow_atlas, shadow),
-            Use::Uniform(inputs.environment),
-            Use::Sampled(inputs.environment_map, linear),
-            Use::Sampled(inputs.environment_indirect, linear),
+            Use::Uniform(probe.environment),
+            Use::Sampled(probe.map, linear),
+            Use::Sampled(probe.indirect, linear),
             Use::Read(object_nodes),
             Use::Read(object_triangles),
         ]
     }
 
     /// Draws `draws` (camera-relative, delta instances only) over `radiance`, depth-tested
-    /// against (and writing) the eye G-buffer's `depth`. `inputs` are the ones the pass was
-    /// created with.
+    /// against (and writing) the eye G-buffer's `depth`, each with its instance's probe
+    /// (`probe_of[draw.instance]`). `inputs` are the ones the pass was created with.
     pub fn record(
         &self,
         cmd: &Cmd,
-        (scene, draws): (&GpuScene, &[Draw]),
+        (scene, draws, probe_of): (&GpuScene, &[Draw], &[usize]),
         inputs: &TranslucentInputs,
         depth: &mut Image,
         radiance: &mut Image,
     ) {
         let _scope = cmd.scope(PassId::Translucent.name());
-        let uses = Self::uses(
-            inputs,
-            (&self.shadow, &self.linear),
-            (&self.object_nodes, &self.object_triangles),
-        );
+        let uses: Vec<Use> = (inputs.probes.iter())
+            .flat_map(|probe| {
+                Self::uses(
+                    inputs,
+                    probe,
+                    (&self.shadow, &self.linear),
+                    (&self.object_nodes, &self.object_triangles),
+                )
+            })
+            .collect();
         // Each draw's tree (`DrawPush::material.z`).
         let draws: Vec<Draw> = draws
             .iter()
@@ -223,8 +245,14 @@ impl TranslucentPass {
             }),
         );
         cmd.bind_pipeline(&self.pipeline);
-        cmd.bind_sets(&self.pipeline, 0, &[self.set]);
-        draw_instances(cmd, &self.pipeline, scene, &draws, &self.material_sets);
+        for (k, set) in self.sets.iter().enumerate() {
+            let probe = |d: &&Draw| probe_of.get(d.instance).copied().unwrap_or(0) == k;
+            let mine: Vec<Draw> = draws.iter().filter(probe).copied().collect();
+            if !mine.is_empty() {
+                cmd.bind_sets(&self.pipeline, 0, &[*set]);
+                draw_instances(cmd, &self.pipeline, scene, &mine, &self.material_sets);
+            }
+        }
         cmd.end_rendering();
     }
 }

@@ -151,21 +151,24 @@ impl SceneAnalysis {
         } else {
             Decision::no("--effects all")
         };
-        let mut delta_bounds = Aabb::EMPTY;
+        let mut delta_instances = Vec::new();
         if planned && translucent.needed {
-            for inst in &scene.instances {
+            for (i, inst) in scene.instances.iter().enumerate() {
                 let mesh = &scene.meshes[inst.mesh];
                 if scene
                     .materials
                     .get(mesh.material)
                     .is_some_and(Material::has_delta_lobe)
                 {
+                    let mut b = Aabb::EMPTY;
                     for &p in &mesh.positions {
-                        delta_bounds.grow(inst.transform.transform_point3(p));
+                        b.grow(inst.transform.transform_point3(p));
                     }
+                    delta_instances.push((i, b));
                 }
             }
         }
+        let (probes, _) = super::probes::assign_probes(&delta_instances);
         let enclosures = if welds_enclosures(scene, settings) {
             match statics {
                 Some(statics) => Enclosures::with_static(statics, scene),
@@ -185,7 +188,7 @@ impl SceneAnalysis {
             glossy,
             bounces: bounces::bounce_depth(&used, settings.bounces),
             indirect,
-            delta_bounds,
+            probes,
             enclosures,
         }
     }

@@ -29,11 +29,13 @@ impl SceneAnalysis {
             clearance: reach::near_reach(camera, aspect),
         }];
         if translucent {
-            // The environment cube sees the whole scene from the delta instances' centre.
-            viewers.push(Probe {
-                position: self.delta_bounds.center(),
-                clearance: (1e-3 * diag).max(1e-4),
-            });
+            // The environment cubes see the whole scene from their probes' centres.
+            for probe in &self.probes {
+                viewers.push(Probe {
+                    position: probe.center(),
+                    clearance: (1e-3 * diag).max(1e-4),
+                });
+            }
         }
         // What viewers can see: the camera's visible box, or all of it for the cube.
         let seen = if translucent { *bounds } else { visible };

@@ -34,6 +34,7 @@ pub mod lighting;
 mod lights;
 mod motion;
 mod pass_list;
+pub mod probes;
 mod reach;
 #[cfg(test)]
 mod tests;
@@ -171,9 +172,9 @@ pub struct SceneAnalysis {
     indirect: Decision,
     /// The bounce depth and its reason, for frames with indirect light.
     bounces: (u32, String),
-    /// Where the environment cube sees the scene from: the delta instances' bounds (empty
-    /// without the translucent pass).
-    delta_bounds: Aabb,
+    /// Where the environment cubes see the scene from: the bounds each probe is centred on
+    /// ([`probes::assign_probes`]; none without the translucent pass).
+    probes: Vec<Aabb>,
     enclosures: Enclosures,
     /// Emissive surfaces as lights, before looking at the lights.
     emitters: Decision,

@@ -1,6 +1,7 @@
-//! The translucent part of a frame: the environment cube map (cached), the photons' indirect
-//! light seen from its centre (a small cube, new with every photon map), and the forward pass
-//! that draws glass and mirrors over the opaque radiance. Exists only for scenes with at least
+//! The translucent part of a frame: per probe (each delta instance, `plan::probes`) the
+//! environment cube map (cached) and the photons' indirect light seen from its centre (a small
+//! cube, new with every photon map), and the forward pass that draws glass and mirrors over the
+//! opaque radiance. Exists only for scenes with at least
 //! one delta-material instance; `frame.rs` calls [`TranslucentFrame::update`] with the frame's
 //! uniforms, [`TranslucentFrame::set_indirect`] after a photon trace and
 //! [`TranslucentFrame::record`] after the composite.
@@ -9,8 +10,9 @@ use crate::gpu::scene::{Draw, GpuScene};
 use crate::gpu::{vk, Buffer, Gpu, Image, ImageDesc, MemoryLocation, ViewKind};
 use crate::layout::{EnvironmentUniforms, FrameUniforms};
 use crate::passes::environment::{EnvironmentInputs, EnvironmentPass};
-use crate::passes::translucent::{TranslucentInputs, TranslucentPass};
+use crate::passes::translucent::{ProbeInputs, TranslucentInputs, TranslucentPass};
 use crate::photon::bsdf::BsdfVariant;
+use crate::plan::probes::assign_probes;
 use crate::render::photon_frame::environment::FACE_SIZE as INDIRECT_FACE_SIZE;
 use crate::scene::{Aabb, Scene};
 use glam::DVec3;
@@ -24,20 +26,27 @@ pub struct TranslucentResources<'a> {
     pub shadow_atlas: &'a Image,
 }
 
-pub struct TranslucentFrame {
-    environment: EnvironmentPass,
-    pass: TranslucentPass,
+/// One probe's GPU side.
+struct Probe {
     /// `EnvironmentUniforms`, camera-relative, rewritten every frame.
     uniforms: Buffer,
     /// The photons' indirect light seen from the centre (an RGBA16F cube like the direct one:
     /// linear filtering of 16-bit floats is required by Vulkan, of 32-bit ones not;
-    /// `photon_frame/environment.rs`), its host-visible staging copy, and whether the staging
-    /// copy holds texels the cube does not have yet.
+    /// `photon_frame/environment.rs`), its host-visible staging copy.
     indirect: Image,
     indirect_staging: Buffer,
-    indirect_pending: bool,
-    /// World-space centre of the cube map: the centre of the delta instances' bounds.
+    /// World-space centre of the probe's cubes.
     centre: DVec3,
+}
+
+pub struct TranslucentFrame {
+    environment: EnvironmentPass,
+    pass: TranslucentPass,
+    probes: Vec<Probe>,
+    /// Per scene instance, its probe (0 for instances not drawn here).
+    probe_of: Vec<usize>,
+    /// Whether the staging copies hold texels the cubes do not have yet.
+    indirect_pending: bool,
     /// World-space scene bounds, the box environment lookups are projected onto.
     bounds: Aabb,
     /// Near plane of the cube faces (metres).
@@ -55,16 +64,15 @@ impl TranslucentFrame {
         (depth, radiance): (&Image, &Image),
         variant: BsdfVariant,
     ) -> anyhow::Result<Option<Self>> {
-        let delta = gpu_scene.delta_bounds(scene);
+        let delta = gpu_scene.delta_instances(scene);
         if delta.is_empty() {
             return Ok(None);
         }
-        let uniforms = Buffer::constants(
-            gpu,
-            "environment.uniforms",
-            size_of::<EnvironmentUniforms>() as u64,
-            vk::BufferUsageFlags::UNIFORM_BUFFER,
-        )?;
+        let (centres, assigned) = assign_probes(&delta);
+        let mut probe_of = vec![0; gpu_scene.instances.len()];
+        for (instance, probe) in assigned {
+            probe_of[instance] = probe;
+        }
         let environment = EnvironmentPass::new(
             gpu,
             gpu_scene,
@@ -75,30 +83,47 @@ impl TranslucentFrame {
                 shadow_atlas: resources.shadow_atlas,
             },
             variant,
+            centres.len(),
         )?;
         let texels = 6 * INDIRECT_FACE_SIZE * INDIRECT_FACE_SIZE;
-        let indirect = Image::planned(
-            gpu,
-            &ImageDesc {
-                name: "environment.indirect",
-                format: crate::passes::environment::FORMAT,
-                width: INDIRECT_FACE_SIZE,
-                height: INDIRECT_FACE_SIZE,
-                layers: 6,
-                // Copied into from the staging buffer; the translucent pass samples it.
-                usage: vk::ImageUsageFlags::TRANSFER_DST,
-                view: ViewKind::Cube,
-            },
-        );
-        let indirect_staging = Buffer::new(
-            gpu,
-            "environment.indirect.staging",
-            u64::from(texels) * 8,
-            vk::BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::CpuToGpu,
-        )?;
-        // Black until a photon map says otherwise (`--method direct`, or no photons).
-        indirect_staging.write(0, &vec![0u8; texels as usize * 8])?;
+        let probes = (centres.iter().enumerate())
+            .map(|(k, bounds)| {
+                let uniforms = Buffer::constants(
+                    gpu,
+                    &format!("environment.probe[{k}].uniforms"),
+                    size_of::<EnvironmentUniforms>() as u64,
+                    vk::BufferUsageFlags::UNIFORM_BUFFER,
+                )?;
+                let indirect = Image::planned(
+                    gpu,
+                    &ImageDesc {
+                        name: &format!("environment.probe[{k}].indirect"),
+                        format: crate::passes::environment::FORMAT,
+                        width: INDIRECT_FACE_SIZE,
+                        height: INDIRECT_FACE_SIZE,
+                        layers: 6,
+                        // Copied into from the staging buffer; the translucent pass samples it.
+                        usage: vk::ImageUsageFlags::TRANSFER_DST,
+                        view: ViewKind::Cube,
+                    },
+                );
+                let indirect_staging = Buffer::new(
+                    gpu,
+                    &format!("environment.probe[{k}].indirect.staging"),
+                    u64::from(texels) * 8,
+                    vk::BufferUsageFlags::TRANSFER_SRC,
+                    MemoryLocation::CpuToGpu,
+                )?;
+                // Black until a photon map says otherwise (`--method direct`, or no photons).
+                indirect_staging.write(0, &vec![0u8; texels as usize * 8])?;
+                Ok(Probe {
+                    uniforms,
+                    indirect,
+                    indirect_staging,
+                    centre: bounds.center().as_dvec3(),
+                })
+            })
+            .collect::<anyhow::Result<Vec<_>>>()?;
         let pass = TranslucentPass::new(
             gpu,
             (gpu_scene, scene),
@@ -108,9 +133,7 @@ impl TranslucentFrame {
                 lights: resources.lights,
                 shadow_views: resources.shadow_views,
                 shadow_atlas: resources.shadow_atlas,
-                environment: &uniforms,
-                environment_map: &environment.cube,
-                environment_indirect: &indirect,
+                probes: probe_inputs(&probes, &environment),
             },
             (radiance, depth),
             variant,
@@ -119,19 +142,18 @@ impl TranslucentFrame {
         Ok(Some(Self {
             environment,
             pass,
-            uniforms,
-            indirect,
-            indirect_staging,
+            probes,
+            probe_of,
             indirect_pending: true,
-            centre: delta.center().as_dvec3(),
             bounds,
             // Scale case: relative only (a 10⁻⁴ m floor clipped the middle of a 2 mm scene).
             near: (1e-3 * bounds.extent().length()).max(f32::MIN_POSITIVE),
         }))
     }
 
-    /// Records this frame's camera-relative uniforms (and the cube faces' while it is dirty);
-    /// without `indirect` (the direct-only debug view) lookups leave the indirect cube out.
+    /// Records this frame's camera-relative uniforms (and the cube faces' while they are
+    /// dirty); without `indirect` (the direct-only debug view) lookups leave the indirect cubes
+    /// out.
     pub fn update(
         &self,
         cmd: &crate::gpu::Cmd,
@@ -140,19 +162,23 @@ impl TranslucentFrame {
         indirect: bool,
     ) {
         let relative = |p: glam::Vec3| (p.as_dvec3() - camera).as_vec3().extend(1.0);
-        let centre = (self.centre - camera).as_vec3();
-        let uniforms = EnvironmentUniforms {
-            centre: centre.extend(if indirect { 1.0 } else { 0.0 }),
-            bounds_min: relative(self.bounds.min),
-            bounds_max: relative(self.bounds.max),
-        };
-        cmd.update_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
-        self.environment.update(cmd, frame, centre, self.near);
+        let centres: Vec<glam::Vec3> = (self.probes.iter())
+            .map(|p| (p.centre - camera).as_vec3())
+            .collect();
+        for (probe, centre) in self.probes.iter().zip(&centres) {
+            let uniforms = EnvironmentUniforms {
+                centre: centre.extend(if indirect { 1.0 } else { 0.0 }),
+                bounds_min: relative(self.bounds.min),
+                bounds_max: relative(self.bounds.max),
+            };
+            cmd.update_buffer(&probe.uniforms, 0, bytemuck::bytes_of(&uniforms));
+        }
+        self.environment.update(cmd, frame, &centres, self.near);
     }
 
-    /// The environment cube map (if dirty) from the `opaque` draws, then the `delta` draws over
-    /// `radiance`, depth-tested against the eye G-buffer's `depth`. `resources` are the ones
-    /// the frame was made with.
+    /// The environment cube maps (if dirty) from the `opaque` draws, then the `delta` draws
+    /// over `radiance`, depth-tested against the eye G-buffer's `depth`. `resources` are the
+    /// ones the frame was made with.
     pub fn record(
         &mut self,
         cmd: &crate::gpu::Cmd,
@@ -169,7 +195,9 @@ impl TranslucentFrame {
         };
         self.environment.record(cmd, scene, opaque, &environment);
         if std::mem::take(&mut self.indirect_pending) {
-            cmd.copy_buffer_to_image(&self.indirect_staging, &self.indirect);
+            for probe in &self.probes {
+                cmd.copy_buffer_to_image(&probe.indirect_staging, &probe.indirect);
+            }
         }
         let inputs = TranslucentInputs {
             frame: resources.frame,
@@ -177,50 +205,77 @@ impl TranslucentFrame {
             lights: resources.lights,
             shadow_views: resources.shadow_views,
             shadow_atlas: resources.shadow_atlas,
-            environment: &self.uniforms,
-            environment_map: &self.environment.cube,
-            environment_indirect: &self.indirect,
+            probes: probe_inputs(&self.probes, &self.environment),
         };
-        self.pass
-            .record(cmd, (scene, delta), &inputs, depth, radiance);
-    }
-
-    /// World-space centre of the cube maps.
-    pub fn centre(&self) -> DVec3 {
-        self.centre
-    }
-
-    /// Gives the next [`Self::record`] new indirect texels (`PhotonFrame::environment_indirect`).
-    /// The GPU must be done with the previous frame (whose record may have copied the staging
-    /// buffer this writes).
-    pub fn set_indirect(&mut self, texels: &[[f32; 4]]) -> anyhow::Result<()> {
-        anyhow::ensure!(
-            texels.len() == (6 * INDIRECT_FACE_SIZE * INDIRECT_FACE_SIZE) as usize,
-            "{} indirect environment texels for a cube of {INDIRECT_FACE_SIZE}² a face",
-            texels.len()
+        self.pass.record(
+            cmd,
+            (scene, delta, &self.probe_of),
+            &inputs,
+            depth,
+            radiance,
         );
-        let halves: Vec<u16> = texels
-            .iter()
-            .flatten()
-            .map(|&v| half::f16::from_f32(v).to_bits())
-            .collect();
-        self.indirect_staging
-            .write(0, bytemuck::cast_slice(&halves))?;
+    }
+
+    /// World-space centre of each probe's cube maps.
+    pub fn centres(&self) -> Vec<DVec3> {
+        self.probes.iter().map(|p| p.centre).collect()
+    }
+
+    /// Gives the next [`Self::record`] new indirect texels, one cube a probe
+    /// (`PhotonFrame::environment_indirect`). The GPU must be done with the previous frame
+    /// (whose record may have copied the staging buffers this writes).
+    pub fn set_indirect(&mut self, cubes: &[Vec<[f32; 4]>]) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            cubes.len() == self.probes.len(),
+            "{} indirect cubes for {} probes",
+            cubes.len(),
+            self.probes.len()
+        );
+        for (probe, texels) in self.probes.iter().zip(cubes) {
+            anyhow::ensure!(
+                texels.len() == (6 * INDIRECT_FACE_SIZE * INDIRECT_FACE_SIZE) as usize,
+                "{} indirect environment texels for a cube of {INDIRECT_FACE_SIZE}² a face",
+                texels.len()
+            );
+            let halves: Vec<u16> = texels
+                .iter()
+                .flatten()
+                .map(|&v| half::f16::from_f32(v).to_bits())
+                .collect();
+            probe
+                .indirect_staging
+                .write(0, bytemuck::cast_slice(&halves))?;
+        }
         self.indirect_pending = true;
         Ok(())
     }
 
-    /// Makes the next frame render the environment cube map again.
+    /// Makes the next frame render the environment cube maps again.
     pub fn invalidate(&mut self) {
         self.environment.invalidate();
     }
 
-    /// Instances moved: the cube map is rendered again, from the centre of `delta`, the delta
-    /// instances' bounds where they are now (`GpuScene::delta_bounds`).
-    pub fn moved(&mut self, delta: Aabb) {
-        if !delta.is_empty() {
-            self.centre = delta.center().as_dvec3();
+    /// Instances moved: the cube maps are rendered again, each probe from the centre of its
+    /// instances where they are now (`delta`: `GpuScene::delta_instances`, the same instances
+    /// as when the frame was made).
+    pub fn moved(&mut self, delta: &[(usize, Aabb)]) {
+        let (centres, _) = assign_probes(delta);
+        for (probe, bounds) in self.probes.iter_mut().zip(centres) {
+            if !bounds.is_empty() {
+                probe.centre = bounds.center().as_dvec3();
+            }
         }
         self.environment.invalidate();
     }
+}
+
+/// The translucent pass's view of each probe.
+fn probe_inputs<'a>(probes: &'a [Probe], environment: &'a EnvironmentPass) -> Vec<ProbeInputs<'a>> {
+    (probes.iter().zip(&environment.cubes))
+        .map(|(probe, cube)| ProbeInputs {
+            environment: &probe.uniforms,
+            map: cube,
+            indirect: &probe.indirect,
+        })
+        .collect()
 }

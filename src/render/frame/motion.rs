@@ -81,7 +81,7 @@ impl Renderer {
             self.scene.set_instance_transform(&self.source, i);
         }
         if let Some(translucent) = &mut self.translucent {
-            translucent.moved(self.scene.delta_bounds(&self.source));
+            translucent.moved(&self.scene.delta_instances(&self.source));
         }
         if plan != self.plan {
             log::info!("{plan}");

@@ -116,14 +116,14 @@ impl Renderer {
             // (`photon_frame/environment.rs`), gathered while the GPU still runs; the staging
             // buffer it goes to was read at most by the previous frame's box D.
             if let Some(translucent) = &mut self.translucent {
-                let centre = translucent.centre();
-                let texels = timing::timed("environment indirect", || {
-                    photons.environment_indirect(centre)
+                let centres = translucent.centres();
+                let cubes = timing::timed("environment indirect", || {
+                    photons.environment_indirect(&centres)
                 });
                 if let Some(previous) = self.last_frame_done {
                     timing::timed("environment wait", || gpu.wait(previous))?;
                 }
-                translucent.set_indirect(&texels)?;
+                translucent.set_indirect(&cubes)?;
             }
             // The photon map's CPU→GPU copy (transfer queue), after the previous frame's
             // photon volumes stopped reading the photon buffer and box A handed it over.

@@ -41,33 +41,38 @@ pub const FACE_SIZE: u32 = 32;
 const MAX_PASS_THROUGH: u32 = 8;
 
 impl PhotonFrame {
-    /// The indirect cube for an environment cube centred at `centre` (world space): RGBA
+    /// The indirect cube of each environment probe centred at `centres` (world space): RGBA
     /// (alpha 1) per texel, face after face (+X, −X, +Y, −Y, +Z, −Z), rows from the top.
     /// Zeros when the photon map is empty.
-    pub fn environment_indirect(&self, centre: DVec3) -> Vec<[f32; 4]> {
+    pub fn environment_indirect(&self, centres: &[DVec3]) -> Vec<Vec<[f32; 4]>> {
         let texels = (6 * FACE_SIZE * FACE_SIZE) as usize;
-        if self.radii.is_empty() {
-            return vec![[0.0, 0.0, 0.0, 1.0]; texels];
+        if self.radii.is_empty() || centres.is_empty() {
+            return vec![vec![[0.0, 0.0, 0.0, 1.0]; texels]; centres.len()];
         }
         let map = PhotonMap {
             photons: self.traced.photons().copied().collect(),
             ..Default::default()
         };
-        // Photons, BVH and the centre relative to the plan's origin (module docs of
-        // `photon_frame`); no footprint floor (module docs).
-        let centre = (centre - self.plan.origin).as_vec3();
+        // Photons, BVH and the centres relative to the plan's origin (module docs of
+        // `photon_frame`); no footprint floor (module docs), so the radii do not depend on the
+        // viewpoint and one gather map serves every probe.
+        let relative = |c: DVec3| (c - self.plan.origin).as_vec3();
         let kernel = KernelSettings {
             footprint: 0.0,
             ..self.kernel_clamp
         };
-        let gather = GatherMap::with_knn_radii(map, &self.radii, &kernel, centre);
-        indirect_cube(
-            &self.scene,
-            &self.bvh,
-            &gather,
-            centre,
-            kernel.gather_exponent_max(),
-        )
+        let gather = GatherMap::with_knn_radii(map, &self.radii, &kernel, relative(centres[0]));
+        (centres.iter())
+            .map(|&centre| {
+                indirect_cube(
+                    &self.scene,
+                    &self.bvh,
+                    &gather,
+                    relative(centre),
+                    kernel.gather_exponent_max(),
+                )
+            })
+            .collect()
     }
 }
 
