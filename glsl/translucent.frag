@@ -10,11 +10,12 @@
 // traced through a BVH of the mesh's own triangles (src/passes/translucent/object_bvh.rs); each
 // surface it meets reflects or refracts it as the über-BSDF says (the heavier lobe followed,
 // the other looked up in the environment), until it leaves the object and looks the
-// environment up. Other delta objects are not in the cube, nor traced: a ray between two of
+// environment up. Other delta objects are not in any probe's cube, nor traced: a ray between two of
 // them sees what is behind the other.
 // The lobe weights are the über-BSDF's own (bsdf_lobe_reflectances: Fresnel-weighted when the
 // material asks for it), so what the eye sees matches what photons do at the surface.
-// Lookups are projected onto the scene's bounding box from the cube's centre (parallax
+// Lookups are projected onto the scene's bounding box from the centre of the draw's probe
+// (env.centre; each probe is its own descriptor set, src/passes/translucent.rs) (parallax
 // correction), which is exact for rays that leave through a wall of a box-shaped room.
 #include "shared.glsl"
 #include "material.glsl"

@@ -215,7 +215,8 @@ fn plan_prints_one_line_per_decision_naming_the_material_or_light_behind_it() {
     for needle in [
         "effects: auto\n",
         "translucent pass + environment map: yes — instance 'ring' has the mirror or \
-         transmissive material 'mirror-metal'\n",
+         transmissive material 'mirror-metal' (1 instance of such materials, 1 environment \
+         probe)\n",
         "mirror/refraction lobes (shaders, caustic paths): yes — material 'mirror-metal' is a \
          perfect mirror\n",
         "glossy lobe (shaders, CPU trace): no — no material has a finite-exponent glossy lobe\n",

@@ -251,6 +251,66 @@ fn each_mirror_sees_the_floor_from_where_it_stands() {
     );
 }
 
+/// Five mirrors in a row, one more than there are probes: the fourth and fifth share the last
+/// probe (`plan::probes::MAX_PROBES`), and every mirror still shows the green floor in front of
+/// it, each draw with its probe's set (validation on). A mirror not drawn would show the red
+/// floor behind it (checked by skipping the last probe's draws).
+#[test]
+fn more_mirrors_than_probes_share_the_last_and_all_show_the_floor() {
+    use ispm::plan::probes::MAX_PROBES;
+    use ispm::scene::authoring::{quad, GltfWriter, MaterialSpec};
+    let mut w = GltfWriter::default();
+    let green = w.material(&MaterialSpec::diffuse("green", [0.1, 0.8, 0.1]));
+    let red = w.material(&MaterialSpec::diffuse("red", [0.8, 0.1, 0.1]));
+    let mirror = w.material(&MaterialSpec::mirror("mirror", [0.95; 3]));
+    // Green in front of the mirrors (z > 0), red behind them: a mirror left undrawn shows red.
+    // quad's half-sizes: along z, then along x.
+    for (name, z, material) in [("front", 1.5, green), ("back", -1.5, red)] {
+        let floor = w.mesh(
+            name,
+            &quad(Vec3::new(0.0, 0.0, z), Vec3::Y, 1.5, 3.0),
+            material,
+        );
+        w.mesh_node(name, floor, Vec3::ZERO, glam::Quat::IDENTITY);
+    }
+    let xs = [-1.0, -0.5, 0.0, 0.5, 1.0];
+    assert!(xs.len() > MAX_PROBES);
+    let mesh = w.mesh(
+        "mirror",
+        &quad(Vec3::new(0.0, 0.2, 0.0), Vec3::Z, 0.15, 0.2),
+        mirror,
+    );
+    for (i, x) in xs.iter().enumerate() {
+        w.mesh_node(
+            &format!("mirror-{i}"),
+            mesh,
+            Vec3::new(*x, 0.0, 0.0),
+            glam::Quat::IDENTITY,
+        );
+    }
+    w.sun("sun", Vec3::NEG_Y, [1.0; 3], 3.0);
+    w.camera(
+        "camera",
+        Vec3::new(0.0, 1.5, 2.5),
+        Vec3::new(0.0, 0.1, 0.0),
+        0.9,
+    );
+    let scene = common::hard::load_glb("five-mirrors", &w.glb());
+    let frames = render(&scene, Method::Ispm, 1);
+    let frame = &frames[0];
+    let path = save("five_mirrors", frame);
+    assert_finite_and_non_negative(frame, "five mirrors");
+    for x in xs {
+        // Each mirror reflects the eye's downward ray onto the floor in front of it.
+        let c = radiance_at(&scene, frame, Vec3::new(x, 0.12, 0.0), 0);
+        assert!(
+            c.y > 2.0 * c.x && c.y > 0.05,
+            "the mirror at x = {x} shows {c} where the green floor is ({})",
+            path.display()
+        );
+    }
+}
+
 #[test]
 fn environment_map_is_rendered_once_and_reused() {
     let scene = bundled::resolve(Some("caustic-ring")).expect("bundled scene");

@@ -217,21 +217,6 @@ impl GpuScene {
             .unwrap_or(false)
     }
 
-    /// Each instance of a delta material, in instance order: its index and world-space bounds.
-    pub fn delta_instances(&self, scene: &Scene) -> Vec<(usize, Aabb)> {
-        let mut delta = Vec::new();
-        for (i, (inst, gpu)) in scene.instances.iter().zip(&self.instances).enumerate() {
-            if self.material_delta.get(gpu.material as usize) == Some(&true) {
-                let mut b = Aabb::EMPTY;
-                for &p in &scene.meshes[inst.mesh].positions {
-                    b.grow(inst.transform.transform_point3(p));
-                }
-                delta.push((i, b));
-            }
-        }
-        delta
-    }
-
     /// Every instance's draw with `clip_from_world` applied, where `origin` is subtracted
     /// from world positions first (in double precision): the eye pass passes the camera
     /// position and identity; shadow passes pass the camera position and the light's

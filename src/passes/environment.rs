@@ -1,9 +1,9 @@
-//! Environment cube map (graphics): the opaque scene rendered into the six faces of a cube from
-//! one point, shaded forward with shadowed direct light plus emission (`environment.frag`). The
-//! translucent pass reflects and refracts it.
+//! Environment cube maps (graphics): the opaque scene rendered into the six faces of a cube from
+//! each probe's centre, shaded forward with shadowed direct light plus emission
+//! (`environment.frag`). The translucent pass reflects and refracts them.
 //!
 //! * One cube per probe: each delta-material instance is a probe centred on its own bounds
-//!   (`translucent_frame.rs` assigns them, at most `MAX_PROBES`), so two mirrors facing each
+//!   (`plan/probes.rs` assigns them, at most `MAX_PROBES`), so two mirrors facing each
 //!   other each see the room from where they stand, not from a point between them. Delta
 //!   instances are not drawn into any cube.
 //! * Cached: rendered on the first frame and again only after [`EnvironmentPass::invalidate`]
@@ -14,6 +14,7 @@
 //!   (`photon_frame/environment.rs`) and the translucent pass adds to this one.
 //!
 //! ```text
+//!   per probe:
 //!   cube   RGBA16F, 6 layers (+X, −X, +Y, −Y, +Z, −Z), sampled as a cube
 //!   depth  D32F, 6 layers, reversed-Z
 //! ```
@@ -106,6 +107,10 @@ impl EnvironmentPass {
         variant: BsdfVariant,
         probes: usize,
     ) -> anyhow::Result<Self> {
+        assert!(
+            probes > 0,
+            "an environment pass renders at least one probe's cube"
+        );
         let graphics = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         let (texture_layout, material_sets) =
             material_texture_sets(gpu, PassId::Environment.name(), scene)?;

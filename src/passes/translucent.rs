@@ -127,6 +127,10 @@ impl TranslucentPass {
             "translucent.object_triangles",
             bytemuck::cast_slice(&bvhs.triangles),
         )?;
+        assert!(
+            !inputs.probes.is_empty(),
+            "the translucent pass looks up at least one probe"
+        );
         let probe_uses = |probe| {
             Self::uses(
                 inputs,
@@ -243,6 +247,12 @@ impl TranslucentPass {
                 layer: 0,
                 load: Load::Keep,
             }),
+        );
+        debug_assert!(
+            (draws.iter()).all(|d| probe_of
+                .get(d.instance)
+                .is_some_and(|&k| k < self.sets.len())),
+            "every draw has a probe"
         );
         cmd.bind_pipeline(&self.pipeline);
         for (k, set) in self.sets.iter().enumerate() {

@@ -97,15 +97,25 @@ impl SceneAnalysis {
         let used = used_materials(scene);
         let bounds = scene.bounds();
         let subsample = settings.subsample_factor();
+        // Each delta instance with its bounds: the environment probes (`probes.rs`).
+        let delta_instances = scene.delta_instance_bounds();
+        let (probes, _) = super::probes::assign_probes(&delta_instances);
         let delta_instance = scene.instances.iter().find_map(|i| {
             let m = scene.materials.get(scene.meshes[i.mesh].material)?;
             m.has_delta_lobe()
                 .then_some((i.name.as_str(), m.name.as_str()))
         });
         let translucent = match delta_instance {
-            Some((instance, material)) => Decision::yes(format!(
-                "instance '{instance}' has the mirror or transmissive material '{material}'"
-            )),
+            Some((instance, material)) => {
+                let count =
+                    |n: usize, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
+                Decision::yes(format!(
+                    "instance '{instance}' has the mirror or transmissive material \
+                     '{material}' ({} of such materials, {})",
+                    count(delta_instances.len(), "instance"),
+                    count(probes.len(), "environment probe")
+                ))
+            }
             None => Decision::no("no instance has a mirror or transmissive material"),
         };
         let delta = lobe_decision(
@@ -151,24 +161,6 @@ impl SceneAnalysis {
         } else {
             Decision::no("--effects all")
         };
-        let mut delta_instances = Vec::new();
-        if planned && translucent.needed {
-            for (i, inst) in scene.instances.iter().enumerate() {
-                let mesh = &scene.meshes[inst.mesh];
-                if scene
-                    .materials
-                    .get(mesh.material)
-                    .is_some_and(Material::has_delta_lobe)
-                {
-                    let mut b = Aabb::EMPTY;
-                    for &p in &mesh.positions {
-                        b.grow(inst.transform.transform_point3(p));
-                    }
-                    delta_instances.push((i, b));
-                }
-            }
-        }
-        let (probes, _) = super::probes::assign_probes(&delta_instances);
         let enclosures = if welds_enclosures(scene, settings) {
             match statics {
                 Some(statics) => Enclosures::with_static(statics, scene),

@@ -37,7 +37,7 @@ impl SceneAnalysis {
                 });
             }
         }
-        // What viewers can see: the camera's visible box, or all of it for the cube.
+        // What viewers can see: the camera's visible box, or all of it for the probes.
         let seen = if translucent { *bounds } else { visible };
         let enclosures = &self.enclosures;
         let mut plans: Vec<LightPlan> = scene

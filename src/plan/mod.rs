@@ -81,7 +81,7 @@ impl Decision {
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct LightPlan {
     pub name: String,
-    /// Its direct light can reach something a viewer (the camera, or the environment cube
+    /// Its direct light can reach something a viewer (the camera, or an environment probe
     /// when the translucent pass runs) sees: it gets shadow views and the direct pass sums it.
     pub direct: bool,
     /// Photons it emits (0: no light G-buffer views, no bounce-map texels).
@@ -108,7 +108,7 @@ pub struct PassPlan {
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct EffectsPlan {
     pub effects: Effects,
-    /// The translucent pass and its environment cube map (instances with a delta material,
+    /// The translucent pass and its environment cube maps (instances with a delta material,
     /// `Material::has_delta_lobe`, leave the eye G-buffer for it).
     pub translucent: Decision,
     /// Mirror and refraction code in the shaders (the [`BsdfVariant::delta`] switch), and

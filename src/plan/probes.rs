@@ -26,12 +26,13 @@ pub const MAX_PROBES: usize = 4;
 /// both mirrors saw the floor from, and each mirror showed it). Past [`MAX_PROBES`], instances
 /// in scene order from the last probe's on share it, centred on their common bounds.
 ///
-/// Returns the bounds each probe is centred on, and per instance of `delta` (index, bounds, in
-/// instance order) its probe.
+/// Returns the bounds each probe is centred on, and per instance of `delta` (index, non-empty
+/// bounds, in instance order: `Scene::delta_instance_bounds`) its probe.
 pub fn assign_probes(delta: &[(usize, Aabb)]) -> (Vec<Aabb>, Vec<(usize, usize)>) {
     let mut probes: Vec<Aabb> = Vec::new();
     let mut of = Vec::with_capacity(delta.len());
     for (k, &(instance, b)) in delta.iter().enumerate() {
+        debug_assert!(!b.is_empty(), "instance {instance}: a probe needs bounds");
         let probe = k.min(MAX_PROBES - 1);
         if probe == probes.len() {
             probes.push(b);

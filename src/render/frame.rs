@@ -16,8 +16,8 @@
 //! the host waits for the copy only and traces the photons on every core (box C) while the GPU
 //! draws box B (on a CPU device the default schedule waits for box B first,
 //! [`Schedule::trace_beside_box_b`](crate::config::settings::Schedule::trace_beside_box_b)) (in scenes with glass or mirrors it then gathers the photons' light seen from
-//! the environment cube's centre, `photon_frame/environment.rs`, and waits for the previous
-//! frame's box D before it writes that cube's staging buffer); then it issues the photon map's
+//! each environment probe's centre, `photon_frame/environment.rs`, and waits for the previous
+//! frame's box D before it writes those cubes' staging buffers); then it issues the photon map's
 //! upload and box D, which waits for it. Every
 //! cross-queue dependency is a wait on a queue's timeline; the bounce map and the photon buffer
 //! change queue-family ownership with release/acquire barriers where the transfer queue is a
@@ -334,7 +334,7 @@ impl Renderer {
     /// (the image size stays). Everything that depends on the camera follows it:
     ///
     /// - the eye's view and projection, and every camera-relative matrix and position (shadow
-    ///   views, lights, instances, the environment map's centre), made in f64 each frame;
+    ///   views, lights, instances, the environment probes' centres), made in f64 each frame;
     /// - the effects plan's view-dependent decisions: which lights reach the visible scene
     ///   (shadow views, direct light) and which are enclosed away from every viewer (no
     ///   photons); when the photon lights change, the next frame traces a new photon map, and
@@ -345,7 +345,7 @@ impl Renderer {
     ///
     /// What does not depend on the camera stays: the photon map (traced relative to the
     /// scene's centre, `photon_frame.rs`), so a pure camera move re-traces nothing (the frame's
-    /// stats list the photon passes as skipped, the map reused); the environment cube map,
+    /// stats list the photon passes as skipped, the map reused); the environment cube maps,
     /// centred on the glass and mirrors (re-rendered only if the lights it is shaded with
     /// change); the directional lights' shadow maps, fitted to the scene, not the view.
     /// Fails for a camera that is not finite, or has a field of view outside (0, π) or a

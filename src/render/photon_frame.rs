@@ -1,7 +1,7 @@
 //! The photon part of an ISPM frame: light G-buffers → bounce map → readback → CPU trace →
 //! kernel radii (`photon::density`) → upload → photon volumes (→ upsample at
 //! `--subsample N > 1`) → composite; and, for glass and mirrors, the photons' light seen from
-//! the environment cube's centre (`environment.rs`). Owns the buffers and passes those steps use; `frame.rs`
+//! each environment probe's centre (`environment.rs`). Owns the buffers and passes those steps use; `frame.rs`
 //! calls its three steps in order. The first four run for the lights whose photons changed
 //! only; the others' are kept (`retrace.rs`).
 //!

@@ -64,11 +64,11 @@ impl TranslucentFrame {
         (depth, radiance): (&Image, &Image),
         variant: BsdfVariant,
     ) -> anyhow::Result<Option<Self>> {
-        let delta = gpu_scene.delta_instances(scene);
+        let delta = scene.delta_instance_bounds();
         if delta.is_empty() {
             return Ok(None);
         }
-        let (centres, assigned) = assign_probes(&delta);
+        let (probe_bounds, assigned) = assign_probes(&delta);
         let mut probe_of = vec![0; gpu_scene.instances.len()];
         for (instance, probe) in assigned {
             probe_of[instance] = probe;
@@ -83,10 +83,10 @@ impl TranslucentFrame {
                 shadow_atlas: resources.shadow_atlas,
             },
             variant,
-            centres.len(),
+            probe_bounds.len(),
         )?;
         let texels = 6 * INDIRECT_FACE_SIZE * INDIRECT_FACE_SIZE;
-        let probes = (centres.iter().enumerate())
+        let probes = (probe_bounds.iter().enumerate())
             .map(|(k, bounds)| {
                 let uniforms = Buffer::constants(
                     gpu,
@@ -256,14 +256,13 @@ impl TranslucentFrame {
     }
 
     /// Instances moved: the cube maps are rendered again, each probe from the centre of its
-    /// instances where they are now (`delta`: `GpuScene::delta_instances`, the same instances
-    /// as when the frame was made).
+    /// instances where they are now (`delta`: `Scene::delta_instance_bounds`, the same
+    /// instances as when the frame was made, so the same probes).
     pub fn moved(&mut self, delta: &[(usize, Aabb)]) {
-        let (centres, _) = assign_probes(delta);
-        for (probe, bounds) in self.probes.iter_mut().zip(centres) {
-            if !bounds.is_empty() {
-                probe.centre = bounds.center().as_dvec3();
-            }
+        let (probe_bounds, _) = assign_probes(delta);
+        debug_assert_eq!(probe_bounds.len(), self.probes.len());
+        for (probe, bounds) in self.probes.iter_mut().zip(probe_bounds) {
+            probe.centre = bounds.center().as_dvec3();
         }
         self.environment.invalidate();
     }

@@ -265,6 +265,31 @@ impl Scene {
         b
     }
 
+    /// Each instance of a delta material (a perfect mirror or glass: [`Material::has_delta_lobe`])
+    /// with geometry, in instance order: its index and world-space bounds. The glass and
+    /// mirrors' environment probes (`plan/probes.rs`) are made of these.
+    pub fn delta_instance_bounds(&self) -> Vec<(usize, Aabb)> {
+        let mut delta = Vec::new();
+        for (i, inst) in self.instances.iter().enumerate() {
+            let mesh = &self.meshes[inst.mesh];
+            if !self
+                .materials
+                .get(mesh.material)
+                .is_some_and(Material::has_delta_lobe)
+            {
+                continue;
+            }
+            let mut b = Aabb::EMPTY;
+            for &p in &mesh.positions {
+                b.grow(inst.transform.transform_point3(p));
+            }
+            if !b.is_empty() {
+                delta.push((i, b));
+            }
+        }
+        delta
+    }
+
     /// World-space triangles of every instance, with the material of each, in instance order.
     pub fn world_triangles(&self) -> Vec<([Vec3; 3], MaterialId)> {
         let mut out = Vec::with_capacity(self.triangle_count());

@@ -26,7 +26,7 @@ impl Renderer {
     /// the GPU draws them there (their model matrices are push constants computed every frame),
     /// the CPU tracer's BVH moves them by transform (the instances the scene animates were
     /// declared moving when the renderer was made, and static geometry is never rebuilt), the
-    /// effects plan is made again, the environment cube map is drawn again and, as when a light
+    /// effects plan is made again, the environment cube maps are drawn again (each probe from its instances' new centre) and, as when a light
     /// moves, the next frame traces a new photon map. An instance the scene does not animate
     /// may move too: the tracer's static BVH is then rebuilt once, without it.
     ///
@@ -81,7 +81,7 @@ impl Renderer {
             self.scene.set_instance_transform(&self.source, i);
         }
         if let Some(translucent) = &mut self.translucent {
-            translucent.moved(&self.scene.delta_instances(&self.source));
+            translucent.moved(&self.source.delta_instance_bounds());
         }
         if plan != self.plan {
             log::info!("{plan}");

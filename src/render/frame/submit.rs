@@ -113,8 +113,8 @@ impl Renderer {
             // Without photons to emit (every light's mask off) the map is emptied.
             stats = photons.trace()?;
             // What glass and mirrors see of this map's indirect light
-            // (`photon_frame/environment.rs`), gathered while the GPU still runs; the staging
-            // buffer it goes to was read at most by the previous frame's box D.
+            // (`photon_frame/environment.rs`), gathered while the GPU still runs, one cube a probe; the
+            // staging buffers they go to were read at most by the previous frame's box D.
             if let Some(translucent) = &mut self.translucent {
                 let centres = translucent.centres();
                 let cubes = timing::timed("environment indirect", || {

@@ -1,5 +1,6 @@
 //! The photons' indirect light as glass and mirrors see it: a small cube map of the radiance
-//! that the photon map reflects towards the environment cube's centre, gathered on the CPU from
+//! that the photon map reflects towards an environment probe's centre, one per probe
+//! (`plan/probes.rs`), gathered on the CPU from
 //! each traced photon map and added by the translucent pass to the cached cube of direct light
 //! (`passes/environment.rs`, `translucent.frag`).
 //!
@@ -8,7 +9,7 @@
 //!                                                                      L = Σ f(s, ωi, ωo)·Φ·κ
 //! ```
 //!
-//! Each texel's ray leaves from the cube's centre, passes through delta-material surfaces (the
+//! Each texel's ray leaves from the probe's centre, passes through delta-material surfaces (the
 //! environment pass does not draw them either) and gathers at the first opaque surface with the
 //! photon volumes' estimate, seen from the centre instead of the eye: the same photons, kNN
 //! radii, kernel and regularised BSDF (`reference::gather::GatherMap`). Not carried over: the
