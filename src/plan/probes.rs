@@ -24,7 +24,9 @@ pub const MAX_PROBES: usize = 4;
 /// Where glass and mirrors look up their environment: each delta instance is a probe centred on
 /// its own bounds (a single viewpoint for all of them put `facing-mirrors`' ball at the point
 /// both mirrors saw the floor from, and each mirror showed it). Past [`MAX_PROBES`], instances
-/// in scene order from the last probe's on share it, centred on their common bounds.
+/// in scene order from the last probe's on share it, centred on their common bounds. Scene
+/// order, not size or screen coverage, because it never changes: instances that move are
+/// assigned again (`TranslucentFrame::moved`) and must land in the probes they were made with.
 ///
 /// Returns the bounds each probe is centred on, and per instance of `delta` (index, non-empty
 /// bounds, in instance order: `Scene::delta_instance_bounds`) its probe.
