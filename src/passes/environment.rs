@@ -152,26 +152,24 @@ impl EnvironmentPass {
                 },
             )
         };
-        let cubes = (0..probes)
+        // Each probe's cube and the depth it is rendered with.
+        let (cubes, depths) = (0..probes)
             .map(|k| {
-                image(
+                let cube = image(
                     &format!("environment.probe[{k}].cube"),
                     FORMAT,
                     vk::ImageUsageFlags::COLOR_ATTACHMENT,
                     ViewKind::Cube,
-                )
-            })
-            .collect();
-        let depths = (0..probes)
-            .map(|k| {
-                image(
+                );
+                let depth = image(
                     &format!("environment.probe[{k}].depth"),
                     DEPTH,
                     vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
                     ViewKind::D2Array,
-                )
+                );
+                (cube, depth)
             })
-            .collect();
+            .unzip();
         let attributes = super::vertex_attributes();
         let pipeline = Pipeline::graphics(
             gpu,
