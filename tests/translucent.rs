@@ -209,8 +209,10 @@ fn a_glass_cube_shows_the_floor_straight_through_its_far_face() {
 /// and shows green. With one probe for both (centred between the mirrors, just above the box,
 /// as before each delta instance had its own) the same floor point is seen from above the box
 /// and the mirror showed red (checked with `MAX_PROBES` = 1).
-#[test]
-fn each_mirror_sees_the_floor_from_where_it_stands() {
+/// Two mirrors 1.2 m apart facing each other across a red block on a green floor, the left one
+/// moved `left_offset` along x from its place (x = -0.6), seen from where the left mirror's low
+/// part reflects the floor beside the block.
+fn mirrors_across_a_red_block(left_offset: f32) -> Scene {
     use ispm::scene::authoring::{cuboid, quad, GltfWriter, MaterialSpec};
     let mut w = GltfWriter::default();
     let green = w.material(&MaterialSpec::diffuse("green", [0.1, 0.8, 0.1]));
@@ -225,9 +227,12 @@ fn each_mirror_sees_the_floor_from_where_it_stands() {
         Vec3::new(0.0, 0.25, 0.0),
         glam::Quat::IDENTITY,
     );
-    for (name, x, n) in [("left", -0.6, Vec3::X), ("right", 0.6, Vec3::NEG_X)] {
+    for (name, x, n, offset) in [
+        ("left", -0.6, Vec3::X, left_offset),
+        ("right", 0.6, Vec3::NEG_X, 0.0),
+    ] {
         let mesh = w.mesh(name, &quad(Vec3::new(x, 0.6, 0.0), n, 0.8, 0.6), mirror);
-        w.mesh_node(name, mesh, Vec3::ZERO, glam::Quat::IDENTITY);
+        w.mesh_node(name, mesh, Vec3::X * offset, glam::Quat::IDENTITY);
     }
     w.sun("sun", Vec3::NEG_Y, [1.0; 3], 3.0);
     w.camera(
@@ -236,17 +241,57 @@ fn each_mirror_sees_the_floor_from_where_it_stands() {
         Vec3::new(-0.6, 0.2, 0.3),
         0.9,
     );
-    let scene = common::hard::load_glb("mirrors-across-a-red-block", &w.glb());
+    common::hard::load_glb("mirrors-across-a-red-block", &w.glb())
+}
+
+/// The colour the left mirror of [`mirrors_across_a_red_block`] shows, low: its reflection meets
+/// the floor at about (-0.39, 0, 0), 0.14 m beside the block. Green seen from the mirror, red
+/// seen from a point the block stands in front of.
+fn left_mirror_low(scene: &Scene, frame: &FrameImage) -> Vec3 {
+    radiance_at(scene, frame, Vec3::new(-0.6, 0.15, 0.3), 1)
+}
+
+/// Each mirror is a probe of its own, so the floor beside the left mirror, reflected low in it,
+/// is looked up from the mirror and shows green. With one probe for both (centred between the
+/// mirrors, just above the block, as before each delta instance had its own) the same floor
+/// point is seen from above the block and the mirror showed red (checked with `MAX_PROBES` = 1).
+#[test]
+fn each_mirror_sees_the_floor_from_where_it_stands() {
+    let scene = mirrors_across_a_red_block(0.0);
     let frames = render(&scene, Method::Ispm, 1);
     let frame = &frames[0];
     let path = save("each_mirror_sees_the_floor", frame);
     assert_finite_and_non_negative(frame, "two mirrors");
-    // On the left mirror, low: its reflection meets the floor at about (-0.39, 0, 0), 0.14 m
-    // beside the block.
-    let c = radiance_at(&scene, frame, Vec3::new(-0.6, 0.15, 0.3), 1);
+    let c = left_mirror_low(&scene, frame);
     assert!(
         c.y > 2.0 * c.x && c.y > 0.05,
         "the left mirror shows {c} where the green floor is ({})",
+        path.display()
+    );
+}
+
+/// The left mirror starts 3.6 m to the right of its place and moves there: its probe follows it
+/// (`TranslucentFrame::moved`), so the mirror shows the green floor beside it. With the probe
+/// left where the mirror started, at x = 3, the mirror showed (0.012, 0.012, 0.001), not the
+/// floor (checked by leaving the centres as they were).
+#[test]
+fn a_moved_mirror_takes_its_probe_along() {
+    let scene = mirrors_across_a_red_block(3.6);
+    let gpu = common::gpu();
+    let mut renderer = Renderer::new(&gpu, &scene, settings(Method::Ispm)).expect("renderer");
+    renderer.render().expect("first frame");
+    let left = scene.instances.iter().position(|i| i.name == "left");
+    let mut transforms = renderer.instance_transforms();
+    transforms[left.expect("left mirror")] = glam::Mat4::IDENTITY;
+    renderer.set_instance_transforms(&transforms).expect("move");
+    let frame = renderer.render().expect("frame after the move");
+    common::assert_validation_clean(&gpu);
+    let path = save("moved_mirror", &frame);
+    assert_finite_and_non_negative(&frame, "moved mirror");
+    let c = left_mirror_low(&scene, &frame);
+    assert!(
+        c.y > 2.0 * c.x && c.y > 0.05,
+        "the moved left mirror shows {c} where the green floor is ({})",
         path.display()
     );
 }
