@@ -251,6 +251,16 @@ fn left_mirror_low(scene: &Scene, frame: &FrameImage) -> Vec3 {
     radiance_at(scene, frame, Vec3::new(-0.6, 0.15, 0.3), 1)
 }
 
+/// Fails unless `c` is the green floor of these tests as a mirror shows it: green at least twice
+/// red, and lit. `what` names the mirror; `image` is the saved frame.
+fn assert_shows_green(c: Vec3, what: &str, image: &std::path::Path) {
+    assert!(
+        c.y > 2.0 * c.x && c.y > 0.05,
+        "{what} shows {c} where the green floor is ({})",
+        image.display()
+    );
+}
+
 /// Each mirror is a probe of its own, so the floor beside the left mirror, reflected low in it,
 /// is looked up from the mirror and shows green. With one probe for both (centred between the
 /// mirrors, just above the block, as before each delta instance had its own) the same floor
@@ -262,12 +272,7 @@ fn each_mirror_sees_the_floor_from_where_it_stands() {
     let frame = &frames[0];
     let path = save("each_mirror_sees_the_floor", frame);
     assert_finite_and_non_negative(frame, "two mirrors");
-    let c = left_mirror_low(&scene, frame);
-    assert!(
-        c.y > 2.0 * c.x && c.y > 0.05,
-        "the left mirror shows {c} where the green floor is ({})",
-        path.display()
-    );
+    assert_shows_green(left_mirror_low(&scene, frame), "the left mirror", &path);
 }
 
 /// The left mirror starts 3.6 m to the right of its place and moves there: its probe follows it
@@ -288,11 +293,10 @@ fn a_moved_mirror_takes_its_probe_along() {
     common::assert_validation_clean(&gpu);
     let path = save("moved_mirror", &frame);
     assert_finite_and_non_negative(&frame, "moved mirror");
-    let c = left_mirror_low(&scene, &frame);
-    assert!(
-        c.y > 2.0 * c.x && c.y > 0.05,
-        "the moved left mirror shows {c} where the green floor is ({})",
-        path.display()
+    assert_shows_green(
+        left_mirror_low(&scene, &frame),
+        "the moved left mirror",
+        &path,
     );
 }
 
@@ -348,11 +352,7 @@ fn more_mirrors_than_probes_share_the_last_and_all_show_the_floor() {
     for x in xs {
         // Each mirror reflects the eye's downward ray onto the floor in front of it.
         let c = radiance_at(&scene, frame, Vec3::new(x, 0.12, 0.0), 0);
-        assert!(
-            c.y > 2.0 * c.x && c.y > 0.05,
-            "the mirror at x = {x} shows {c} where the green floor is ({})",
-            path.display()
-        );
+        assert_shows_green(c, &format!("the mirror at x = {x}"), &path);
     }
 }
 
