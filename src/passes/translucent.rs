@@ -226,8 +226,10 @@ impl TranslucentPass {
                 )
             })
             .collect();
-        // Each draw's tree (`DrawPush::material.z`).
-        let draws: Vec<Draw> = draws
+        // Each draw's tree (`DrawPush::material.z`), and the draws grouped by probe (in draw
+        // order within a probe), one set bound per group.
+        let probe = |d: &Draw| probe_of.get(d.instance).copied().unwrap_or(0);
+        let mut draws: Vec<Draw> = draws
             .iter()
             .map(|d| {
                 let mut d = *d;
@@ -235,6 +237,7 @@ impl TranslucentPass {
                 d
             })
             .collect();
+        draws.sort_by_key(probe);
         cmd.begin_pass(
             &uses,
             &[Attachment {
@@ -255,13 +258,9 @@ impl TranslucentPass {
             "every draw has a probe"
         );
         cmd.bind_pipeline(&self.pipeline);
-        for (k, set) in self.sets.iter().enumerate() {
-            let probe = |d: &&Draw| probe_of.get(d.instance).copied().unwrap_or(0) == k;
-            let mine: Vec<Draw> = draws.iter().filter(probe).copied().collect();
-            if !mine.is_empty() {
-                cmd.bind_sets(&self.pipeline, 0, &[*set]);
-                draw_instances(cmd, &self.pipeline, scene, &mine, &self.material_sets);
-            }
+        for group in draws.chunk_by(|a, b| probe(a) == probe(b)) {
+            cmd.bind_sets(&self.pipeline, 0, &[self.sets[probe(&group[0])]]);
+            draw_instances(cmd, &self.pipeline, scene, group, &self.material_sets);
         }
         cmd.end_rendering();
     }
