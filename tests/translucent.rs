@@ -204,11 +204,6 @@ fn a_glass_cube_shows_the_floor_straight_through_its_far_face() {
     }
 }
 
-/// Two mirrors face each other across a red box on a green floor. Each mirror is a probe of its
-/// own, so the floor beside the left mirror, reflected low in it, is looked up from the mirror
-/// and shows green. With one probe for both (centred between the mirrors, just above the box,
-/// as before each delta instance had its own) the same floor point is seen from above the box
-/// and the mirror showed red (checked with `MAX_PROBES` = 1).
 /// Two mirrors 1.2 m apart facing each other across a red block on a green floor, the left one
 /// moved `left_offset` along x from its place (x = -0.6), seen from where the left mirror's low
 /// part reflects the floor beside the block.
