@@ -44,8 +44,9 @@ layout(set = 0, binding = 10, rgba32f) uniform image2D out1;  // global | glossy
 layout(set = 0, binding = 11, rgba32f) uniform image2D out2;  // weight | global
 layout(set = 0, binding = 12, rgba32f) uniform image2D out3;  // unused | weight
 // Per photon of the map: its kernel's bounding sphere (eye-relative centre, radius a little
-// wider than kernel_radius's; w = 0: never reached), made on the CPU with the lists.
-layout(std430, set = 0, binding = 13) readonly buffer Spheres { vec4 spheres[]; };
+// wider than kernel_radius's; 0: never reached), made on the CPU with the lists, in half floats
+// (lists.rs, pack_sphere: centre x | y, centre z | radius; rounded outwards).
+layout(std430, set = 0, binding = 13) readonly buffer Spheres { uvec2 spheres[]; };
 
 // Ids 0 and 1 are the über-BSDF's lobes (bsdf.glsl).
 layout(constant_id = 2) const bool SUBSAMPLED = false;
@@ -251,7 +252,8 @@ void main() {
         uint index = 0u;
         if (k < end) {
             index = indices[k];
-            vec4 sphere = spheres[push.photon_base + index];
+            uvec2 packed = spheres[push.photon_base + index];
+            vec4 sphere = vec4(unpackHalf2x16(packed.x), unpackHalf2x16(packed.y));
             vec3 gap = sphere.xyz - clamp(sphere.xyz, box_lo, box_hi);
             near = dot(gap, gap) < sphere.w * sphere.w;
         }

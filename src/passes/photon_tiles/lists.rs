@@ -403,9 +403,59 @@ pub struct TileLists {
     /// Photon indices within their buffer.
     pub indices: Vec<u32>,
     /// Per photon of the map (photon-map order, every buffer's in turn): its kernel's bounding
-    /// sphere, eye-relative centre and radius, a little wider than the shader's (w = 0 for a
-    /// photon left out), which the shader culls against before it unpacks the photon.
-    pub spheres: Vec<[f32; 4]>,
+    /// sphere, eye-relative centre and radius, a little wider than the shader's (radius 0 for a
+    /// photon left out), which the shader culls against before it unpacks the photon; in
+    /// half floats ([`PackedSphere`]).
+    pub spheres: Vec<PackedSphere>,
+}
+
+/// A bounding sphere in half floats, as `photon_tiles.comp` reads it
+/// (`vec4(unpackHalf2x16(s.x), unpackHalf2x16(s.y))`): centre x | y, then centre z | radius,
+/// the first of each pair in the low 16 bits. Half the bytes of four `f32`s: the gather reads
+/// one sphere per list entry and subgroup, each lane's load a scalar one on llvmpipe, and these
+/// reads were a sixth of its time (docs/performance.md, "Spheres in half floats").
+pub type PackedSphere = [u32; 2];
+
+/// `f16` bits of `x ≥ 0`, rounded up (+∞ above the largest half).
+fn half_up(x: f64) -> u16 {
+    let h = half::f16::from_f64(x);
+    match h.to_f64() < x && h.is_finite() {
+        true => h.to_bits() + 1, // the next half up (+∞ after the largest)
+        false => h.to_bits(),
+    }
+}
+
+/// The sphere of radius `r` around `centre` in half floats, holding the whole sphere given:
+/// the centre rounded to the nearest halves, the radius widened by that rounding and rounded
+/// up. A centre beyond the halves' range (65 504 m from the eye) gets an infinite radius
+/// around the eye, which every box reaches: the shader's exact test decides. A non-positive
+/// radius is 0 (reaches nothing).
+pub fn pack_sphere(centre: Vec3, r: f32) -> PackedSphere {
+    if r.is_nan() || r <= 0.0 || !centre.is_finite() {
+        return [0, 0];
+    }
+    let c = centre.to_array().map(half::f16::from_f32);
+    let (c, r) = match c.iter().all(|h| h.is_finite()) {
+        true => {
+            let moved = Vec3::from_array(c.map(half::f16::to_f32)) - centre;
+            (
+                c,
+                half_up(f64::from(r) + f64::from(moved.length()) * (1.0 + 1e-6)),
+            )
+        }
+        false => ([half::f16::ZERO; 3], half::f16::INFINITY.to_bits()),
+    };
+    let pair = |lo: u16, hi: u16| u32::from(lo) | (u32::from(hi) << 16);
+    [
+        pair(c[0].to_bits(), c[1].to_bits()),
+        pair(c[2].to_bits(), r),
+    ]
+}
+
+/// The sphere [`pack_sphere`] packed: eye-relative centre and radius, as the shader reads them.
+pub fn unpack_sphere(s: PackedSphere) -> Vec4 {
+    let half = |bits: u32| half::f16::from_bits(bits as u16).to_f32();
+    Vec4::new(half(s[0]), half(s[0] >> 16), half(s[1]), half(s[1] >> 16))
 }
 
 impl TileLists {
@@ -530,7 +580,7 @@ pub fn bin<I: Iterator<Item = Photon>>(
         .div_ceil(if threads > 1 { threads * 4 } else { 1 })
         .max(1);
     let runs: Vec<usize> = (0..total).step_by(run).collect();
-    type Part = (Vec<[f32; 4]>, Vec<Vec<Rect>>, Vec<[u32; 2]>);
+    type Part = (Vec<PackedSphere>, Vec<Vec<Rect>>, Vec<[u32; 2]>);
     let parts: Vec<Part> = map_in_order(runs, threads, |start| {
         let range = start..(start + run).min(total);
         let mut spheres = Vec::with_capacity(range.len());
@@ -541,13 +591,13 @@ pub fn bin<I: Iterator<Item = Photon>>(
             let i = (k - firsts[b]) as u32;
             let centre = photon.position + offset;
             if !photon.power.cmpgt(Vec3::ZERO).any() || !centre.is_finite() {
-                spheres.push([0.0; 4]);
+                spheres.push([0, 0]);
                 continue;
             }
             let (_, r_knn) = unpack_normal(photon.normal);
             let (r, _) = kernel_radius(r_knn, kernel, centre.length());
             let r = r * RADIUS_MARGIN;
-            spheres.push(centre.extend(r).to_array());
+            spheres.push(pack_sphere(centre, r));
             let at = spans.len() as u32;
             if let Some((y0, y1)) = screen.tile_spans(camera.as_ref(), centre, r, &mut spans) {
                 for bucket in &mut buckets[(y0 / band_rows) as usize..=(y1 / band_rows) as usize] {
@@ -977,6 +1027,43 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn a_packed_sphere_holds_the_sphere_it_packs() {
+        // Centres from a millimetre to 60 km from the eye, radii from a micrometre to metres:
+        // every point of the sphere given lies in the half-float sphere, which is not much
+        // larger (its radius grows by at most the centre's rounding, half a half's spacing per
+        // axis, plus one spacing of the radius).
+        let mut rng = crate::photon::rng::Rng::new(7);
+        for i in 0..20_000 {
+            let scale = 10f32.powf(-3.0 + 7.7 * rng.next_f32());
+            let centre = (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0
+                - Vec3::ONE)
+                * scale;
+            let r = 10f32.powf(-6.0 + 6.5 * rng.next_f32());
+            let packed = unpack_sphere(pack_sphere(centre, r));
+            let (c, r16) = (packed.truncate().as_dvec3(), f64::from(packed.w));
+            let moved = c.distance(centre.as_dvec3());
+            assert!(
+                moved + f64::from(r) <= r16,
+                "{i}: {centre} r {r} packed as {packed}"
+            );
+            let spacing = |x: f32| f64::from(x.abs()).max(6.1e-5) * 2f64.powi(-10);
+            let grown = r16 - f64::from(r);
+            let bound = 0.5 * centre.to_array().map(spacing).iter().sum::<f64>()
+                + 2.0 * spacing(r + moved as f32);
+            assert!(
+                grown <= bound,
+                "{i}: {centre} r {r} grew by {grown} > {bound}"
+            );
+        }
+        // Beyond the halves: every box reaches it (the exact test decides).
+        let far = unpack_sphere(pack_sphere(Vec3::new(70_000.0, 0.0, -1.0), 0.5));
+        assert_eq!(far, Vec4::new(0.0, 0.0, 0.0, f32::INFINITY));
+        // Left out: reaches nothing.
+        assert_eq!(pack_sphere(Vec3::ONE, 0.0), [0, 0]);
+        assert_eq!(pack_sphere(Vec3::new(f32::NAN, 0.0, 0.0), 1.0), [0, 0]);
     }
 
     #[test]
