@@ -30,15 +30,6 @@
 //! longer lists and further photon buffers take further dispatches, each continuing the sums
 //! where the last one left them, in list order, so the result is the one-pass sum bit for bit.
 //!
-//! Workgroups take the tiles longest list first ([`TileLists::order`], written after the
-//! offsets), not in screen order. A device starts workgroups in about their index order, so
-//! the tile of a caustic's focus, hundreds of times the work of a typical tile, no longer
-//! starts last and holds one core (or one multiprocessor) while the others wait; and the
-//! dispatches that go on past [`TILE_JOB`] entries cover only the tiles whose lists reach that
-//! far, a prefix of the order, instead of launching a workgroup for every tile to skip it. The
-//! order changes which workgroup sums a tile, not the order of any pixel's sum: the image is the
-//! same bit for bit.
-//!
 //! The lists are written into host-visible buffers, one set per frame slot, so a frame never
 //! writes lists that a frame still in flight reads; the slot's descriptor sets follow its
 //! buffers when they grow, and are rewritten for new photon buffers only when that slot comes
@@ -105,13 +96,12 @@ struct Push {
     accumulate: u32,
     start: u32,
     photon_base: u32,
-    /// 1: the fine photons, added to `targets[0]` alone ([`PhotonTilesPass::record`]).
+    /// 1: the fine photons, added to `targets[0]` alone ([`PhotonTilesPass::record`]), one
+    /// workgroup per tile with a list, the tiles read from `offsets[tile_list..]`.
     fine: u32,
-    /// Where the buffer's tile order ([`TileLists::order`]) begins in the offsets: workgroup
-    /// i (row-major) gathers tile `offsets[tile_list + i]`, for i < `listed`.
     tile_list: u32,
-    /// The tiles this dispatch covers, a prefix of the order (the workgroups past them return
-    /// at once: the dispatch is made 2-D to stay within the device's workgroup counts).
+    /// In fine mode: the tiles listed from `tile_list` on (the dispatch's workgroups past
+    /// them return at once: it is made 2-D to stay within the device's workgroup counts).
     listed: u32,
     pad: [u32; 3],
 }
@@ -258,10 +248,9 @@ impl PhotonTilesPass {
     /// radii of `kernel` and `offset` (origin − eye) into `targets` (the photon volumes'):
     /// `[indirect, global, weight]` at subsample 1, else `[irradiance, glossy, global, weight]`.
     /// With `add` (the fine photons at full resolution when subsampling,
-    /// `render/photon_frame/estimate.rs`), into `[indirect]` alone, added to what it holds.
-    /// Workgroups take the tiles longest list first ([`TileLists::order`]); only the first
-    /// dispatch of a frame that does not `add` covers the empty tiles (to clear them). `slot`
-    /// is the frame slot, whose previous frame has finished.
+    /// `render/photon_frame/estimate.rs`), into `[indirect]` alone, added to what it holds,
+    /// and only the tiles with a list are dispatched. `slot` is the frame slot, whose previous
+    /// frame has finished.
     pub fn record(
         &mut self,
         cmd: &Cmd,
@@ -271,15 +260,29 @@ impl PhotonTilesPass {
         (targets, add): (&[&Image], bool),
     ) -> anyhow::Result<TileStats> {
         let gpu = self.gpu.clone();
-        // The offsets, then each buffer's tiles in the order its workgroups take them
-        // (`TileLists::order`: longest list first), from `order_at[b]` on.
-        let mut offsets_and_order = lists.offsets.clone();
-        let mut order_at = Vec::with_capacity(counts.len());
-        for b in 0..counts.len() {
-            order_at.push(offsets_and_order.len() as u32);
-            offsets_and_order.extend(lists.order(b));
+        // With `add`, a dispatch is made over the tiles with a list only (an empty tile's
+        // workgroup costs as much to launch as to skip on llvmpipe: 20 ms for the 4800 of
+        // 640×480): each buffer's such tiles follow the offsets, from `sparse[b]` on.
+        let mut offsets_and_tiles = Vec::new();
+        let mut sparse = Vec::new();
+        if add {
+            offsets_and_tiles.extend_from_slice(&lists.offsets);
+            for b in 0..counts.len() {
+                let first = lists.first(b) as usize;
+                let tiles = &lists.offsets[first..=first + lists.tiles()];
+                let start = offsets_and_tiles.len() as u32;
+                offsets_and_tiles.extend(
+                    (tiles.windows(2).enumerate())
+                        .filter(|(_, w)| w[1] > w[0])
+                        .map(|(t, _)| t as u32),
+                );
+                sparse.push((start, offsets_and_tiles.len() as u32 - start));
+            }
         }
-        let offsets: &[u8] = bytemuck::cast_slice(&offsets_and_order);
+        let offsets: &[u8] = match add {
+            true => bytemuck::cast_slice(&offsets_and_tiles),
+            false => bytemuck::cast_slice(&lists.offsets),
+        };
         let indices: &[u8] = bytemuck::cast_slice(&lists.indices);
         let spheres: &[u8] = bytemuck::cast_slice(&lists.spheres);
         let reach = u64::from(gpu.properties.max_storage_buffer_range);
@@ -329,7 +332,9 @@ impl PhotonTilesPass {
             let base = photon_base;
             photon_base += count;
             // Buffer 0 always: its empty lists clear the targets when there are no photons.
-            if count == 0 && b > 0 {
+            // Adding, only the buffers whose photons some tile lists.
+            let (tile_list, listed) = sparse.get(b).copied().unwrap_or_default();
+            if (count == 0 && b > 0) || (add && listed == 0) {
                 continue;
             }
             // Only when read: an unread photon buffer may belong to the transfer queue.
@@ -344,18 +349,6 @@ impl PhotonTilesPass {
             // TILE_JOB entries of every tile's list per dispatch (`photon_tiles.comp`).
             let jobs = lists.longest(b).div_ceil(TILE_JOB as usize).max(1);
             for job in 0..jobs {
-                let start = job * TILE_JOB as usize;
-                // The first dispatch writes every tile (an empty list clears its pixels); the
-                // others only add, over the tiles whose lists reach past `start`: a prefix of
-                // the order. (Adding, an empty tile's workgroup costs as much to launch as to
-                // skip on llvmpipe: 20 ms for the 4800 of 640×480.)
-                let listed = match first_dispatch && !add {
-                    true => lists.tiles() as u32,
-                    false => lists.reaching(b, start),
-                };
-                if listed == 0 {
-                    continue;
-                }
                 // The targets wait for the dispatch before (each continues its sums).
                 cmd.uses(Shaders::Compute, &uses);
                 cmd.bind_pipeline(&self.pipeline);
@@ -376,17 +369,22 @@ impl PhotonTilesPass {
                         height,
                         first: lists.first(b),
                         accumulate: u32::from(!first_dispatch),
-                        start: start as u32,
+                        start: job as u32 * TILE_JOB,
                         photon_base: base,
                         fine: u32::from(add),
-                        tile_list: order_at[b],
+                        tile_list,
                         listed,
                         pad: [0; 3],
                     },
                 );
-                let max = gpu.properties.max_compute_work_group_count_x;
-                let (x, y) = rows_of(listed, max);
-                cmd.dispatch(x, y, 1);
+                match add {
+                    true => {
+                        let max = gpu.properties.max_compute_work_group_count_x;
+                        let (x, y) = rows_of(listed, max);
+                        cmd.dispatch(x, y, 1)
+                    }
+                    false => cmd.dispatch(lists.columns, lists.rows, 1),
+                }
                 first_dispatch = false;
                 dispatches += 1;
             }
@@ -450,7 +448,7 @@ mod tests {
     use super::rows_of;
 
     #[test]
-    fn a_dispatch_covers_every_listed_tile_within_the_device_limit() {
+    fn the_fine_dispatch_covers_every_listed_tile_within_the_device_limit() {
         for (listed, max) in [
             (1, 65_535),
             (4800, 65_535),

@@ -486,36 +486,6 @@ impl TileLists {
         let first = self.first(buffer) as usize + tile;
         &self.indices[self.offsets[first] as usize..self.offsets[first + 1] as usize]
     }
-
-    /// Buffer `buffer`'s tiles in the order the gather's workgroups take them: longest list
-    /// first (among equal lengths, in tile order), the empty ones last. Workgroups start in
-    /// this order, so the longest lists (a caustic's focus) start first instead of holding
-    /// one core at the end of the dispatch while the others idle, and the dispatches that go
-    /// on past [`TILE_JOB`](crate::layout::shared_constants::TILE_JOB) entries cover a prefix:
-    /// the tiles whose lists reach that far ([`Self::reaching`]).
-    pub fn order(&self, buffer: usize) -> Vec<u32> {
-        let first = self.first(buffer) as usize;
-        let Some(offsets) = self.offsets.get(first..=first + self.tiles()) else {
-            return (0..self.tiles() as u32).collect();
-        };
-        let mut order: Vec<u32> = (0..self.tiles() as u32).collect();
-        // Stable: equal lengths keep their tile order.
-        order.sort_by_key(|&t| std::cmp::Reverse(offsets[t as usize + 1] - offsets[t as usize]));
-        order
-    }
-
-    /// How many tiles of buffer `buffer` list more than `start` photons: the prefix of
-    /// [`Self::order`] a dispatch beginning at entry `start` of each list must cover.
-    pub fn reaching(&self, buffer: usize, start: usize) -> u32 {
-        let first = self.first(buffer) as usize;
-        self.offsets
-            .get(first..=first + self.tiles())
-            .map_or(0, |o| {
-                o.windows(2)
-                    .filter(|w| (w[1] - w[0]) as usize > start)
-                    .count() as u32
-            })
-    }
 }
 
 /// A kept photon's buffer, index in it, inclusive tile rows `y0..=y1` and where its rows'
@@ -1064,51 +1034,6 @@ mod tests {
         // Left out: reaches nothing.
         assert_eq!(pack_sphere(Vec3::ONE, 0.0), [0, 0]);
         assert_eq!(pack_sphere(Vec3::new(f32::NAN, 0.0, 0.0), 1.0), [0, 0]);
-    }
-
-    #[test]
-    fn tiles_are_taken_longest_list_first_and_later_jobs_cover_a_prefix() {
-        // Two buffers of 6 tiles (3 × 2): list lengths 2, 0, 5, 2, 7, 0 and 0, 0, 0, 0, 1, 0.
-        let lengths = [[2u32, 0, 5, 2, 7, 0], [0, 0, 0, 0, 1, 0]];
-        let mut offsets = Vec::new();
-        let mut indices = Vec::new();
-        for buffer in lengths {
-            offsets.push(indices.len() as u32);
-            for n in buffer {
-                indices.extend(0..n);
-                offsets.push(indices.len() as u32);
-            }
-        }
-        let lists = TileLists {
-            columns: 3,
-            rows: 2,
-            offsets,
-            indices,
-            spheres: Vec::new(),
-        };
-        // Longest first; equal lengths (tiles 0 and 3; the empty 1 and 5) in tile order.
-        assert_eq!(lists.order(0), [4, 2, 0, 3, 1, 5]);
-        assert_eq!(lists.order(1), [4, 0, 1, 2, 3, 5]);
-        for (b, buffer) in lengths.iter().enumerate() {
-            let order = lists.order(b);
-            for start in 0..9 {
-                let reaching = lists.reaching(b, start) as usize;
-                // The prefix holds exactly the tiles with photons from `start` on.
-                assert!(order[..reaching]
-                    .iter()
-                    .all(|&t| buffer[t as usize] as usize > start));
-                assert!(order[reaching..]
-                    .iter()
-                    .all(|&t| buffer[t as usize] as usize <= start));
-            }
-        }
-        assert_eq!(lists.reaching(0, 0), 4);
-        assert_eq!(lists.reaching(0, 5), 1);
-        assert_eq!(lists.reaching(1, 0), 1);
-        assert_eq!(lists.reaching(1, 1), 0);
-        // A buffer without lists: every tile, in order, none reaching.
-        assert_eq!(lists.order(2), [0, 1, 2, 3, 4, 5]);
-        assert_eq!(lists.reaching(2, 0), 0);
     }
 
     #[test]
