@@ -427,20 +427,28 @@ fn half_up(x: f64) -> u16 {
 
 /// The sphere of radius `r` around `centre` in half floats, holding the whole sphere given:
 /// the centre rounded to the nearest halves, the radius widened by that rounding and rounded
-/// up. A centre beyond the halves' range (65 504 m from the eye) gets an infinite radius
-/// around the eye, which every box reaches: the shader's exact test decides. A non-positive
-/// radius is 0 (reaches nothing).
+/// up. No half is subnormal (a device may flush those to zero when it converts them, unless
+/// the shader asks to keep them): a centre coordinate below the smallest normal half is 0, the
+/// radius at least that half (61 µm). A centre beyond the halves' range (65 504 m from the eye)
+/// gets an infinite radius around the eye, which every box reaches: the shader's exact test
+/// decides. A non-positive radius is 0 (reaches nothing).
 pub fn pack_sphere(centre: Vec3, r: f32) -> PackedSphere {
     if r.is_nan() || r <= 0.0 || !centre.is_finite() {
         return [0, 0];
     }
-    let c = centre.to_array().map(half::f16::from_f32);
+    let c = centre.to_array().map(|x| match half::f16::from_f32(x) {
+        h if is_subnormal(h.to_bits()) => half::f16::ZERO,
+        h => h,
+    });
     let (c, r) = match c.iter().all(|h| h.is_finite()) {
         true => {
-            let moved = Vec3::from_array(c.map(half::f16::to_f32)) - centre;
+            let moved = Vec3::from_array(c.map(half::f16::to_f32))
+                .as_dvec3()
+                .distance(centre.as_dvec3());
+            let r = f64::from(r) + moved * (1.0 + 1e-6);
             (
                 c,
-                half_up(f64::from(r) + f64::from(moved.length()) * (1.0 + 1e-6)),
+                half_up(r.max(f64::from(f32::from(half::f16::MIN_POSITIVE)))),
             )
         }
         false => ([half::f16::ZERO; 3], half::f16::INFINITY.to_bits()),
@@ -450,6 +458,11 @@ pub fn pack_sphere(centre: Vec3, r: f32) -> PackedSphere {
         pair(c[0].to_bits(), c[1].to_bits()),
         pair(c[2].to_bits(), r),
     ]
+}
+
+/// Whether the half with these bits is subnormal (exponent 0, mantissa not).
+fn is_subnormal(bits: u16) -> bool {
+    bits & 0x7c00 == 0 && bits & 0x03ff != 0
 }
 
 /// The sphere [`pack_sphere`] packed: eye-relative centre and radius, as the shader reads them.
@@ -1001,10 +1014,10 @@ mod tests {
 
     #[test]
     fn a_packed_sphere_holds_the_sphere_it_packs() {
-        // Centres from a millimetre to 60 km from the eye, radii from a micrometre to metres:
-        // every point of the sphere given lies in the half-float sphere, which is not much
-        // larger (its radius grows by at most the centre's rounding, half a half's spacing per
-        // axis, plus one spacing of the radius).
+        // Centres from a millimetre to 50 km from the eye (per axis), radii from a micrometre
+        // to metres: every point of the sphere given lies in the half-float sphere, which is not
+        // much larger (its radius grows by at most the centre's rounding, half a half's spacing
+        // per axis, plus two spacings of the radius, and is at least the smallest normal half).
         let mut rng = crate::photon::rng::Rng::new(7);
         for i in 0..20_000 {
             let scale = 10f32.powf(-3.0 + 7.7 * rng.next_f32());
@@ -1020,14 +1033,36 @@ mod tests {
                 "{i}: {centre} r {r} packed as {packed}"
             );
             let spacing = |x: f32| f64::from(x.abs()).max(6.1e-5) * 2f64.powi(-10);
-            let grown = r16 - f64::from(r);
-            let bound = 0.5 * centre.to_array().map(spacing).iter().sum::<f64>()
+            // The centre's rounding (half a spacing, or the whole coordinate below the smallest
+            // normal half) and the radius's.
+            let rounding = |x: f32| match x.abs() < 6.11e-5 {
+                true => f64::from(x.abs()),
+                false => 0.5 * spacing(x),
+            };
+            let grown = r16 - f64::from(r.max(6.1035e-5));
+            let bound = centre.to_array().map(rounding).iter().sum::<f64>()
                 + 2.0 * spacing(r + moved as f32);
             assert!(
                 grown <= bound,
                 "{i}: {centre} r {r} grew by {grown} > {bound}"
             );
+            // No subnormal half: a device may flush them to zero.
+            let bits = pack_sphere(centre, r);
+            for h in [bits[0], bits[0] >> 16, bits[1], bits[1] >> 16] {
+                assert!(!is_subnormal(h as u16), "{i}: {centre} r {r}");
+            }
         }
+        // The layout the shader unpacks: centre x | y, centre z | radius, the first in the low
+        // 16 bits (1.0 = 0x3c00, 2.0 = 0x4000, -2.0 = 0xc000, 0.5 = 0x3800).
+        assert_eq!(
+            pack_sphere(Vec3::new(1.0, 2.0, -2.0), 0.5),
+            [0x4000_3c00, 0x3800_c000]
+        );
+        // Tiny: the centre coordinate below the smallest normal half is 0, the radius at least
+        // that half, and still holding the sphere.
+        let tiny = unpack_sphere(pack_sphere(Vec3::new(1e-6, 0.25, 3.0), 1e-7));
+        assert_eq!(tiny.x, 0.0);
+        assert!(tiny.w >= 1e-6 + 1e-7 && tiny.w <= 1e-4, "{tiny}");
         // Beyond the halves: every box reaches it (the exact test decides).
         let far = unpack_sphere(pack_sphere(Vec3::new(70_000.0, 0.0, -1.0), 0.5));
         assert_eq!(far, Vec4::new(0.0, 0.0, 0.0, f32::INFINITY));
