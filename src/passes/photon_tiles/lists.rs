@@ -413,7 +413,7 @@ pub struct TileLists {
 /// (`vec4(unpackHalf2x16(s.x), unpackHalf2x16(s.y))`): centre x | y, then centre z | radius,
 /// the first of each pair in the low 16 bits. Half the bytes of four `f32`s: the gather reads
 /// one sphere per list entry and subgroup, each lane's load a scalar one on llvmpipe, and these
-/// reads were a sixth of its time (docs/performance.md, "Spheres in half floats").
+/// reads were 11–19 % of its time (docs/performance.md, "Spheres in half floats").
 pub type PackedSphere = [u32; 2];
 
 /// `f16` bits of `x ≥ 0`, rounded up (+∞ above the largest half).
@@ -432,7 +432,7 @@ fn half_up(x: f64) -> u16 {
 /// radius at least that half (61 µm). A centre beyond the halves' range (65 504 m from the eye)
 /// gets an infinite radius around the eye, which every box reaches: the shader's exact test
 /// decides. A non-positive radius is 0 (reaches nothing).
-pub fn pack_sphere(centre: Vec3, r: f32) -> PackedSphere {
+fn pack_sphere(centre: Vec3, r: f32) -> PackedSphere {
     if r.is_nan() || r <= 0.0 || !centre.is_finite() {
         return [0, 0];
     }
@@ -463,12 +463,6 @@ pub fn pack_sphere(centre: Vec3, r: f32) -> PackedSphere {
 /// Whether the half with these bits is subnormal (exponent 0, mantissa not).
 fn is_subnormal(bits: u16) -> bool {
     bits & 0x7c00 == 0 && bits & 0x03ff != 0
-}
-
-/// The sphere [`pack_sphere`] packed: eye-relative centre and radius, as the shader reads them.
-pub fn unpack_sphere(s: PackedSphere) -> Vec4 {
-    let half = |bits: u32| half::f16::from_bits(bits as u16).to_f32();
-    Vec4::new(half(s[0]), half(s[0] >> 16), half(s[1]), half(s[1] >> 16))
 }
 
 impl TileLists {
@@ -702,6 +696,12 @@ pub fn bin<I: Iterator<Item = Photon>>(
 mod tests {
     use super::*;
     use crate::photon::types::pack_normal;
+
+    /// The sphere [`pack_sphere`] packed, unpacked as the shader reads it.
+    fn unpack_sphere(s: PackedSphere) -> Vec4 {
+        let half = |bits: u32| half::f16::from_bits(bits as u16).to_f32();
+        Vec4::new(half(s[0]), half(s[0] >> 16), half(s[1]), half(s[1] >> 16))
+    }
 
     fn screen(subsample: u32) -> Screen {
         let proj =
