@@ -237,6 +237,224 @@ fn plain_bilinear_upsampling_differs_from_joint_only_near_edges() {
     );
 }
 
+/// The upsample's definition (`passes/upsample.rs`), in f32 on the CPU: for the pixel at (x, y),
+/// the 2×2 nearest low-resolution samples weighted by bilinear × max(0, n·n_s)^NORMAL_POWER ×
+/// exp(−|n·(p_s − p)| / (DEPTH_SIGMA·|p|)), normalised (the most similar sample alone when every
+/// weight vanishes), times the pixel's `c_L/π`, plus the interpolated glossy radiance.
+struct UpsampleModel<'a> {
+    size: (usize, usize),
+    low_size: (usize, usize),
+    n: usize,
+    position: &'a [f32],
+    normal: &'a [[f32; 3]],
+    lambert: &'a [f32],
+    low: &'a [Vec<f32>; 2],
+}
+
+impl UpsampleModel<'_> {
+    fn unit(v: [f32; 3]) -> [f32; 3] {
+        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        [v[0] / l, v[1] / l, v[2] / l]
+    }
+
+    fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+        a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    }
+
+    fn pixel(&self, x: usize, y: usize) -> [f32; 4] {
+        use ispm::passes::upsample::{DEPTH_SIGMA, NORMAL_POWER};
+        let (w, h) = self.size;
+        let i = y * w + x;
+        let p = &self.position[4 * i..4 * i + 4];
+        if p[3] == 0.0 {
+            return [0.0; 4];
+        }
+        let nrm = Self::unit(self.normal[i]);
+        let dist = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt().max(1e-6);
+        let n = self.n as f32;
+        let f = [
+            (x as f32 - (n / 2.0).floor()) / n,
+            (y as f32 - (n / 2.0).floor()) / n,
+        ];
+        let base = [f[0].floor(), f[1].floor()];
+        let t = [f[0] - base[0], f[1] - base[1]];
+        let (lw, lh) = self.low_size;
+        let mut irradiance = [0.0f32; 4];
+        let mut glossy = [0.0f32; 3];
+        let mut total = 0.0f32;
+        let mut best: Option<(f32, usize)> = None;
+        for j in 0..2 {
+            for i in 0..2 {
+                let lx = (base[0] as i64 + i).clamp(0, lw as i64 - 1) as usize;
+                let ly = (base[1] as i64 + j).clamp(0, lh as i64 - 1) as usize;
+                let sx = (lx * self.n + self.n / 2).min(w - 1);
+                let sy = (ly * self.n + self.n / 2).min(h - 1);
+                let s = sy * w + sx;
+                let ps = &self.position[4 * s..4 * s + 4];
+                if ps[3] == 0.0 {
+                    continue;
+                }
+                let normal_w = Self::dot(nrm, Self::unit(self.normal[s]))
+                    .max(0.0)
+                    .powf(NORMAL_POWER);
+                let plane = Self::dot(nrm, [ps[0] - p[0], ps[1] - p[1], ps[2] - p[2]]).abs();
+                let geometry = normal_w * (-plane / (DEPTH_SIGMA * dist)).exp();
+                let bx = if i == 0 { 1.0 - t[0] } else { t[0] };
+                let by = if j == 0 { 1.0 - t[1] } else { t[1] };
+                let wt = bx * by * geometry;
+                let l = ly * lw + lx;
+                for c in 0..4 {
+                    irradiance[c] += wt * self.low[0][4 * l + c];
+                }
+                for c in 0..3 {
+                    glossy[c] += wt * self.low[1][4 * l + c];
+                }
+                total += wt;
+                let score = geometry + 1e-6 * bx * by;
+                if best.is_none_or(|(b, _)| score > b) {
+                    best = Some((score, l));
+                }
+            }
+        }
+        if total > 1e-6 {
+            irradiance = irradiance.map(|v| v / total);
+            glossy = glossy.map(|v| v / total);
+        } else if let Some((_, l)) = best {
+            irradiance = std::array::from_fn(|c| self.low[0][4 * l + c]);
+            glossy = std::array::from_fn(|c| self.low[1][4 * l + c]);
+        } else {
+            return [0.0; 4];
+        }
+        let c_l = &self.lambert[4 * i..4 * i + 4];
+        if c_l[3] == 0.0 {
+            return [0.0, 0.0, 0.0, irradiance[3]];
+        }
+        let r: [f32; 3] = std::array::from_fn(|c| c_l[c] * irradiance[c] + glossy[c]);
+        [r[0], r[1], r[2], irradiance[3]]
+    }
+}
+
+/// The upsample is its definition at every pixel, at N = 2 … 5 on an image no N divides (so
+/// the first and last cells are partial): each invocation shades a block of the pixels that
+/// share four samples, and a block missed, shaded twice or given the wrong samples shows
+/// here. Also: the direct pass's reflectance is the Lambertian lobe, the albedo over π times
+/// one Fresnel factor for all three channels.
+#[test]
+fn the_upsample_is_its_definition_at_every_pixel() {
+    let scene = cornell();
+    let (w, h) = (61usize, 47usize);
+    for n in [2usize, 3, 4, 5] {
+        let mut s = settings(w as u32, n as u32);
+        s.height = h as u32;
+        // No fine photons: `indirect` is the upsample's output alone.
+        s.subsampled_caustics = true;
+        let gpu = common::gpu();
+        let (indirect, position, normal, albedo, lambert, low) = {
+            let mut renderer = Renderer::new(&gpu, &scene, s).expect("renderer");
+            renderer.render().expect("render");
+            let photons = renderer.photons().expect("ispm");
+            let f16 = |bytes: Vec<u8>| -> Vec<[f32; 3]> {
+                bytes
+                    .chunks_exact(8)
+                    .map(|t| {
+                        let c = |i: usize| {
+                            common::f16_to_f32(u16::from_le_bytes([t[2 * i], t[2 * i + 1]]))
+                        };
+                        [c(0), c(1), c(2)]
+                    })
+                    .collect()
+            };
+            (
+                photons.read_indirect().expect("indirect"),
+                bytemuck::pod_collect_to_vec::<u8, f32>(
+                    &renderer.read_gbuffer("position").unwrap(),
+                ),
+                f16(renderer.read_gbuffer("normal").unwrap()),
+                f16(renderer.read_gbuffer("albedo").unwrap()),
+                renderer
+                    .read_lambert()
+                    .unwrap()
+                    .expect("a reflectance image at N > 1"),
+                photons
+                    .read_low()
+                    .unwrap()
+                    .expect("low-resolution images at N > 1"),
+            )
+        };
+        common::assert_validation_clean(&gpu);
+        let model = UpsampleModel {
+            size: (w, h),
+            low_size: (w.div_ceil(n), h.div_ceil(n)),
+            n,
+            position: &position,
+            normal: &normal,
+            lambert: &lambert,
+            low: &low,
+        };
+        let scale = indirect.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+        assert!(scale > 0.0, "N = {n}: no indirect light at all");
+        let mut wrong = Vec::new();
+        let mut surfaces = 0;
+        for y in 0..h {
+            for x in 0..w {
+                let i = y * w + x;
+                let expected = model.pixel(x, y);
+                let got = &indirect[4 * i..4 * i + 4];
+                let close = (0..4).all(|c| {
+                    (got[c] - expected[c]).abs() <= 1e-4 * expected[c].abs() + 1e-6 * scale
+                });
+                if !close {
+                    wrong.push((x, y, got.to_vec(), expected));
+                }
+                if position[4 * i + 3] == 0.0 {
+                    continue;
+                }
+                surfaces += 1;
+                // c_L/π = albedo/π × (1 − s): one factor for every channel, in (0, 1].
+                let l = &lambert[4 * i..4 * i + 4];
+                assert!(
+                    l[3] == 1.0 || l[3] == 0.0,
+                    "N = {n}, ({x}, {y}): a = {}",
+                    l[3]
+                );
+                if l[3] == 1.0 {
+                    for c in 0..3 {
+                        let plain = albedo[i][c] / std::f32::consts::PI;
+                        if plain > 1e-3 {
+                            let factor = l[c] / plain;
+                            assert!(
+                                factor > 0.0 && factor <= 1.0 + 1e-3,
+                                "N = {n}, ({x}, {y}): c_L/π {:?} against albedo/π {plain} \
+                                 in channel {c}",
+                                &l[..3]
+                            );
+                            let first = (0..3)
+                                .find(|&k| albedo[i][k] / std::f32::consts::PI > 1e-3)
+                                .unwrap();
+                            let f0 = l[first] / (albedo[i][first] / std::f32::consts::PI);
+                            assert!(
+                                (factor - f0).abs() <= 2e-3,
+                                "N = {n}, ({x}, {y}): Fresnel factors {f0} and {factor} differ"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        assert!(
+            surfaces > w * h / 2,
+            "N = {n}: only {surfaces} surface pixels"
+        );
+        assert!(
+            wrong.is_empty(),
+            "N = {n}: {} of {} pixels differ from the upsample's definition, e.g. {:?}",
+            wrong.len(),
+            w * h,
+            &wrong[..wrong.len().min(4)]
+        );
+    }
+}
+
 #[test]
 fn subsample_larger_than_the_image_renders_one_low_resolution_pixel() {
     let scene = cornell();

@@ -107,6 +107,9 @@ pub const SUPPORT_NORMAL_COS: f32 = 0.9;
 // llvmpipe unrolls (pow, or a loop whose count is a push constant, costs more there).
 pub const DENOISE_NORMAL_POWER_LOG2: u32 = 5;
 pub const UPSAMPLE_NORMAL_POWER_LOG2: u32 = 3;
+// The upsample's block: an invocation shades up to this many pixels square that share their
+// four low-resolution samples (`passes/upsample.rs`).
+pub const UPSAMPLE_BLOCK: u32 = 4;
 
 // Photon-volume billboards (`passes/photon_volumes.rs`, `photon_volumes.vert`): the eye counts
 // as inside a kernel's bounding sphere up to this multiple of its radius (the billboard's half

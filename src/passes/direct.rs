@@ -1,10 +1,18 @@
 //! Deferred direct illumination (compute): per eye G-buffer pixel, the sum over lights of
 //! BSDF × irradiance × cosine × shadow visibility (3×3 bilinear PCF in the shadow atlas),
 //! plus emission, into the HDR radiance image.
+//!
+//! At `--subsample N > 1` it also writes `lambert`, the pixel's Lambertian reflectance `c_L/π`
+//! at its own view direction (a = 1 where the BSDF faces the eye), which the upsample
+//! multiplies the interpolated irradiance by (`passes/upsample.rs`): the material and albedo
+//! are read and the BSDF made here anyway, and doing it again in the upsample was 40 % of that
+//! pass on lavapipe (docs/performance.md, "The upsample's cost").
 
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
-use crate::gpu::{Buffer, Cmd, Filter, Gpu, Image, Sampler, Shaders, Use};
+use crate::gpu::{
+    vk, Buffer, Cmd, Filter, Gpu, Image, ImageDesc, Sampler, Shaders, SpecConstant, Use, ViewKind,
+};
 use crate::photon::bsdf::BsdfVariant;
 use crate::timing::pass_id::PassId;
 use std::sync::Arc;
@@ -19,6 +27,32 @@ pub struct DirectInputs<'a> {
     pub shadow_atlas: &'a Image,
 }
 
+/// The Lambertian reflectance image the pass writes at `--subsample N > 1` (RGBA32F:
+/// `c_L/π`, a = 1 where the BSDF faces the eye, 0 on the background and at grazing views).
+/// Planned: the passes that bind it add their uses; its own is the copy out of it (read back
+/// by the tests).
+pub fn lambert_output(gpu: &Arc<Gpu>, width: u32, height: u32) -> Image {
+    Image::planned(
+        gpu,
+        &ImageDesc {
+            name: "lambert",
+            format: vk::Format::R32G32B32A32_SFLOAT,
+            width,
+            height,
+            layers: 1,
+            usage: vk::ImageUsageFlags::TRANSFER_SRC,
+            view: ViewKind::D2,
+        },
+    )
+}
+
+/// What the direct pass writes: the radiance, and the Lambertian reflectance where an upsample
+/// reads it.
+pub struct DirectOutputs<'a> {
+    pub radiance: &'a Image,
+    pub lambert: Option<&'a Image>,
+}
+
 pub struct DirectPass {
     kernel: ComputeKernel,
     nearest: Sampler,
@@ -26,22 +60,28 @@ pub struct DirectPass {
 }
 
 impl DirectPass {
-    /// The pass with the über-BSDF lobes of `variant` compiled in.
+    /// The pass with the über-BSDF lobes of `variant` compiled in, writing `outputs.lambert`
+    /// where there is one (and only then: the record must be given the same outputs).
     pub fn new(
         gpu: &Arc<Gpu>,
         inputs: &DirectInputs,
-        radiance: &Image,
+        outputs: &DirectOutputs,
         variant: BsdfVariant,
     ) -> anyhow::Result<Self> {
         let nearest = Sampler::new(gpu, "direct.nearest", Filter::Nearest, false)?;
         let shadow = Sampler::new(gpu, "direct.shadow_compare", Filter::LinearCompare, false)?;
+        let [glossy, delta] = super::bsdf_constants(variant);
         let kernel = ComputeKernel::new(
             gpu,
             PassId::Direct.name(),
             &crate::gpu::shader_table::DIRECT_COMP,
-            &Self::uses(inputs, radiance, (&nearest, &shadow)),
+            &Self::uses(inputs, outputs, (&nearest, &shadow)),
             0,
-            &super::bsdf_constants(variant),
+            &[
+                glossy,
+                delta,
+                SpecConstant::bool(2, outputs.lambert.is_some()),
+            ],
         )?;
         Ok(Self {
             kernel,
@@ -53,9 +93,9 @@ impl DirectPass {
     /// What the pass uses, in the shader's binding order.
     fn uses<'a>(
         inputs: &DirectInputs<'a>,
-        radiance: &'a Image,
+        outputs: &DirectOutputs<'a>,
         (nearest, shadow): (&'a Sampler, &'a Sampler),
-    ) -> [Use<'a>; 10] {
+    ) -> [Use<'a>; 11] {
         let g = inputs.gbuffer;
         [
             Use::Uniform(inputs.frame),
@@ -67,13 +107,26 @@ impl DirectPass {
             Use::Sampled(&g.albedo, nearest),
             Use::Sampled(&g.material, nearest),
             Use::Sampled(inputs.shadow_atlas, shadow),
-            Use::Storage(radiance),
+            Use::Storage(outputs.radiance),
+            // Without a reflectance image the shader never writes this binding.
+            Use::Storage(outputs.lambert.unwrap_or(outputs.radiance)),
         ]
     }
 
-    pub fn record(&self, cmd: &Cmd, inputs: &DirectInputs, radiance: &mut Image) {
+    /// Records the pass into `radiance` (and `lambert`: the image the pass was made with, if
+    /// any).
+    pub fn record(
+        &self,
+        cmd: &Cmd,
+        inputs: &DirectInputs,
+        (radiance, lambert): (&mut Image, Option<&mut Image>),
+    ) {
         let _scope = cmd.scope(PassId::Direct.name());
-        let uses = Self::uses(inputs, radiance, (&self.nearest, &self.shadow));
+        let outputs = DirectOutputs {
+            radiance,
+            lambert: lambert.map(|l| &*l),
+        };
+        let uses = Self::uses(inputs, &outputs, (&self.nearest, &self.shadow));
         cmd.uses(Shaders::Compute, &uses);
         self.kernel
             .dispatch(cmd, super::image_groups(radiance.width, radiance.height));

@@ -15,8 +15,8 @@
 //! pixel's distance from the camera, so a plane seen at a grazing angle keeps full weight),
 //! normalised; when every weight vanishes the geometrically most similar sample is taken alone.
 //! The interpolated irradiance is multiplied by the pixel's own Lambertian BSDF `c_L/π` (its
-//! albedo texture and Fresnel factor at full resolution); the glossy part is interpolated as
-//! radiance.
+//! albedo texture and Fresnel factor at full resolution), which the direct pass writes for it
+//! (`lambert`, `passes/direct.rs`); the glossy part is interpolated as radiance.
 //!
 //! What is not consistent (the price of the fill rate): the glossy lobes are evaluated with the
 //! low-resolution sample's material, normal and view direction, not the pixel's; the
@@ -34,14 +34,17 @@
 //! are not in the low-resolution images when the scene can make any: they are estimated at full
 //! resolution and added to `indirect` after this pass (`render/photon_frame/estimate.rs`).
 //!
-//! Reads: materials, eye G-buffer, the two low-resolution images (`ComputeSampledRead`).
+//! Reads: the eye G-buffer's positions and normals, `lambert`, the two low-resolution images
+//! (`ComputeSampledRead`).
 //! Writes: `indirect` (`ComputeStorageWrite`).
 
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
 use crate::config::settings::Upsample;
-use crate::gpu::{vk, Buffer, Cmd, Filter, Gpu, Image, ImageDesc, Sampler, Shaders, Use, ViewKind};
-use crate::photon::bsdf::BsdfVariant;
+use crate::gpu::{
+    vk, Cmd, Filter, Gpu, Image, ImageDesc, Sampler, Shaders, SpecConstant, Use, ViewKind,
+};
+use crate::layout::shared_constants::UPSAMPLE_BLOCK;
 use crate::timing::pass_id::PassId;
 use std::sync::Arc;
 
@@ -62,6 +65,20 @@ struct Push {
     depth_sigma: f32,
     /// 1: joint bilateral weights; 0: bilinear only.
     joint: u32,
+}
+
+/// The side of the pixel block an invocation shades at subsample `n`: min(n, `UPSAMPLE_BLOCK`).
+fn block(n: u32) -> u32 {
+    n.clamp(1, UPSAMPLE_BLOCK)
+}
+
+/// The workgroups covering a `width`×`height` image at subsample `n`, one invocation per block
+/// of a cell (upsample.comp): the cells run from −1 (the pixels left of the first sample
+/// centre) to the last low-resolution sample, each ⌈n / block⌉ blocks a side.
+fn cell_blocks(width: u32, height: u32, n: u32) -> [u32; 3] {
+    let (low_w, low_h) = low_size(width, height, n);
+    let k = n.max(1).div_ceil(block(n));
+    super::image_groups((low_w + 1) * k, (low_h + 1) * k)
 }
 
 /// Low-resolution size of a `width`×`height` image at subsample `n` (at least 1×1).
@@ -89,8 +106,9 @@ pub fn output(gpu: &Arc<Gpu>, width: u32, height: u32) -> Image {
 
 /// What the upsample reads.
 pub struct UpsampleInputs<'a> {
-    pub materials: &'a Buffer,
     pub gbuffer: &'a GBuffer,
+    /// The pixels' `c_L/π` (a = 1 where the BSDF faces the eye), from the direct pass.
+    pub lambert: &'a Image,
     /// `[low_irradiance, low_glossy]` from the subsampled photon volumes.
     pub low: &'a [Image; 2],
 }
@@ -109,7 +127,6 @@ impl UpsamplePass {
         indirect: &Image,
         subsample: u32,
         mode: Upsample,
-        variant: BsdfVariant,
     ) -> anyhow::Result<Self> {
         let sampler = Sampler::new(gpu, "upsample.nearest", Filter::Nearest, false)?;
         let kernel = ComputeKernel::new(
@@ -118,7 +135,10 @@ impl UpsamplePass {
             &crate::gpu::shader_table::UPSAMPLE_COMP,
             &Self::uses(inputs, indirect, &sampler),
             size_of::<Push>() as u32,
-            &super::bsdf_constants(variant),
+            &[SpecConstant {
+                id: 0,
+                value: block(subsample),
+            }],
         )?;
         Ok(Self {
             kernel,
@@ -133,14 +153,12 @@ impl UpsamplePass {
         inputs: &UpsampleInputs<'a>,
         indirect: &'a Image,
         sampler: &'a Sampler,
-    ) -> [Use<'a>; 8] {
+    ) -> [Use<'a>; 6] {
         let g = inputs.gbuffer;
         [
-            Use::Read(inputs.materials),
             Use::Sampled(&g.position, sampler),
             Use::Sampled(&g.normal, sampler),
-            Use::Sampled(&g.albedo, sampler),
-            Use::Sampled(&g.material, sampler),
+            Use::Sampled(inputs.lambert, sampler),
             Use::Sampled(&inputs.low[0], sampler),
             Use::Sampled(&inputs.low[1], sampler),
             Use::Storage(indirect),
@@ -160,7 +178,7 @@ impl UpsamplePass {
                 depth_sigma: DEPTH_SIGMA,
                 joint: u32::from(self.mode == Upsample::Joint),
             },
-            super::image_groups(indirect.width, indirect.height),
+            cell_blocks(indirect.width, indirect.height, self.subsample),
         );
     }
 }

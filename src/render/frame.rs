@@ -123,6 +123,9 @@ pub struct Renderer {
     gbuffer: GBuffer,
     shadow_atlas: Image,
     radiance: Image,
+    /// At `--subsample N > 1` with ISPM: the pixels' Lambertian reflectance, which the direct
+    /// pass writes and the upsample reads (`passes/direct.rs`).
+    lambert: Option<Image>,
     display: Image,
     shadow_maps: ShadowMapPass,
     eye_gbuffer: EyeGBufferPass,
@@ -370,6 +373,7 @@ impl Renderer {
                     frame: &self.frame_uniforms,
                     gbuffer: &self.gbuffer,
                     radiance: &self.radiance,
+                    lambert: self.lambert.as_ref(),
                 },
             )?;
             // Its images, planned as it was made (`gpu/image.rs`).

@@ -227,6 +227,9 @@ pub struct PhotonTargets<'a> {
     pub frame: &'a Buffer,
     pub gbuffer: &'a GBuffer,
     pub radiance: &'a Image,
+    /// The direct pass's Lambertian reflectance, which the upsample reads (at `--subsample N >
+    /// 1`; `passes/direct.rs`).
+    pub lambert: Option<&'a Image>,
 }
 
 /// `transform` followed by a move of `-origin`, composed in f64.

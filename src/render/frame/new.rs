@@ -8,7 +8,7 @@ use crate::gpu::scene::GpuScene;
 use crate::gpu::{vk, Gpu, Image, ImageDesc, Timestamps, ViewKind};
 use crate::layout::FrameUniforms;
 use crate::passes::accumulate::AccumulatePass;
-use crate::passes::direct::{DirectInputs, DirectPass};
+use crate::passes::direct::{self, DirectInputs, DirectOutputs, DirectPass};
 use crate::passes::eye_gbuffer::{EyeGBufferPass, GBuffer};
 use crate::passes::shadow_map::ShadowMapPass;
 use crate::passes::tonemap::TonemapPass;
@@ -122,6 +122,11 @@ impl Renderer {
                 view: ViewKind::D2,
             },
         );
+        // Made whenever ISPM subsamples, even where the plan needs no indirect light yet: the
+        // photon part of the frame may be made later, when the camera moves (`set_camera`),
+        // and the direct pass writing it is made once, here.
+        let lambert = (settings.method == Method::Ispm && settings.subsample_factor() > 1)
+            .then(|| direct::lambert_output(gpu, settings.width, settings.height));
         let display = tonemap::output(gpu, settings.width, settings.height);
         let accumulate =
             if settings.accumulate && (settings.method == Method::Ispm || plan.accumulate) {
@@ -142,7 +147,10 @@ impl Renderer {
                 gbuffer: &gbuffer,
                 shadow_atlas: &shadow_atlas,
             },
-            &radiance,
+            &DirectOutputs {
+                radiance: &radiance,
+                lambert: lambert.as_ref(),
+            },
             settings.bsdf_variant,
         )?;
         let tonemap = TonemapPass::new(gpu, &radiance, &display)?;
@@ -164,6 +172,7 @@ impl Renderer {
                     frame: &frame_uniforms,
                     gbuffer: &gbuffer,
                     radiance: &radiance,
+                    lambert: lambert.as_ref(),
                 },
             )?)
         } else {
@@ -215,6 +224,7 @@ impl Renderer {
             gbuffer,
             shadow_atlas,
             radiance,
+            lambert,
             display,
             shadow_maps,
             eye_gbuffer,

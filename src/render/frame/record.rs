@@ -114,7 +114,8 @@ impl Renderer {
             gbuffer: &self.gbuffer,
             shadow_atlas: &self.shadow_atlas,
         };
-        self.direct.record(cmd, &inputs, &mut self.radiance);
+        self.direct
+            .record(cmd, &inputs, (&mut self.radiance, self.lambert.as_mut()));
     }
 
     /// Box D: photon volumes (+ upsampling and composite), glass and mirrors, tonemapping;
@@ -140,6 +141,7 @@ impl Renderer {
             photons.record_estimate(
                 cmd,
                 (&self.frame_uniforms, &self.scene.materials, &self.gbuffer),
+                self.lambert.as_ref(),
                 (&mut self.radiance, slot, frame.uniforms.view_proj),
                 (composite, accumulated, self.value_check.as_mut()),
             )?;

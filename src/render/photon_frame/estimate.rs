@@ -142,11 +142,13 @@ impl PhotonFrame {
     /// per slot) and `view_proj` the frame's camera-relative world → clip (what they are
     /// binned for). `accumulated`: the frames already in the mean this frame joins (0 when it
     /// starts one or is not accumulated), which sets the denoiser's levels
-    /// ([`crate::passes::denoise::levels_for`]).
+    /// ([`crate::passes::denoise::levels_for`]). `lambert`: the direct pass's Lambertian
+    /// reflectance, which the upsample reads (at `--subsample N > 1`).
     pub fn record_estimate(
         &mut self,
         cmd: &Cmd,
         (frame, materials, gbuffer): (&Buffer, &Buffer, &GBuffer),
+        lambert: Option<&Image>,
         (radiance, slot, view_proj): (&mut Image, usize, glam::Mat4),
         (composite, accumulated, mut check): (bool, u32, Option<&mut ValueCheckPass>),
     ) -> anyhow::Result<()> {
@@ -255,9 +257,14 @@ impl PhotonFrame {
                     check.image(cmd, Checked::IndirectLowIrradiance, &sub.low[0])?;
                     check.image(cmd, Checked::IndirectLowGlossy, &sub.low[1])?;
                 }
+                let lambert = lambert.ok_or_else(|| {
+                    anyhow::anyhow!(
+                        "internal: a subsampled estimate without the direct pass's reflectance"
+                    )
+                })?;
                 let low = UpsampleInputs {
-                    materials,
                     gbuffer,
+                    lambert,
                     low: &sub.low,
                 };
                 sub.upsample.record(cmd, &low, &mut self.indirect);
@@ -394,6 +401,20 @@ impl PhotonFrame {
         Ok(bytemuck::pod_collect_to_vec(
             &self.gpu.read_image(&self.indirect)?,
         ))
+    }
+
+    /// Reads back the low-resolution irradiance and glossy images the upsample reads (RGBA
+    /// f32 each, at their size), or `None` at `--subsample 1`. For the tests.
+    pub fn read_low(&self) -> anyhow::Result<Option<[Vec<f32>; 2]>> {
+        let Some(sub) = &self.subsampled else {
+            return Ok(None);
+        };
+        let read = |i: usize| -> anyhow::Result<Vec<f32>> {
+            Ok(bytemuck::pod_collect_to_vec(
+                &self.gpu.read_image(&sub.low[i])?,
+            ))
+        };
+        Ok(Some([read(0)?, read(1)?]))
     }
 
     /// Reads back, per pixel, the share `f` of the global photons' kernel on the surface that

@@ -62,6 +62,7 @@ impl PhotonFrame {
             frame,
             gbuffer,
             radiance,
+            lambert,
         } = *targets;
         // The photons' origin: fixed for the scene, so that the photon map is the same
         // whatever the camera (module docs).
@@ -203,9 +204,18 @@ impl PhotonFrame {
             };
             let (w, h) = upsample::low_size(width, height, subsample);
             let low = photon_volumes::low_targets(gpu, w, h);
+            for image in &low {
+                // Read back by `read_low` (tests).
+                image.require(vk::ImageUsageFlags::TRANSFER_SRC, "a read-back");
+            }
+            let lambert = lambert.ok_or_else(|| {
+                anyhow::anyhow!(
+                    "internal: a subsampled estimate without the direct pass's reflectance"
+                )
+            })?;
             let upsample_inputs = UpsampleInputs {
-                materials: &gpu_scene.materials,
                 gbuffer,
+                lambert,
                 low: &low,
             };
             let upsample = UpsamplePass::new(
@@ -214,7 +224,6 @@ impl PhotonFrame {
                 &indirect,
                 subsample,
                 settings.upsample,
-                settings.bsdf_variant,
             )?;
             let images = photon_volumes::support_targets(gpu, w, h);
             let pass = SupportPass::new(gpu, (frame, gbuffer), (&low[0], Some(&low[1])), &images)?;
