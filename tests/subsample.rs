@@ -303,11 +303,11 @@ impl UpsampleModel<'_> {
                 let by = if j == 0 { 1.0 - t[1] } else { t[1] };
                 let wt = bx * by * geometry;
                 let l = ly * lw + lx;
-                for c in 0..4 {
-                    irradiance[c] += wt * self.low[0][4 * l + c];
+                for (c, v) in irradiance.iter_mut().enumerate() {
+                    *v += wt * self.low[0][4 * l + c];
                 }
-                for c in 0..3 {
-                    glossy[c] += wt * self.low[1][4 * l + c];
+                for (c, v) in glossy.iter_mut().enumerate() {
+                    *v += wt * self.low[1][4 * l + c];
                 }
                 total += wt;
                 let score = geometry + 1e-6 * bx * by;
