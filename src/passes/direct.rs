@@ -10,9 +10,7 @@
 
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
-use crate::gpu::{
-    vk, Buffer, Cmd, Filter, Gpu, Image, ImageDesc, Sampler, Shaders, SpecConstant, Use, ViewKind,
-};
+use crate::gpu::{vk, Buffer, Cmd, Filter, Gpu, Image, Sampler, Shaders, SpecConstant, Use};
 use crate::photon::bsdf::BsdfVariant;
 use crate::timing::pass_id::PassId;
 use std::sync::Arc;
@@ -32,18 +30,8 @@ pub struct DirectInputs<'a> {
 /// Planned: the passes that bind it add their uses; its own is the copy out of it (read back
 /// by the tests).
 pub fn lambert_output(gpu: &Arc<Gpu>, width: u32, height: u32) -> Image {
-    Image::planned(
-        gpu,
-        &ImageDesc {
-            name: "lambert",
-            format: vk::Format::R32G32B32A32_SFLOAT,
-            width,
-            height,
-            layers: 1,
-            usage: vk::ImageUsageFlags::TRANSFER_SRC,
-            view: ViewKind::D2,
-        },
-    )
+    let usage = vk::ImageUsageFlags::TRANSFER_SRC;
+    super::planned_rgba32f(gpu, "lambert", (width, height), usage)
 }
 
 /// What the direct pass writes: the radiance, and the Lambertian reflectance where an upsample

@@ -50,6 +50,28 @@ pub(crate) fn bsdf_constants(
         .map(|(id, on)| crate::gpu::SpecConstant::bool(id, on))
 }
 
+/// A planned full-screen RGBA32F image (`gpu/image.rs`): made by the next
+/// [`crate::gpu::Gpu::make_planned`] with `usage` and every use the passes declare before it.
+pub(crate) fn planned_rgba32f(
+    gpu: &std::sync::Arc<crate::gpu::Gpu>,
+    name: &str,
+    (width, height): (u32, u32),
+    usage: crate::gpu::vk::ImageUsageFlags,
+) -> crate::gpu::Image {
+    crate::gpu::Image::planned(
+        gpu,
+        &crate::gpu::ImageDesc {
+            name,
+            format: crate::gpu::vk::Format::R32G32B32A32_SFLOAT,
+            width,
+            height,
+            layers: 1,
+            usage,
+            view: crate::gpu::ViewKind::D2,
+        },
+    )
+}
+
 /// The vertex layout every raster pass reads (see [`crate::layout::Vertex`]).
 pub(crate) fn vertex_attributes() -> [crate::gpu::VertexAttribute; 3] {
     use crate::gpu::{vk, VertexAttribute};

@@ -37,8 +37,7 @@
 use super::eye_gbuffer::{GBuffer, DEPTH};
 use crate::gpu::{
     uses, vk, Access, Attachment, Binding, Blend, Buffer, Cmd, Depth, DescriptorLayout,
-    DescriptorSet, Filter, Gpu, GraphicsDesc, Image, ImageDesc, Load, Pipeline, Sampler, Use,
-    VertexAttribute, ViewKind,
+    DescriptorSet, Filter, Gpu, GraphicsDesc, Image, Load, Pipeline, Sampler, Use, VertexAttribute,
 };
 use crate::layout::shared_constants::{BILLBOARD_INSIDE, BILLBOARD_MARGIN};
 use crate::photon::bsdf::BsdfVariant;
@@ -103,7 +102,7 @@ const _: () = assert!(size_of::<Push>() == 64);
 /// as are the other targets below: the estimator that writes them and the passes that read
 /// them add their uses (`gpu/image.rs`); this one is read back (`Renderer::read_indirect`).
 pub fn target(gpu: &Arc<Gpu>, width: u32, height: u32) -> Image {
-    planned(
+    super::planned_rgba32f(
         gpu,
         "indirect",
         (width, height),
@@ -115,7 +114,7 @@ pub fn target(gpu: &Arc<Gpu>, width: u32, height: u32) -> Image {
 pub fn low_targets(gpu: &Arc<Gpu>, width: u32, height: u32) -> [Image; 2] {
     let none = vk::ImageUsageFlags::empty();
     ["indirect.low_irradiance", "indirect.low_glossy"]
-        .map(|name| planned(gpu, name, (width, height), none))
+        .map(|name| super::planned_rgba32f(gpu, name, (width, height), none))
 }
 
 /// The global photons' share of the estimate beside the full-resolution [`target`] (or, at
@@ -126,27 +125,7 @@ pub fn low_targets(gpu: &Arc<Gpu>, width: u32, height: u32) -> [Image; 2] {
 pub fn support_targets(gpu: &Arc<Gpu>, width: u32, height: u32) -> [Image; 2] {
     let none = vk::ImageUsageFlags::empty();
     ["indirect.global", "indirect.global_weight"]
-        .map(|name| planned(gpu, name, (width, height), none))
-}
-
-fn planned(
-    gpu: &Arc<Gpu>,
-    name: &str,
-    (width, height): (u32, u32),
-    usage: vk::ImageUsageFlags,
-) -> Image {
-    Image::planned(
-        gpu,
-        &ImageDesc {
-            name,
-            format: FORMAT,
-            width,
-            height,
-            layers: 1,
-            usage,
-            view: ViewKind::D2,
-        },
-    )
+        .map(|name| super::planned_rgba32f(gpu, name, (width, height), none))
 }
 
 /// The most photon buffers one pass draws from (the descriptor pool's size). At lavapipe's

@@ -41,9 +41,7 @@
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
 use crate::config::settings::Upsample;
-use crate::gpu::{
-    vk, Cmd, Filter, Gpu, Image, ImageDesc, Sampler, Shaders, SpecConstant, Use, ViewKind,
-};
+use crate::gpu::{vk, Cmd, Filter, Gpu, Image, Sampler, Shaders, SpecConstant, Use};
 use crate::layout::shared_constants::UPSAMPLE_BLOCK;
 use crate::timing::pass_id::PassId;
 use std::sync::Arc;
@@ -90,18 +88,8 @@ pub fn low_size(width: u32, height: u32, n: u32) -> (u32, u32) {
 /// The full-resolution indirect radiance this pass writes (alpha: volumes per low-res sample).
 /// Planned: the passes that bind it add their uses; its own is the copy out of it (read back).
 pub fn output(gpu: &Arc<Gpu>, width: u32, height: u32) -> Image {
-    Image::planned(
-        gpu,
-        &ImageDesc {
-            name: "indirect",
-            format: vk::Format::R32G32B32A32_SFLOAT,
-            width,
-            height,
-            layers: 1,
-            usage: vk::ImageUsageFlags::TRANSFER_SRC,
-            view: ViewKind::D2,
-        },
-    )
+    let usage = vk::ImageUsageFlags::TRANSFER_SRC;
+    super::planned_rgba32f(gpu, "indirect", (width, height), usage)
 }
 
 /// What the upsample reads.
