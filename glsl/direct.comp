@@ -2,10 +2,10 @@
 // Deferred direct illumination: for every eye G-buffer pixel, the sum over lights of
 // BSDF * irradiance * cos * visibility, plus emission. Visibility is a 3x3 grid of hardware
 // depth-compare (bilinear PCF) lookups in the light's shadow-atlas layer.
-// With WRITE_LAMBERT (--subsample N > 1), also the pixel's Lambertian reflectance for the
-// upsample: rgb = c_L/π (albedo and Fresnel factor at the pixel's own view direction, the
-// lobe upsample.comp multiplies the interpolated irradiance by), a = 1 where the BSDF faces
-// the eye (0: no indirect light there). The direct pass has the material and albedo at hand;
+// With WRITE_LAMBERT (--subsample N > 1), also the pixel's Lambertian lobe's BRDF for the
+// upsample: rgb = c_L/π (albedo and Fresnel factor at the pixel's own view direction, what
+// upsample.comp multiplies the interpolated irradiance by), a = 1 where the BSDF faces the eye
+// (0: no indirect light there). The direct pass has the material and albedo at hand;
 // reading and making them again per pixel was 40 % of the upsample on lavapipe.
 #include "shared.glsl"
 #include "lights.glsl"
@@ -26,7 +26,7 @@ layout(set = 0, binding = 9, rgba32f) uniform writeonly image2D out_radiance;
 // Without WRITE_LAMBERT the pass binds out_radiance here too and never writes it.
 layout(set = 0, binding = 10, rgba32f) uniform writeonly image2D out_lambert;
 
-layout(constant_id = 2) const bool WRITE_LAMBERT = false;
+layout(constant_id = SPEC_ID_WRITE_LAMBERT) const bool WRITE_LAMBERT = false;
 
 #include "shadows.glsl"
 

@@ -29,7 +29,8 @@ layout(set = 0, binding = 3) uniform sampler2D low_irradiance;
 layout(set = 0, binding = 4) uniform sampler2D low_glossy;
 layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D indirect;
 
-// The block's side, min(N, UPSAMPLE_BLOCK): a constant, so that llvmpipe unrolls the pixel loop.
+// The block's side, ⌈N / ⌈N / UPSAMPLE_BLOCK⌉⌉ (`passes/upsample.rs`): a constant, so that
+// llvmpipe unrolls the pixel loop.
 layout(constant_id = 0) const int BLOCK = 4;
 
 layout(push_constant) uniform Push {
@@ -46,8 +47,8 @@ ivec2 subsample_centre(ivec2 low) {
     return min(low * n + n / 2, ivec2(push.size) - 1);
 }
 
-// One store per pixel and no read after the sample loop: llvmpipe runs both sides of a branch
-// (the lanes masked), so an early return or a second store costs every pixel.
+// One store per pixel and no second read of a sample: llvmpipe runs both sides of a branch (the
+// lanes masked), so an early return, a second store or a fallback's read costs every pixel.
 void main() {
     int n = int(push.subsample);
     int k = (n + BLOCK - 1) / BLOCK;
@@ -87,7 +88,9 @@ void main() {
             // exp(−x/(σ·dist)) = exp2(−x·k_depth)
             float k_depth = 1.4426950408889634 / (push.depth_sigma * dist);
             // Bilinear position between the samples: sample i sits at full-res pixel i·N + N/2.
-            vec2 t = (vec2(px) - floor(n_f / 2.0)) / n_f - vec2(cell);
+            // From the integer offset in the cell, so that it lies in [0, 1) whatever the
+            // device's division rounds.
+            vec2 t = vec2(px - cell_first) / n_f;
 
             vec4 irradiance = vec4(0.0);
             vec3 glossy = vec3(0.0);

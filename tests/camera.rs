@@ -39,10 +39,14 @@ fn bits(frame: &FrameImage) -> Vec<u32> {
 
 /// A new renderer's first frame of `scene` seen from `camera`.
 fn fresh(scene: &Scene, camera: Camera) -> FrameImage {
+    fresh_with(scene, camera, settings())
+}
+
+fn fresh_with(scene: &Scene, camera: Camera, settings: RenderSettings) -> FrameImage {
     let gpu = common::gpu();
     let mut scene = scene.clone();
     scene.camera = camera;
-    let frame = Renderer::new(&gpu, &scene, settings())
+    let frame = Renderer::new(&gpu, &scene, settings)
         .expect("renderer")
         .render()
         .expect("frame");
@@ -189,6 +193,20 @@ fn with_glass_a_moved_camera_keeps_its_cached_environment_map_within_tolerance()
 
 #[test]
 fn a_camera_that_enters_a_closed_box_gets_the_photons_of_the_lamp_inside() {
+    enter_a_closed_box(settings());
+}
+
+/// As above, subsampled: the upsample made with the photon part of the frame reads the direct
+/// pass's reflectance image, made before it.
+#[test]
+fn a_subsampled_camera_that_enters_a_closed_box_gets_the_photons_of_the_lamp_inside() {
+    enter_a_closed_box(RenderSettings {
+        subsample: 2,
+        ..settings()
+    });
+}
+
+fn enter_a_closed_box(settings: RenderSettings) {
     // A lamp inside a closed box: from outside (A) the plan skips it (no indirect light at all,
     // so the renderer has no photon part); from inside (B) it lights everything.
     let scene = grey_box(0.5, 1.0);
@@ -197,7 +215,7 @@ fn a_camera_that_enters_a_closed_box_gets_the_photons_of_the_lamp_inside() {
     let gpu = common::gpu();
     let mut at_outside = scene.clone();
     at_outside.camera = outside;
-    let mut r = Renderer::new(&gpu, &at_outside, settings()).expect("renderer");
+    let mut r = Renderer::new(&gpu, &at_outside, settings.clone()).expect("renderer");
     assert!(r.photons().is_none(), "{}", r.plan());
     let dark = r.render().expect("frame 0 outside");
     assert!(black(&dark), "the lamp lit the outside");
@@ -219,7 +237,7 @@ fn a_camera_that_enters_a_closed_box_gets_the_photons_of_the_lamp_inside() {
     common::assert_validation_clean(&gpu);
     drop(r);
 
-    let expected = fresh(&scene, inside);
+    let expected = fresh_with(&scene, inside, settings);
     assert!(bits(&lit) == bits(&expected), "differs from a new renderer");
     assert!(bits(&again) == bits(&expected));
     assert!(bits(&back) == bits(&expected));

@@ -249,6 +249,8 @@ struct UpsampleModel<'a> {
     normal: &'a [[f32; 3]],
     lambert: &'a [f32],
     low: &'a [Vec<f32>; 2],
+    /// The joint bilateral weights; without, bilinear alone (`Upsample::Bilinear`).
+    joint: bool,
 }
 
 impl UpsampleModel<'_> {
@@ -298,7 +300,10 @@ impl UpsampleModel<'_> {
                     .max(0.0)
                     .powf(NORMAL_POWER);
                 let plane = Self::dot(nrm, [ps[0] - p[0], ps[1] - p[1], ps[2] - p[2]]).abs();
-                let geometry = normal_w * (-plane / (DEPTH_SIGMA * dist)).exp();
+                let geometry = match self.joint {
+                    true => normal_w * (-plane / (DEPTH_SIGMA * dist)).exp(),
+                    false => 1.0,
+                };
                 let bx = if i == 0 { 1.0 - t[0] } else { t[0] };
                 let by = if j == 0 { 1.0 - t[1] } else { t[1] };
                 let wt = bx * by * geometry;
@@ -334,18 +339,25 @@ impl UpsampleModel<'_> {
     }
 }
 
-/// The upsample is its definition at every pixel, at N = 2 … 5 on an image no N divides (so
-/// the first and last cells are partial): each invocation shades a block of the pixels that
-/// share four samples, and a block missed, shaded twice or given the wrong samples shows
-/// here. Also: the direct pass's reflectance is the Lambertian lobe, the albedo over π times
-/// one Fresnel factor for all three channels.
+/// The upsample is its definition at every pixel, on an image few N divide (so the first and
+/// last cells are partial), at N = 2 … 5, 9 and 13 (cells split into 1 to 4 blocks a side),
+/// 61 (one sample for the whole image) and with bilinear weights: each invocation shades a
+/// block of the pixels that share four samples, and a block missed, shaded twice or given the
+/// wrong samples shows here. Also: the direct pass's `c_L/π` is the albedo over π times one
+/// Fresnel factor for all three channels.
 #[test]
 fn the_upsample_is_its_definition_at_every_pixel() {
+    use ispm::config::settings::Upsample;
     let scene = cornell();
     let (w, h) = (61usize, 47usize);
-    for n in [2usize, 3, 4, 5] {
+    let cases = [2usize, 3, 4, 5, 9, 13, 61]
+        .map(|n| (n, Upsample::Joint))
+        .into_iter()
+        .chain([(4, Upsample::Bilinear)]);
+    for (n, mode) in cases {
         let mut s = settings(w as u32, n as u32);
         s.height = h as u32;
+        s.upsample = mode;
         // No fine photons: `indirect` is the upsample's output alone.
         s.subsampled_caustics = true;
         let gpu = common::gpu();
@@ -390,9 +402,16 @@ fn the_upsample_is_its_definition_at_every_pixel() {
             normal: &normal,
             lambert: &lambert,
             low: &low,
+            joint: mode == Upsample::Joint,
         };
-        let scale = indirect.iter().fold(0.0f32, |m, v| m.max(v.abs()));
-        assert!(scale > 0.0, "N = {n}: no indirect light at all");
+        // The largest radiance, and the largest alpha (volumes per sample).
+        let largest = |c: std::ops::Range<usize>| {
+            (indirect.chunks_exact(4)).fold(0.0f32, |m, p| {
+                p[c.clone()].iter().fold(m, |m, v| m.max(v.abs()))
+            })
+        };
+        let scale = [largest(0..3), largest(3..4)];
+        assert!(scale[0] > 0.0, "N = {n}: no indirect light at all");
         let mut wrong = Vec::new();
         let mut surfaces = 0;
         for y in 0..h {
@@ -401,6 +420,7 @@ fn the_upsample_is_its_definition_at_every_pixel() {
                 let expected = model.pixel(x, y);
                 let got = &indirect[4 * i..4 * i + 4];
                 let close = (0..4).all(|c| {
+                    let scale = scale[c / 3];
                     (got[c] - expected[c]).abs() <= 1e-4 * expected[c].abs() + 1e-6 * scale
                 });
                 if !close {
@@ -447,7 +467,7 @@ fn the_upsample_is_its_definition_at_every_pixel() {
         );
         assert!(
             wrong.is_empty(),
-            "N = {n}: {} of {} pixels differ from the upsample's definition, e.g. {:?}",
+            "N = {n} ({mode:?}): {} of {} pixels differ from the upsample's definition, e.g. {:?}",
             wrong.len(),
             w * h,
             &wrong[..wrong.len().min(4)]

@@ -42,6 +42,9 @@ pub const GLOSSY_EXPONENT_MAX: f32 = 1.0e6;
 pub const SPEC_ID_GLOSSY_LOBE: u32 = 0;
 // Delta lobes: perfect mirror and refraction.
 pub const SPEC_ID_DELTA_LOBES: u32 = 1;
+// The direct pass writes the Lambertian lobe's BRDF c_L/π for the upsample (`passes/direct.rs`),
+// beside the über-BSDF's two.
+pub const SPEC_ID_WRITE_LAMBERT: u32 = 2;
 
 // Kinds of light (`GpuLight.shadow.x`, `BounceView.kind.x`; `plan/lighting.rs`).
 pub const LIGHT_POINT: u32 = 0;

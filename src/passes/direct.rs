@@ -2,8 +2,9 @@
 //! BSDF × irradiance × cosine × shadow visibility (3×3 bilinear PCF in the shadow atlas),
 //! plus emission, into the HDR radiance image.
 //!
-//! At `--subsample N > 1` it also writes `lambert`, the pixel's Lambertian reflectance `c_L/π`
-//! at its own view direction (a = 1 where the BSDF faces the eye), which the upsample
+//! At `--subsample N > 1` it also writes `lambert`, the pixel's Lambertian lobe's BRDF `c_L/π`
+//! (albedo and Fresnel factor at its own view direction; a = 1 where the BSDF faces the eye),
+//! which the upsample
 //! multiplies the interpolated irradiance by (`passes/upsample.rs`): the material and albedo
 //! are read and the BSDF made here anyway, and doing it again in the upsample was 40 % of that
 //! pass on lavapipe (docs/performance.md, "The upsample's cost").
@@ -11,6 +12,7 @@
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
 use crate::gpu::{vk, Buffer, Cmd, Filter, Gpu, Image, Sampler, Shaders, SpecConstant, Use};
+use crate::layout::shared_constants::SPEC_ID_WRITE_LAMBERT;
 use crate::photon::bsdf::BsdfVariant;
 use crate::timing::pass_id::PassId;
 use std::sync::Arc;
@@ -25,17 +27,17 @@ pub struct DirectInputs<'a> {
     pub shadow_atlas: &'a Image,
 }
 
-/// The Lambertian reflectance image the pass writes at `--subsample N > 1` (RGBA32F:
+/// The image of the Lambertian lobe's BRDF the pass writes at `--subsample N > 1` (RGBA32F:
 /// `c_L/π`, a = 1 where the BSDF faces the eye, 0 on the background and at grazing views).
-/// Planned: the passes that bind it add their uses; its own is the copy out of it (read back
-/// by the tests).
+/// Planned: the passes that bind it add their uses. Its own: the upsample's read, which may be
+/// made after the image (the photon part of the frame, made when the camera moves), and the
+/// copy out of it (read back by the tests).
 pub fn lambert_output(gpu: &Arc<Gpu>, width: u32, height: u32) -> Image {
-    let usage = vk::ImageUsageFlags::TRANSFER_SRC;
+    let usage = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_SRC;
     super::planned_rgba32f(gpu, "lambert", (width, height), usage)
 }
 
-/// What the direct pass writes: the radiance, and the Lambertian reflectance where an upsample
-/// reads it.
+/// What the direct pass writes: the radiance, and `c_L/π` where an upsample reads it.
 pub struct DirectOutputs<'a> {
     pub radiance: &'a Image,
     pub lambert: Option<&'a Image>,
@@ -45,6 +47,8 @@ pub struct DirectPass {
     kernel: ComputeKernel,
     nearest: Sampler,
     shadow: Sampler,
+    /// Made with a `lambert` output (the shader writes it).
+    writes_lambert: bool,
 }
 
 impl DirectPass {
@@ -68,13 +72,14 @@ impl DirectPass {
             &[
                 glossy,
                 delta,
-                SpecConstant::bool(2, outputs.lambert.is_some()),
+                SpecConstant::bool(SPEC_ID_WRITE_LAMBERT, outputs.lambert.is_some()),
             ],
         )?;
         Ok(Self {
             kernel,
             nearest,
             shadow,
+            writes_lambert: outputs.lambert.is_some(),
         })
     }
 
@@ -109,6 +114,13 @@ impl DirectPass {
         inputs: &DirectInputs,
         (radiance, lambert): (&mut Image, Option<&mut Image>),
     ) {
+        // The shader writes `lambert` as it was made to: an image it was not given would be
+        // written with no barrier.
+        assert_eq!(
+            lambert.is_some(),
+            self.writes_lambert,
+            "the direct pass records with the outputs it was made with"
+        );
         let _scope = cmd.scope(PassId::Direct.name());
         let outputs = DirectOutputs {
             radiance,

@@ -10,9 +10,9 @@
 //! | [`light_gbuffer`] | graphics | scene geometry, materials | light G-buffer (a layer per view) |
 //! | [`bounce_map`] | graphics (compute) | light G-buffer, materials | bounce map (first bounces) |
 //! | [`eye_gbuffer`] | graphics | scene geometry, materials, textures | eye G-buffer |
-//! | [`direct`] | graphics (compute) | G-buffer, lights, shadow atlas | HDR radiance |
+//! | [`direct`] | graphics (compute) | G-buffer, lights, shadow atlas | HDR radiance (+ `lambert`, c_L/π, at `--subsample N > 1`) |
 //! | [`photon_volumes`] | graphics | photon map, eye G-buffer | HDR indirect radiance |
-//! | [`upsample`] | graphics (compute) | 1/N indirect, eye G-buffer, materials | HDR indirect |
+//! | [`upsample`] | graphics (compute) | 1/N indirect, eye G-buffer (position, normal), `lambert` | HDR indirect |
 //! | [`composite`] | graphics (compute) | indirect | HDR radiance (+= indirect) |
 //! | [`environment`] | graphics | scene geometry (opaque), lights, shadow atlas | environment cube map (cached) |
 //! | [`translucent`] | graphics | delta instances, lights, shadow atlas, cube map, eye depth | HDR radiance (over) |

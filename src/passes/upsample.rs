@@ -65,16 +65,18 @@ struct Push {
     joint: u32,
 }
 
-/// The side of the pixel block an invocation shades at subsample `n`: min(n, `UPSAMPLE_BLOCK`).
+/// The side of the pixel block an invocation shades at subsample `n`: a cell's side `n` split
+/// into the fewest blocks of at most `UPSAMPLE_BLOCK`, as even as they go (`n` = 5: 3 + 2, not
+/// 4 + 1, so that fewer of the block loop's lanes idle).
 fn block(n: u32) -> u32 {
-    n.clamp(1, UPSAMPLE_BLOCK)
+    let n = n.max(1);
+    n.div_ceil(n.div_ceil(UPSAMPLE_BLOCK))
 }
 
-/// The workgroups covering a `width`×`height` image at subsample `n`, one invocation per block
-/// of a cell (upsample.comp): the cells run from −1 (the pixels left of the first sample
-/// centre) to the last low-resolution sample, each ⌈n / block⌉ blocks a side.
-fn cell_blocks(width: u32, height: u32, n: u32) -> [u32; 3] {
-    let (low_w, low_h) = low_size(width, height, n);
+/// The workgroups covering the image whose `low_size` samples are at subsample `n`, one
+/// invocation per block of a cell (upsample.comp): the cells run from −1 (the pixels left of the
+/// first sample centre) to the last sample, each ⌈n / block⌉ blocks a side.
+fn cell_blocks((low_w, low_h): (u32, u32), n: u32) -> [u32; 3] {
     let k = n.max(1).div_ceil(block(n));
     super::image_groups((low_w + 1) * k, (low_h + 1) * k)
 }
@@ -123,6 +125,7 @@ impl UpsamplePass {
             &crate::gpu::shader_table::UPSAMPLE_COMP,
             &Self::uses(inputs, indirect, &sampler),
             size_of::<Push>() as u32,
+            // upsample.comp's BLOCK.
             &[SpecConstant {
                 id: 0,
                 value: block(subsample),
@@ -157,23 +160,68 @@ impl UpsamplePass {
         let _scope = cmd.scope(PassId::Upsample.name());
         let uses = Self::uses(inputs, indirect, &self.sampler);
         cmd.uses(Shaders::Compute, &uses);
+        let low = &inputs.low[0];
         self.kernel.dispatch_with(
             cmd,
             &Push {
                 size: [indirect.width, indirect.height],
-                low_size: [inputs.low[0].width, inputs.low[0].height],
+                low_size: [low.width, low.height],
                 subsample: self.subsample,
                 depth_sigma: DEPTH_SIGMA,
                 joint: u32::from(self.mode == Upsample::Joint),
             },
-            cell_blocks(indirect.width, indirect.height, self.subsample),
+            cell_blocks((low.width, low.height), self.subsample),
         );
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use super::low_size;
+    use super::{block, cell_blocks, low_size};
+
+    /// What upsample.comp does with an invocation id, per axis: the pixels it shades.
+    fn pixels(id: u32, n: u32, low: u32, size: u32) -> Vec<u32> {
+        let (b, k) = (block(n) as i64, n.div_ceil(block(n)) as i64);
+        let (id, n) = (id as i64, n as i64);
+        let cell = id / k - 1;
+        if cell > low as i64 - 1 {
+            return Vec::new();
+        }
+        let cell_first = cell * n + n / 2;
+        let first = cell_first + (id % k) * b;
+        let end = (cell_first + n).min(first + b).min(size as i64);
+        (first..end).filter(|&p| p >= 0).map(|p| p as u32).collect()
+    }
+
+    /// Every pixel is shaded once, by the cell of the samples it lies between (the pixels left
+    /// of the first sample's centre by cell −1), for block sizes that split a cell unevenly
+    /// and factors up to the image's size.
+    #[test]
+    fn the_upsample_dispatch_shades_every_pixel_once_from_its_own_cell() {
+        for size in [1u32, 2, 7, 47, 61, 64] {
+            for n in 2..=size.max(2) + 3 {
+                let (low, _) = low_size(size, 1, n);
+                let invocations = cell_blocks((low, 1), n)[0] * super::super::TILE;
+                let mut count = vec![0u32; size as usize];
+                for id in 0..invocations {
+                    for p in pixels(id, n, low, size) {
+                        count[p as usize] += 1;
+                        let cell = (id / n.div_ceil(block(n))) as i64 - 1;
+                        let expected = (p as i64 - (n / 2) as i64).div_euclid(n as i64);
+                        assert_eq!(cell, expected, "size {size}, n {n}, pixel {p}");
+                    }
+                }
+                assert!(
+                    count.iter().all(|&c| c == 1),
+                    "size {size}, n {n}: {count:?}"
+                );
+            }
+        }
+        assert_eq!(
+            (block(4), block(5), block(6), block(7), block(9)),
+            (4, 3, 3, 4, 3)
+        );
+    }
 
     #[test]
     fn low_size_covers_the_image_and_is_never_empty() {

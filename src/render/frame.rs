@@ -123,7 +123,7 @@ pub struct Renderer {
     gbuffer: GBuffer,
     shadow_atlas: Image,
     radiance: Image,
-    /// At `--subsample N > 1` with ISPM: the pixels' Lambertian reflectance, which the direct
+    /// At `--subsample N > 1` with ISPM: the pixels' Lambertian BRDF `c_L/π`, which the direct
     /// pass writes and the upsample reads (`passes/direct.rs`).
     lambert: Option<Image>,
     display: Image,

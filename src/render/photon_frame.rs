@@ -227,8 +227,8 @@ pub struct PhotonTargets<'a> {
     pub frame: &'a Buffer,
     pub gbuffer: &'a GBuffer,
     pub radiance: &'a Image,
-    /// The direct pass's Lambertian reflectance, which the upsample reads (at `--subsample N >
-    /// 1`; `passes/direct.rs`).
+    /// The direct pass's `c_L/π` image, which the upsample reads (at `--subsample N > 1`;
+    /// `passes/direct.rs`).
     pub lambert: Option<&'a Image>,
 }
 

@@ -69,8 +69,8 @@ impl Renderer {
         self.gpu.read_image(image)
     }
 
-    /// Reads back the direct pass's Lambertian reflectance (RGBA32F: `c_L/π`, a = 1 where the
-    /// BSDF faces the eye), which exists at `--subsample N > 1` only. For the tests.
+    /// Reads back the direct pass's `lambert` image (RGBA32F: the Lambertian BRDF `c_L/π`, a = 1
+    /// where the BSDF faces the eye), which exists at `--subsample N > 1` only. For the tests.
     pub fn read_lambert(&self) -> anyhow::Result<Option<Vec<f32>>> {
         let Some(image) = &self.lambert else {
             return Ok(None);

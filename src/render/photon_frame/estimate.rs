@@ -143,7 +143,7 @@ impl PhotonFrame {
     /// binned for). `accumulated`: the frames already in the mean this frame joins (0 when it
     /// starts one or is not accumulated), which sets the denoiser's levels
     /// ([`crate::passes::denoise::levels_for`]). `lambert`: the direct pass's Lambertian
-    /// reflectance, which the upsample reads (at `--subsample N > 1`).
+    /// BRDF image `c_L/π`, which the upsample reads (at `--subsample N > 1`).
     pub fn record_estimate(
         &mut self,
         cmd: &Cmd,
@@ -259,7 +259,7 @@ impl PhotonFrame {
                 }
                 let lambert = lambert.ok_or_else(|| {
                     anyhow::anyhow!(
-                        "internal: a subsampled estimate without the direct pass's reflectance"
+                        "internal: a subsampled estimate without the direct pass's c_L/π image"
                     )
                 })?;
                 let low = UpsampleInputs {

@@ -210,7 +210,7 @@ impl PhotonFrame {
             }
             let lambert = lambert.ok_or_else(|| {
                 anyhow::anyhow!(
-                    "internal: a subsampled estimate without the direct pass's reflectance"
+                    "internal: a subsampled estimate without the direct pass's c_L/π image"
                 )
             })?;
             let upsample_inputs = UpsampleInputs {
