@@ -112,7 +112,8 @@ void main() {
                 float plane = abs(dot(nrm, sample_pos[q].xyz - pos.xyz));
                 float depth_w = exp2(-plane * k_depth);
                 float geometry = push.joint != 0u ? normal_w * depth_w : 1.0;
-                float bilinear = ((q & 1) == 0 ? 1.0 - t.x : t.x) * ((q >> 1) == 0 ? 1.0 - t.y : t.y);
+                float bilinear = ((q & 1) == 0 ? 1.0 - t.x : t.x)
+                               * ((q >> 1) == 0 ? 1.0 - t.y : t.y);
                 float w = bilinear * geometry;
                 irradiance += w * sample_irradiance[q];
                 glossy += w * sample_glossy[q];

@@ -196,8 +196,8 @@ fn a_camera_that_enters_a_closed_box_gets_the_photons_of_the_lamp_inside() {
     enter_a_closed_box(settings());
 }
 
-/// As above, subsampled: the upsample made with the photon part of the frame reads the direct
-/// pass's reflectance image, made before it.
+/// As above, subsampled: the upsample, made with the photon part of the frame when the camera
+/// enters, reads the direct pass's `c_L/π` image, made with the renderer long before.
 #[test]
 fn a_subsampled_camera_that_enters_a_closed_box_gets_the_photons_of_the_lamp_inside() {
     enter_a_closed_box(RenderSettings {

@@ -4,10 +4,9 @@
 //!
 //! At `--subsample N > 1` it also writes `lambert`, the pixel's Lambertian lobe's BRDF `c_L/π`
 //! (albedo and Fresnel factor at its own view direction; a = 1 where the BSDF faces the eye),
-//! which the upsample
-//! multiplies the interpolated irradiance by (`passes/upsample.rs`): the material and albedo
-//! are read and the BSDF made here anyway, and doing it again in the upsample was 40 % of that
-//! pass on lavapipe (docs/performance.md, "The upsample's cost").
+//! which the upsample multiplies the interpolated irradiance by (`passes/upsample.rs`): the
+//! material and albedo are read and the BSDF made here anyway, and doing it again in the
+//! upsample was 40 % of that pass on lavapipe (docs/performance.md, "The upsample's cost").
 
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
