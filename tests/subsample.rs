@@ -31,6 +31,17 @@ struct Rendered {
     normal: Vec<[f32; 3]>,
 }
 
+/// The RGB of an RGBA16F image's texels, read back as bytes.
+fn rgb_f16(bytes: &[u8]) -> Vec<[f32; 3]> {
+    bytes
+        .chunks_exact(8)
+        .map(|t| {
+            let c = |i: usize| common::f16_to_f32(u16::from_le_bytes([t[2 * i], t[2 * i + 1]]));
+            [c(0), c(1), c(2)]
+        })
+        .collect()
+}
+
 fn render(scene: &Scene, settings: RenderSettings) -> Rendered {
     let gpu = common::gpu();
     let rendered = {
@@ -42,15 +53,7 @@ fn render(scene: &Scene, settings: RenderSettings) -> Rendered {
             .read_indirect()
             .expect("indirect");
         let position = bytemuck::pod_collect_to_vec(&renderer.read_gbuffer("position").unwrap());
-        let normal = renderer
-            .read_gbuffer("normal")
-            .unwrap()
-            .chunks_exact(8)
-            .map(|t| {
-                let c = |i: usize| common::f16_to_f32(u16::from_le_bytes([t[2 * i], t[2 * i + 1]]));
-                [c(0), c(1), c(2)]
-            })
-            .collect();
+        let normal = rgb_f16(&renderer.read_gbuffer("normal").unwrap());
         Rendered {
             frame,
             indirect,
@@ -365,28 +368,17 @@ fn the_upsample_is_its_definition_at_every_pixel() {
             let mut renderer = Renderer::new(&gpu, &scene, s).expect("renderer");
             renderer.render().expect("render");
             let photons = renderer.photons().expect("ispm");
-            let f16 = |bytes: Vec<u8>| -> Vec<[f32; 3]> {
-                bytes
-                    .chunks_exact(8)
-                    .map(|t| {
-                        let c = |i: usize| {
-                            common::f16_to_f32(u16::from_le_bytes([t[2 * i], t[2 * i + 1]]))
-                        };
-                        [c(0), c(1), c(2)]
-                    })
-                    .collect()
-            };
             (
                 photons.read_indirect().expect("indirect"),
                 bytemuck::pod_collect_to_vec::<u8, f32>(
                     &renderer.read_gbuffer("position").unwrap(),
                 ),
-                f16(renderer.read_gbuffer("normal").unwrap()),
-                f16(renderer.read_gbuffer("albedo").unwrap()),
+                rgb_f16(&renderer.read_gbuffer("normal").unwrap()),
+                rgb_f16(&renderer.read_gbuffer("albedo").unwrap()),
                 renderer
                     .read_lambert()
                     .unwrap()
-                    .expect("a reflectance image at N > 1"),
+                    .expect("a c_L/π image at N > 1"),
                 photons
                     .read_low()
                     .unwrap()
