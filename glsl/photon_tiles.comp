@@ -68,10 +68,11 @@ layout(push_constant) uniform Push {
     uint start;   // the first entry of each tile's list this dispatch gathers, from its start
     uint photon_base;  // this buffer's first photon's index in spheres
     // 1: the fine photons at full resolution, added to out0 (the indirect image the upsample
-    // wrote); no other target is read or written (they may all be out0). The dispatch is then
-    // one workgroup per tile with a list, in rows: workgroup i (row-major) has the tile
-    // offsets[tile_list + i], for i < listed.
+    // wrote); no other target is read or written (they may all be out0).
     uint fine;
+    // Workgroup i (row-major) gathers tile offsets[tile_list + i], for i < listed: the tiles
+    // in the order the host chose (passes/photon_tiles/order.rs: on lavapipe, which gives
+    // each thread one block of consecutive workgroups, one that spreads the cost evenly).
     uint tile_list;
     uint listed;
     uint pad2;
@@ -159,11 +160,10 @@ void add_photon(vec4 centre, vec4 normal, vec4 power, vec3 wi) {
 
 void main() {
     uint listed_index = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
-    if (push.fine != 0u && listed_index >= push.listed) {
+    if (listed_index >= push.listed) {
         return;  // past the last listed tile (the same for the whole workgroup)
     }
-    uint tile = push.fine != 0u ? offsets[push.tile_list + listed_index]
-                                : gl_WorkGroupID.y * push.tile_columns + gl_WorkGroupID.x;
+    uint tile = offsets[push.tile_list + listed_index];
     uvec2 tile_xy = uvec2(tile % push.tile_columns, tile / push.tile_columns);
     ivec2 px = ivec2(tile_xy * uvec2(PHOTON_TILE) + gl_LocalInvocationID.xy);
     bool inside = px.x < int(push.width) && px.y < int(push.height);

@@ -59,6 +59,31 @@ impl Schedule {
     }
 }
 
+/// The order in which the tiled gather's workgroups take the screen's tiles
+/// (`RenderSettings::tile_order`; `passes/photon_tiles/order.rs` has the picture).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TileOrder {
+    /// [`TileOrder::Balanced`] on a device that runs on the host's cores (lavapipe splits a
+    /// dispatch into one block of workgroups per thread), else [`TileOrder::Rows`].
+    #[default]
+    Auto,
+    /// Row-major: neighbouring tiles, which read much the same photons, run in turn.
+    Rows,
+    /// Every run of consecutive workgroups holds its share of the estimated cost (`passes/photon_tiles/order.rs`).
+    Balanced,
+}
+
+impl TileOrder {
+    /// `Auto` made concrete for a device that runs on the host's cores (`cpu_device`) or not.
+    pub fn resolve(self, cpu_device: bool) -> TileOrder {
+        match self {
+            TileOrder::Auto if cpu_device => TileOrder::Balanced,
+            TileOrder::Auto => TileOrder::Rows,
+            other => other,
+        }
+    }
+}
+
 /// How the radiance estimate is made from the photon map (`--density`). Both give the same
 /// sums (tests/tiled_density.rs); they differ in speed, by device.
 #[derive(
@@ -256,6 +281,10 @@ pub struct RenderSettings {
     /// The density estimator (`--density`; `Auto` is resolved for the device when the
     /// renderer is made).
     pub density: Density,
+    /// The order in which the tiled gather's workgroups take the screen's tiles (`Auto`:
+    /// balanced on a CPU device, row-major on a GPU; `passes/photon_tiles/order.rs`). The
+    /// image is the same in any order; tests pick one to compare them.
+    pub tile_order: TileOrder,
 }
 
 impl Default for RenderSettings {
@@ -287,6 +316,7 @@ impl Default for RenderSettings {
             accumulate: false,
             emitter_lights: DEFAULT_EMITTER_LIGHTS,
             density: Density::default(),
+            tile_order: TileOrder::Auto,
         }
     }
 }

@@ -24,6 +24,10 @@
 //! SIMD vectors as coroutines, and barriers made a shared-memory version 3× slower than the
 //! photon volumes.
 //!
+//! Workgroup i takes tile `order[i]`, an order the host writes after the list offsets
+//! ([`order`]): row-major on a GPU; on lavapipe, which gives each of its threads one block of
+//! consecutive workgroups, one in which every block holds its share of the lists' cost.
+//!
 //! The sums, channel for channel, are the fragment shaders': the support normalisation and
 //! the upsampling read them unchanged. A dispatch gathers at most [`TILE_JOB`] entries of each
 //! tile's list (llvmpipe ends an invocation's loops after 65535 iterations in all, silently);
@@ -47,8 +51,10 @@ use crate::timing::pass_id::PassId;
 use std::sync::Arc;
 
 pub mod lists;
+pub mod order;
 
 use lists::TileLists;
+use order::{dispatch_order, TileOrder};
 
 /// What the tiled estimator gathered.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
@@ -96,12 +102,12 @@ struct Push {
     accumulate: u32,
     start: u32,
     photon_base: u32,
-    /// 1: the fine photons, added to `targets[0]` alone ([`PhotonTilesPass::record`]), one
-    /// workgroup per tile with a list, the tiles read from `offsets[tile_list..]`.
+    /// 1: the fine photons, added to `targets[0]` alone ([`PhotonTilesPass::record`]).
     fine: u32,
+    /// Workgroup i gathers tile `offsets[tile_list + i]`, for i < `listed` (the dispatch's
+    /// workgroups past them return at once: it is made 2-D to stay within the device's
+    /// workgroup counts): the tiles in the order of [`order`].
     tile_list: u32,
-    /// In fine mode: the tiles listed from `tile_list` on (the dispatch's workgroups past
-    /// them return at once: it is made 2-D to stay within the device's workgroup counts).
     listed: u32,
     pad: [u32; 3],
 }
@@ -127,6 +133,8 @@ pub struct PhotonTilesPass {
     slots: Vec<Slot>,
     sampler: Sampler,
     subsample: u32,
+    /// The order in which a dispatch's workgroups take the tiles (resolved for the device).
+    order: TileOrder,
 }
 
 /// The lists' buffers start at this many bytes and double as needed.
@@ -144,12 +152,12 @@ fn list_buffer(gpu: &Arc<Gpu>, name: &str, bytes: u64) -> anyhow::Result<Buffer>
 
 impl PhotonTilesPass {
     /// The pass at `subsample` (1: full resolution, else the 1/`subsample` targets) with the
-    /// über-BSDF lobes of `variant`, with lists for `slots` frames in flight.
+    /// über-BSDF lobes of `variant`, its tiles in `order`, with lists for `slots` frames in
+    /// flight.
     pub fn new(
         gpu: &Arc<Gpu>,
         inputs: &PhotonVolumeInputs,
-        subsample: u32,
-        variant: BsdfVariant,
+        (subsample, variant, order): (u32, BsdfVariant, TileOrder),
         (slots, targets): (usize, &[&Image]),
     ) -> anyhow::Result<Self> {
         let sampler = Sampler::new(gpu, "photon_tiles.nearest", Filter::Nearest, false)?;
@@ -188,6 +196,7 @@ impl PhotonTilesPass {
             slots: Vec::new(),
             sampler,
             subsample,
+            order: order.resolve(gpu.properties.is_cpu()),
         };
         for i in 0..slots.max(1) {
             let slot = Slot {
@@ -260,29 +269,25 @@ impl PhotonTilesPass {
         (targets, add): (&[&Image], bool),
     ) -> anyhow::Result<TileStats> {
         let gpu = self.gpu.clone();
-        // With `add`, a dispatch is made over the tiles with a list only (an empty tile's
-        // workgroup costs as much to launch as to skip on llvmpipe: 20 ms for the 4800 of
-        // 640×480): each buffer's such tiles follow the offsets, from `sparse[b]` on.
-        let mut offsets_and_tiles = Vec::new();
-        let mut sparse = Vec::new();
-        if add {
-            offsets_and_tiles.extend_from_slice(&lists.offsets);
-            for b in 0..counts.len() {
-                let first = lists.first(b) as usize;
-                let tiles = &lists.offsets[first..=first + lists.tiles()];
-                let start = offsets_and_tiles.len() as u32;
-                offsets_and_tiles.extend(
-                    (tiles.windows(2).enumerate())
-                        .filter(|(_, w)| w[1] > w[0])
-                        .map(|(t, _)| t as u32),
-                );
-                sparse.push((start, offsets_and_tiles.len() as u32 - start));
-            }
+        // Each buffer's dispatches take the tiles in `self.order`, listed after the offsets,
+        // from `order_of[b]` on. Every tile for the first dispatch, which clears the targets;
+        // then (further buffers, and with `add`, where the first adds too) only the tiles with
+        // a list: an empty tile's workgroup costs as much to launch as to skip on llvmpipe,
+        // 20 ms for the 4800 of 640×480.
+        let mut offsets_and_tiles = lists.offsets.clone();
+        let mut order_of = Vec::with_capacity(counts.len());
+        for b in 0..counts.len() {
+            let first = lists.first(b) as usize;
+            let lengths: Vec<u32> = lists.offsets[first..=first + lists.tiles()]
+                .windows(2)
+                .map(|w| w[1] - w[0])
+                .collect();
+            let start = offsets_and_tiles.len() as u32;
+            let all = b == 0 && !add;
+            offsets_and_tiles.extend(dispatch_order(&lengths, all, self.order));
+            order_of.push((start, offsets_and_tiles.len() as u32 - start));
         }
-        let offsets: &[u8] = match add {
-            true => bytemuck::cast_slice(&offsets_and_tiles),
-            false => bytemuck::cast_slice(&lists.offsets),
-        };
+        let offsets: &[u8] = bytemuck::cast_slice(&offsets_and_tiles);
         let indices: &[u8] = bytemuck::cast_slice(&lists.indices);
         let spheres: &[u8] = bytemuck::cast_slice(&lists.spheres);
         let reach = u64::from(gpu.properties.max_storage_buffer_range);
@@ -332,9 +337,9 @@ impl PhotonTilesPass {
             let base = photon_base;
             photon_base += count;
             // Buffer 0 always: its empty lists clear the targets when there are no photons.
-            // Adding, only the buffers whose photons some tile lists.
-            let (tile_list, listed) = sparse.get(b).copied().unwrap_or_default();
-            if (count == 0 && b > 0) || (add && listed == 0) {
+            // Then, and adding, only the buffers whose photons some tile lists.
+            let (tile_list, listed) = order_of[b];
+            if (b > 0 || add) && listed == 0 {
                 continue;
             }
             // Only when read: an unread photon buffer may belong to the transfer queue.
@@ -377,14 +382,9 @@ impl PhotonTilesPass {
                         pad: [0; 3],
                     },
                 );
-                match add {
-                    true => {
-                        let max = gpu.properties.max_compute_work_group_count_x;
-                        let (x, y) = rows_of(listed, max);
-                        cmd.dispatch(x, y, 1)
-                    }
-                    false => cmd.dispatch(lists.columns, lists.rows, 1),
-                }
+                let max = gpu.properties.max_compute_work_group_count_x;
+                let (x, y) = rows_of(listed, max);
+                cmd.dispatch(x, y, 1);
                 first_dispatch = false;
                 dispatches += 1;
             }

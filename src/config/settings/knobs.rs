@@ -10,7 +10,7 @@
 //! supports ([`SHADOW_RESOLUTIONS`], [`MAX_EMITTER_LIGHTS`]) are applied here, silently, as the
 //! command line always has.
 
-use super::{Density, Effects, Method, RenderSettings, Schedule, Tonemap, Upsample};
+use super::{Density, Effects, Method, RenderSettings, Schedule, TileOrder, Tonemap, Upsample};
 use crate::photon::bsdf::BsdfVariant;
 use crate::photon::kernel::KernelSettings;
 use crate::scene::Aabb;
@@ -187,6 +187,7 @@ impl RenderSettings {
                 .unwrap_or(DEFAULT_EMITTER_LIGHTS)
                 .min(MAX_EMITTER_LIGHTS),
             density: knobs.density.unwrap_or_default(),
+            tile_order: TileOrder::Auto,
         })
     }
 }

@@ -161,8 +161,7 @@ impl PhotonFrame {
                 Density::Tiled => Estimator::Tiled(PhotonTilesPass::new(
                     gpu,
                     &inputs,
-                    subsample,
-                    variant,
+                    (subsample, variant, settings.tile_order),
                     (FRAMES_IN_FLIGHT, targets),
                 )?),
                 Density::Volumes | Density::Auto => Estimator::Volumes(Box::new(
