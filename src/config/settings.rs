@@ -69,7 +69,8 @@ pub enum TileOrder {
     Auto,
     /// Row-major: neighbouring tiles, which read much the same photons, run in turn.
     Rows,
-    /// Every run of consecutive workgroups holds its share of the estimated cost (`passes/photon_tiles/order.rs`).
+    /// Every run of consecutive workgroups holds its share of the estimated cost
+    /// (`passes/photon_tiles/order.rs`).
     Balanced,
 }
 
@@ -106,7 +107,7 @@ pub enum Density {
     /// each pixel (`passes/photon_tiles.rs`).
     Tiled,
     /// The faster, as measured (docs/performance.md, "Density estimators"): `tiled` wherever
-    /// the device has the compute subgroup operations it needs (its estimate took 2–5× less
+    /// the device has the compute subgroup operations it needs (its estimate took 3.5–5× less
     /// time than the volumes' on lavapipe and 13–280× less on an NVIDIA H100), else `volumes`.
     #[default]
     Auto,

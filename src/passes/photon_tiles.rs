@@ -15,7 +15,7 @@
 //! Each pixel sets up its surface and BSDF once (the glossy lobe's directional albedo
 //! included), then pays a few multiplies for each listed photon that misses it, where a photon
 //! volume pays for rasterising and shading a fragment. On lavapipe the volumes' cost is
-//! fragment invocations, not arithmetic, so the gather is 2–5× cheaper there; on an NVIDIA
+//! fragment invocations, not arithmetic, so the gather is 3.5–5× cheaper there; on an NVIDIA
 //! H100 it is 13–280× cheaper, the volumes' overlapping fragments costing far more than the
 //! gather's culled list (docs/performance.md, "Density estimators"). `--density auto` picks
 //! the gather wherever the device has its subgroup operations ([`crate::config::settings::Density`]);
@@ -257,9 +257,10 @@ impl PhotonTilesPass {
     /// radii of `kernel` and `offset` (origin − eye) into `targets` (the photon volumes'):
     /// `[indirect, global, weight]` at subsample 1, else `[irradiance, glossy, global, weight]`.
     /// With `add` (the fine photons at full resolution when subsampling,
-    /// `render/photon_frame/estimate.rs`), into `[indirect]` alone, added to what it holds,
-    /// and only the tiles with a list are dispatched. `slot` is the frame slot, whose previous
-    /// frame has finished.
+    /// `render/photon_frame/estimate.rs`), into `[indirect]` alone, added to what it holds.
+    /// Only the first dispatch without `add` covers every tile (it clears the targets); the
+    /// others cover the tiles with entries left for them. `slot` is the frame slot, whose
+    /// previous frame has finished.
     pub fn record(
         &mut self,
         cmd: &Cmd,
@@ -269,23 +270,31 @@ impl PhotonTilesPass {
         (targets, add): (&[&Image], bool),
     ) -> anyhow::Result<TileStats> {
         let gpu = self.gpu.clone();
-        // Each buffer's dispatches take the tiles in `self.order`, listed after the offsets,
-        // from `order_of[b]` on. Every tile for the first dispatch, which clears the targets;
-        // then (further buffers, and with `add`, where the first adds too) only the tiles with
-        // a list: an empty tile's workgroup costs as much to launch as to skip on llvmpipe,
-        // 20 ms for the 4800 of 640×480.
+        // Each dispatch takes its tiles in `self.order`, listed after the offsets: buffer b's
+        // dispatch j (entries j·TILE_JOB onwards of each list) from `jobs[b][j]` on. Every
+        // tile for the first dispatch, which clears the targets; in the others (and all of
+        // them with `add`, where the first adds too) only the tiles with entries left: an empty
+        // tile's workgroup costs as much to launch as to skip on llvmpipe, 20 ms for the 4800
+        // of 640×480.
         let mut offsets_and_tiles = lists.offsets.clone();
-        let mut order_of = Vec::with_capacity(counts.len());
+        let mut jobs: Vec<Vec<(u32, u32)>> = Vec::with_capacity(counts.len());
         for b in 0..counts.len() {
             let first = lists.first(b) as usize;
             let lengths: Vec<u32> = lists.offsets[first..=first + lists.tiles()]
                 .windows(2)
                 .map(|w| w[1] - w[0])
                 .collect();
-            let start = offsets_and_tiles.len() as u32;
-            let all = b == 0 && !add;
-            offsets_and_tiles.extend(dispatch_order(&lengths, all, self.order));
-            order_of.push((start, offsets_and_tiles.len() as u32 - start));
+            let count = lists.longest(b).div_ceil(TILE_JOB as usize).max(1);
+            let buffer_jobs = (0..count as u32)
+                .map(|j| {
+                    let tile_list = offsets_and_tiles.len() as u32;
+                    let all = b == 0 && !add && j == 0;
+                    let start = j * TILE_JOB;
+                    offsets_and_tiles.extend(dispatch_order(&lengths, start, all, self.order));
+                    (tile_list, offsets_and_tiles.len() as u32 - tile_list)
+                })
+                .collect();
+            jobs.push(buffer_jobs);
         }
         let offsets: &[u8] = bytemuck::cast_slice(&offsets_and_tiles);
         let indices: &[u8] = bytemuck::cast_slice(&lists.indices);
@@ -338,8 +347,7 @@ impl PhotonTilesPass {
             photon_base += count;
             // Buffer 0 always: its empty lists clear the targets when there are no photons.
             // Then, and adding, only the buffers whose photons some tile lists.
-            let (tile_list, listed) = order_of[b];
-            if (b > 0 || add) && listed == 0 {
+            if (b > 0 || add) && jobs[b][0].1 == 0 {
                 continue;
             }
             // Only when read: an unread photon buffer may belong to the transfer queue.
@@ -352,8 +360,7 @@ impl PhotonTilesPass {
                 &self.sampler,
             );
             // TILE_JOB entries of every tile's list per dispatch (`photon_tiles.comp`).
-            let jobs = lists.longest(b).div_ceil(TILE_JOB as usize).max(1);
-            for job in 0..jobs {
+            for (job, &(tile_list, listed)) in jobs[b].iter().enumerate() {
                 // The targets wait for the dispatch before (each continues its sums).
                 cmd.uses(Shaders::Compute, &uses);
                 cmd.bind_pipeline(&self.pipeline);

@@ -187,7 +187,7 @@ impl RenderSettings {
                 .unwrap_or(DEFAULT_EMITTER_LIGHTS)
                 .min(MAX_EMITTER_LIGHTS),
             density: knobs.density.unwrap_or_default(),
-            tile_order: TileOrder::Auto,
+            tile_order: TileOrder::default(),
         })
     }
 }
