@@ -1,7 +1,7 @@
 //! The host's share of a frame's radiance estimate on a GPU (docs/performance.md, "Where the
 //! frame goes"): the photons' kNN radii (`photon::density::knn_radii`, every core) and the tiled
-//! estimator's lists (`passes::photon_tiles::lists::bin`) on one thread and on every core, in
-//! the same run. `cargo bench --bench host_estimate`; results in `docs/performance.md`.
+//! estimator's lists (`passes::photon_tiles::lists::bin`) on one thread and on every core, and
+//! the order its workgroups take the tiles in (`passes::photon_tiles::order`), in the same run. `cargo bench --bench host_estimate`; results in `docs/performance.md`.
 //! `RAYON_NUM_THREADS=N` sets the threads of the benchmarks without an argument.
 //!
 //! Photon map: the Cornell-like closed box of `reference::scenes::cornell` (its sphere
@@ -15,6 +15,7 @@ use std::sync::LazyLock;
 use divan::Bencher;
 use glam::{Mat3, Mat4};
 use ispm::passes::photon_tiles::lists::{bin, Screen};
+use ispm::passes::photon_tiles::order::{dispatch_order, TileOrder};
 use ispm::photon::bsdf::BsdfVariant;
 use ispm::photon::bvh::SceneBvh;
 use ispm::photon::density::{knn_radii, Neighbours};
@@ -87,6 +88,49 @@ fn knn_radii_every_core(bencher: Bencher, emitted: usize) {
 /// as many (on the calling thread alone for one, as the renderer bins on a CPU device).
 #[divan::bench(args = [1, 2, 0], sample_count = 20)]
 fn tile_lists(bencher: Bencher, n: usize) {
+    let (screen, kernel, offset) = screen();
+    let counts = [DRAWN.len() as u32];
+    let pool = pool(n);
+    let threads = pool.current_num_threads();
+    bencher.bench(|| {
+        pool.install(|| {
+            bin(
+                |range| DRAWN[range].iter().copied(),
+                &counts,
+                (&kernel, offset),
+                &screen,
+                threads,
+            )
+        })
+    });
+}
+
+/// The order in which the gather's workgroups take the 4800 tiles of those lists
+/// (`passes::photon_tiles::order`): row-major (a GPU's) and balanced (a CPU device's).
+#[divan::bench(args = ["rows", "balanced"], sample_count = 50)]
+fn tile_order(bencher: Bencher, order: &str) {
+    let (screen, kernel, offset) = screen();
+    let counts = [DRAWN.len() as u32];
+    let lists = bin(
+        |range| DRAWN[range].iter().copied(),
+        &counts,
+        (&kernel, offset),
+        &screen,
+        1,
+    );
+    let order = match order {
+        "rows" => TileOrder::Rows,
+        _ => TileOrder::Balanced,
+    };
+    let lengths: Vec<u32> = lists.offsets[..=lists.tiles()]
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .collect();
+    bencher.bench(|| dispatch_order(&lengths, 0, true, order));
+}
+
+/// The 640×480 screen from the scene's camera, the kernel of [`PHOTONS`] and the eye offset.
+fn screen() -> (Screen, KernelSettings, glam::Vec3) {
     let camera = &SCENE.camera;
     let rotation = Mat4::from_mat3(Mat3::from_mat4(camera.view()));
     let aspect = SIZE.0 as f32 / SIZE.1 as f32;
@@ -102,21 +146,7 @@ fn tile_lists(bencher: Bencher, n: usize) {
     };
     let kernel = KernelSettings::scene_relative(&SCENE.bounds(), PHOTONS, None)
         .for_view(camera.yfov, SIZE.1);
-    let offset = -camera.position();
-    let counts = [DRAWN.len() as u32];
-    let pool = pool(n);
-    let threads = pool.current_num_threads();
-    bencher.bench(|| {
-        pool.install(|| {
-            bin(
-                |range| DRAWN[range].iter().copied(),
-                &counts,
-                (&kernel, offset),
-                &screen,
-                threads,
-            )
-        })
-    });
+    (screen, kernel, -camera.position())
 }
 
 /// The environment cube's indirect light (6 × 32² texels, each a ray and a gather of the
