@@ -122,10 +122,7 @@ fn tile_order(bencher: Bencher, order: &str) {
         "rows" => TileOrder::Rows,
         _ => TileOrder::Balanced,
     };
-    let lengths: Vec<u32> = lists.offsets[..=lists.tiles()]
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .collect();
+    let lengths = lists.lengths(0);
     bencher.bench(|| dispatch_order(&lengths, 0, true, order));
 }
 

@@ -279,13 +279,10 @@ impl PhotonTilesPass {
         let mut offsets_and_tiles = lists.offsets.clone();
         let mut jobs: Vec<Vec<(u32, u32)>> = Vec::with_capacity(counts.len());
         for b in 0..counts.len() {
-            let first = lists.first(b) as usize;
-            let lengths: Vec<u32> = lists.offsets[first..=first + lists.tiles()]
-                .windows(2)
-                .map(|w| w[1] - w[0])
-                .collect();
-            let count = lists.longest(b).div_ceil(TILE_JOB as usize).max(1);
-            let buffer_jobs = (0..count as u32)
+            let lengths = lists.lengths(b);
+            let longest = lengths.iter().copied().max().unwrap_or(0);
+            let count = longest.div_ceil(TILE_JOB).max(1);
+            let buffer_jobs = (0..count)
                 .map(|j| {
                     let tile_list = offsets_and_tiles.len() as u32;
                     let all = b == 0 && !add && j == 0;

@@ -475,17 +475,18 @@ impl TileLists {
         (buffer * (self.tiles() + 1)) as u32
     }
 
-    /// The length of buffer `buffer`'s longest tile list (0 for a buffer without lists).
-    pub fn longest(&self, buffer: usize) -> usize {
+    /// The length of each of buffer `buffer`'s tile lists, tile by tile (none for a buffer
+    /// without lists).
+    pub fn lengths(&self, buffer: usize) -> Vec<u32> {
         let first = self.first(buffer) as usize;
         self.offsets
             .get(first..=first + self.tiles())
-            .map_or(0, |o| {
-                o.windows(2)
-                    .map(|w| (w[1] - w[0]) as usize)
-                    .max()
-                    .unwrap_or(0)
-            })
+            .map_or_else(Vec::new, |o| o.windows(2).map(|w| w[1] - w[0]).collect())
+    }
+
+    /// The length of buffer `buffer`'s longest tile list (0 for a buffer without lists).
+    pub fn longest(&self, buffer: usize) -> usize {
+        self.lengths(buffer).into_iter().max().unwrap_or(0) as usize
     }
 
     /// The photons of tile `tile` from buffer `buffer`.
