@@ -175,10 +175,24 @@ fn mean(v: Vec3) -> f32 {
     (v.x + v.y + v.z) * (1.0 / 3.0)
 }
 
+/// `v` normalised; `None` when it is too short or not finite. A vector already unit to within
+/// rounding (|v|² within [`UNIT_LENGTH_SQUARED_TOLERANCE`] of 1, as `normalize` leaves it) is
+/// returned as it is: dividing it by its length would change only its last bits, and the photon
+/// tracer, whose directions and hit normals all come normalised, spent four square roots and
+/// twelve divisions per bounce on it (`docs/performance.md`, "CPU photon tracing"). The GLSL
+/// twin `bsdf_unit` divides always (cheap on a GPU); the two agree to within that rounding.
 fn unit(v: Vec3) -> Option<Vec3> {
     let l2 = v.length_squared();
+    if (l2 - 1.0).abs() <= UNIT_LENGTH_SQUARED_TOLERANCE {
+        return Some(v);
+    }
     (l2.is_finite() && l2 >= BSDF_MIN_LENGTH_SQUARED).then(|| v / l2.sqrt())
 }
+
+/// How far from 1 the squared length of a vector `unit` leaves as it is may be: four units in
+/// the last place of 1 (|v| within 2.4·10⁻⁷ of 1), above the ≈ 3 that rounding leaves in the
+/// squared length of a normalised `f32` vector.
+const UNIT_LENGTH_SQUARED_TOLERANCE: f32 = 4.0 * f32::EPSILON;
 
 fn sanitize_reflectance(v: Vec3) -> Vec3 {
     Vec3::from_array(
@@ -624,6 +638,9 @@ impl Bsdf {
         self.roulette::<GLOSSY, DELTA>(wo, n_s, n_g, u, Some(power))
     }
 
+    /// [`Self::sample_russian_roulette_in`] (`power` `None`) and
+    /// [`Self::sample_russian_roulette_for`]: orients `wo` and the normals, then plays the
+    /// roulette over the lobes, or over the one lobe of a Lambertian-only BSDF.
     #[inline(always)]
     fn roulette<const GLOSSY: bool, const DELTA: bool>(
         &self,
@@ -634,7 +651,30 @@ impl Bsdf {
         power: Option<Vec3>,
     ) -> Option<BsdfSample> {
         let o = self.orient(wo, n_s, n_g)?;
-        let c = self.variant_reflectances::<GLOSSY, DELTA>(&o);
+        if self.is_lambertian_only() {
+            self.roulette_lambertian(&o, u, power)
+        } else {
+            self.roulette_lobes::<GLOSSY, DELTA>(&o, u, power)
+        }
+    }
+
+    /// True when the Lambertian lobe is the only one: no glossy, mirror or refraction
+    /// reflectance and no Fresnel ramp, so that [`Self::variant_reflectances`] is
+    /// `[ρL, 0, 0, 0]` in every variant. Most surfaces of a room are.
+    #[inline(always)]
+    fn is_lambertian_only(&self) -> bool {
+        self.glossy == Vec3::ZERO && self.transmission == Vec3::ZERO && !self.fresnel
+    }
+
+    /// The roulette over the four lobes at an oriented `wo`, in the variant `GLOSSY`, `DELTA`.
+    #[inline(always)]
+    fn roulette_lobes<const GLOSSY: bool, const DELTA: bool>(
+        &self,
+        o: &Oriented,
+        u: [f32; 3],
+        power: Option<Vec3>,
+    ) -> Option<BsdfSample> {
+        let c = self.variant_reflectances::<GLOSSY, DELTA>(o);
         let w = match power.filter(|p| p.is_finite() && p.min_element() >= 0.0) {
             Some(p) if p.element_sum() > 0.0 => c.map(|cj| cj.dot(p) / p.element_sum()),
             _ => c.map(mean),
@@ -644,10 +684,37 @@ impl Bsdf {
         }
         let lobe = choose_lobe(&w, u[0]);
         let mut s =
-            self.sample_oriented::<GLOSSY, DELTA>(lobe, &o, c[lobe as usize], [u[1], u[2]])?;
+            self.sample_oriented::<GLOSSY, DELTA>(lobe, o, c[lobe as usize], [u[1], u[2]])?;
         let p = w[lobe as usize];
         s.weight /= p;
         s.pdf *= p;
+        debug_assert_sample(&s);
+        Some(s)
+    }
+
+    /// [`Self::roulette_lobes`] of a Lambertian-only BSDF ([`Self::is_lambertian_only`]): the
+    /// same operations on the one lobe that can be taken, so the same sample bit for bit
+    /// (`lambertian_roulette_is_the_lobes_roulette_bit_for_bit`), without the three empty
+    /// lobes' reflectances, weights and choice. The photon tracer spends most of its bounces
+    /// here (`docs/performance.md`, "CPU photon tracing").
+    #[inline(always)]
+    fn roulette_lambertian(
+        &self,
+        o: &Oriented,
+        u: [f32; 3],
+        power: Option<Vec3>,
+    ) -> Option<BsdfSample> {
+        let c = self.lambertian;
+        let w = match power.filter(|p| p.is_finite() && p.min_element() >= 0.0) {
+            Some(p) if p.element_sum() > 0.0 => c.dot(p) / p.element_sum(),
+            _ => mean(c),
+        };
+        if u[0] >= w {
+            return None;
+        }
+        let mut s = self.sample_oriented::<false, false>(Lobe::Lambertian, o, c, [u[1], u[2]])?;
+        s.weight /= w;
+        s.pdf *= w;
         debug_assert_sample(&s);
         Some(s)
     }

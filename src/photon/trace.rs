@@ -90,7 +90,7 @@ use super::emit::EmittedPhoton;
 use super::ray::{Hit, Ray};
 use super::rng::{hash2, hash_vec3, Rng};
 use super::types::{pack_direction, unpack_direction, BounceMapPhoton, Photon};
-use crate::scene::{Material, Scene};
+use crate::scene::{Material, Scene, Texture};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
@@ -228,11 +228,7 @@ pub struct PhotonMap {
 
 /// Sampled Lambertian reflectance of `material` at `uv` (nearest texel, repeat, sRGB decoded).
 pub fn lambertian_at(scene: &Scene, material: &Material, uv: Vec2) -> Option<Vec3> {
-    let tex = scene.textures.get(material.lambertian_texture?)?;
-    if tex.width == 0 || tex.height == 0 || tex.rgba8.len() < (tex.width * tex.height * 4) as usize
-    {
-        return None;
-    }
+    let tex = lambertian_texture(scene, material)?;
     let x = ((uv.x - uv.x.floor()) * tex.width as f32) as u32 % tex.width;
     let y = ((uv.y - uv.y.floor()) * tex.height as f32) as u32 % tex.height;
     let i = ((y * tex.width + x) * 4) as usize;
@@ -254,10 +250,47 @@ pub fn lambertian_at(scene: &Scene, material: &Material, uv: Vec2) -> Option<Vec
     )
 }
 
+/// The texture of `material`'s Lambertian reflectance, when it has one that can be sampled.
+fn lambertian_texture<'a>(scene: &'a Scene, material: &Material) -> Option<&'a Texture> {
+    let tex = scene.textures.get(material.lambertian_texture?)?;
+    let texels = tex.width as usize * tex.height as usize;
+    (texels > 0 && tex.rgba8.len() >= texels * 4).then_some(tex)
+}
+
 /// The BSDF at a hit (texture applied).
 pub fn bsdf_at(scene: &Scene, hit: &Hit) -> Bsdf {
     let material = &scene.materials[hit.material];
     Bsdf::new(material, lambertian_at(scene, material, hit.uv))
+}
+
+/// The BSDF of each material without a texture (or with one that cannot be sampled), built
+/// once per trace: a hit on one would build the same BSDF again in [`bsdf_at`], whose only
+/// per-hit input is the texel.
+struct MaterialBsdfs(Vec<Option<Bsdf>>);
+
+impl MaterialBsdfs {
+    fn new(scene: &Scene) -> Self {
+        Self(
+            scene
+                .materials
+                .iter()
+                .map(|m| {
+                    lambertian_texture(scene, m)
+                        .is_none()
+                        .then(|| Bsdf::new(m, None))
+                })
+                .collect(),
+        )
+    }
+
+    /// [`bsdf_at`] of `hit`, the same bits.
+    #[inline(always)]
+    fn at(&self, scene: &Scene, hit: &Hit) -> Bsdf {
+        match self.0.get(hit.material) {
+            Some(Some(bsdf)) => *bsdf,
+            _ => bsdf_at(scene, hit),
+        }
+    }
 }
 
 /// The radiance the surface at `hit` emits back along the ray: emitters emit from their front
@@ -335,6 +368,17 @@ fn scatter<const GLOSSY: bool, const DELTA: bool>(
 /// The CPU bounce map: traces an emitted photon to its first hit and bounces it there (no
 /// photon is stored: hit 1 is direct light). `None` when it misses or is absorbed.
 pub fn first_bounce(scene: &Scene, bvh: &SceneBvh, photon: &EmittedPhoton) -> Option<PhotonState> {
+    first_bounce_with(bvh, photon, |hit| bsdf_at(scene, hit))
+}
+
+/// [`first_bounce`] with `bsdf` giving the BSDF at a hit ([`first_bounces`]: from the
+/// materials' table).
+#[inline(always)]
+fn first_bounce_with(
+    bvh: &SceneBvh,
+    photon: &EmittedPhoton,
+    bsdf: impl Fn(&Hit) -> Bsdf,
+) -> Option<PhotonState> {
     if !carries_power(photon.power) {
         return None;
     }
@@ -349,13 +393,8 @@ pub fn first_bounce(scene: &Scene, bvh: &SceneBvh, photon: &EmittedPhoton) -> Op
         path_key: 0,
     };
     let mut rng = Rng::new(hash2(photon.seed, FIRST_BOUNCE_STREAM));
-    let (bounced, _) = scatter::<true, true>(
-        &bsdf_at(scene, &hit),
-        &hit,
-        photon.direction,
-        &start,
-        &mut rng,
-    )?;
+    let (bounced, _) =
+        scatter::<true, true>(&bsdf(&hit), &hit, photon.direction, &start, &mut rng)?;
     Some(PhotonState {
         path_key: hash_vec3(bounced.origin),
         ..bounced
@@ -384,6 +423,7 @@ impl Chunk {
 fn trace_path<const GLOSSY: bool, const DELTA: bool>(
     scene: &Scene,
     bvh: &SceneBvh,
+    bsdfs: &MaterialBsdfs,
     start: &PhotonState,
     settings: &TraceSettings,
     out: &mut Chunk,
@@ -401,7 +441,7 @@ fn trace_path<const GLOSSY: bool, const DELTA: bool>(
         let Some(hit) = bvh.intersect(&Ray::new(state.origin, state.direction)) else {
             return;
         };
-        let bsdf = bsdf_at(scene, &hit);
+        let bsdf = bsdfs.at(scene, &hit);
         let k = state.bounces as usize;
         let stored_here = match settings.store_on {
             StoreOn::FiniteLobes => true,
@@ -492,13 +532,14 @@ pub fn trace_photon_groups(
         ..*settings
     };
     // The variant's own copy of the path loop: what it compiles out is not in it.
-    type PathFn = fn(&Scene, &SceneBvh, &PhotonState, &TraceSettings, &mut Chunk);
+    type PathFn = fn(&Scene, &SceneBvh, &MaterialBsdfs, &PhotonState, &TraceSettings, &mut Chunk);
     let trace_path: PathFn = match (settings.variant.glossy, settings.variant.delta) {
         (true, true) => trace_path::<true, true>,
         (true, false) => trace_path::<true, false>,
         (false, true) => trace_path::<false, true>,
         (false, false) => trace_path::<false, false>,
     };
+    let bsdfs = MaterialBsdfs::new(scene);
     let frame = crate::timing::current_frame();
     // Work items: every group's chunks, group after group.
     let chunk = chunk_size(groups.iter().map(|g| g.len()).sum());
@@ -509,7 +550,7 @@ pub fn trace_photon_groups(
             let _span = crate::timing::span_in("trace_chunk", frame);
             let mut out = Chunk::new(max_bounces);
             for s in *chunk {
-                trace_path(scene, bvh, s, &settings, &mut out);
+                trace_path(scene, bvh, &bsdfs, s, &settings, &mut out);
             }
             out
         })
@@ -527,12 +568,13 @@ pub fn trace_photon_groups(
 /// The CPU bounce map: [`first_bounce`] of every emitted photon, in parallel, in input order,
 /// absorbed and missing photons dropped.
 pub fn first_bounces(scene: &Scene, bvh: &SceneBvh, emitted: &[EmittedPhoton]) -> Vec<PhotonState> {
+    let bsdfs = MaterialBsdfs::new(scene);
     emitted
         .par_chunks(CHUNK)
         .map(|chunk| {
             chunk
                 .iter()
-                .filter_map(|p| first_bounce(scene, bvh, p))
+                .filter_map(|p| first_bounce_with(bvh, p, |hit| bsdfs.at(scene, hit)))
                 .collect::<Vec<_>>()
         })
         .collect::<Vec<_>>()
@@ -558,6 +600,52 @@ mod tests {
     use super::*;
     use crate::photon::emit::emit_photons;
     use crate::reference::scenes::grey_box;
+
+    #[test]
+    fn material_bsdfs_give_each_hit_the_bsdf_built_at_it() {
+        // The table built once per trace must give every hit what `bsdf_at` builds there:
+        // untextured materials from the table, a textured one from its texel, and a material
+        // whose texture is missing as if it had none.
+        let mut scene = crate::reference::scenes::cornell(1);
+        scene.textures.push(crate::scene::Texture {
+            name: "checker".into(),
+            width: 2,
+            height: 2,
+            rgba8: vec![
+                255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 40, 80, 120, 255,
+            ],
+        });
+        scene.materials[0].lambertian_texture = Some(0);
+        scene.materials[1].lambertian_texture = Some(7);
+        let bvh = SceneBvh::new(&scene);
+        let bsdfs = MaterialBsdfs::new(&scene);
+        // The wall with a missing texture is as untextured: in the table.
+        assert!(bsdfs.0[0].is_none() && bsdfs.0[1].is_some() && bsdfs.0[2].is_some());
+        let mut rng = Rng::new(3);
+        let mut seen = std::collections::HashSet::new();
+        for _ in 0..4000 {
+            let d = crate::photon::sampling::uniform_sphere(rng.next_2());
+            let Some(hit) = bvh.intersect(&Ray::new(Vec3::ZERO, d)) else {
+                continue;
+            };
+            assert_eq!(
+                format!("{:?}", bsdfs.at(&scene, &hit)),
+                format!("{:?}", bsdf_at(&scene, &hit)),
+                "the same BSDF, to the bit of every field"
+            );
+            seen.insert((
+                hit.material,
+                bsdf_at(&scene, &hit)
+                    .lambertian
+                    .to_array()
+                    .map(f32::to_bits),
+            ));
+        }
+        // Every material was hit, and the textured wall in more than one colour.
+        let materials: std::collections::HashSet<_> = seen.iter().map(|(m, _)| *m).collect();
+        assert_eq!(materials.len(), scene.materials.len());
+        assert!(seen.iter().filter(|(m, _)| *m == 0).count() > 1);
+    }
 
     #[test]
     fn one_bounce_cap_stores_only_once_bounced_photons() {

@@ -468,7 +468,9 @@ TOL = {
     ("room-a80-lambert", "path-trace"): (0.97, 1.04, 0.0081, 0.00),  # ratio 1.003, shape 0.0027
     ("room-a80-lambert", "ispm"): (0.96, 1.03, 0.006, 0.00),  # ratio 0.994, shape 0.0020
     ("room-a95", "path-trace"): (0.96, 1.03, 0.0051, 0.00),  # ratio 0.992, shape 0.0026
-    ("room-a95", "ispm"): (0.96, 1.03, 0.012, 0.00),  # ratio 0.994, shape 0.0097
+    # 2026-11-29, after the tracer's last-bit changes (#20 item 2) moved its photons' noise:
+    # mirrored 0.0111 (was 0.013), so the bound is 0.9 x that (was 0.012).
+    ("room-a95", "ispm"): (0.96, 1.03, 0.0099, 0.00),  # ratio 0.991, shape 0.0080
     ("room-glossy", "path-trace"): (0.98, 1.05, 0.014, 0.00),  # ratio 1.015, shape 0.0046
     ("room-glossy", "ispm"): (0.96, 1.03, 0.061, 0.00),  # ratio 0.996, shape 0.0202
     ("room-spot", "path-trace"): (0.95, 1.02, 0.0083, 0.00),  # ratio 0.988, shape 0.0028

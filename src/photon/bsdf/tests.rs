@@ -675,3 +675,168 @@ fn roulette_by_the_photons_colour_keeps_its_power_and_the_mean_in_expectation() 
         "by colour {a}, by mean {b}"
     );
 }
+
+/// Bits of a sample, so that two samples compare bit for bit (NaN included).
+fn sample_bits(s: &Option<BsdfSample>) -> Option<[u32; 10]> {
+    s.map(|s| {
+        [
+            s.wi.x,
+            s.wi.y,
+            s.wi.z,
+            s.weight.x,
+            s.weight.y,
+            s.weight.z,
+            s.pdf,
+            s.eta,
+            s.path_density_factor,
+            s.lobe as u32 as f32,
+        ]
+        .map(f32::to_bits)
+    })
+}
+
+#[test]
+fn lambertian_roulette_is_the_lobes_roulette_bit_for_bit() {
+    // The roulette's shortcut for Lambertian-only BSDFs must change nothing. Over random
+    // BSDFs (Lambertian-only or not: grey, coloured, zero and -0.0 reflectances, texture
+    // overrides, any exponent, glossy, refraction, Fresnel), directions on both sides of tilted
+    // geometric and shading normals, and photon powers (none, zero, coloured, negative,
+    // non-finite), each drawn independently, the public roulette (which takes the shortcut
+    // where it applies) gives the four-lobe roulette's sample in every variant, bit for bit.
+    fn pick<T: Copy>(random: u32, options: &[T]) -> T {
+        options[(random % options.len() as u32) as usize]
+    }
+    let mut rng = Rng::new(41);
+    let (mut shortcut, mut taken) = (0, 0);
+    for _ in 0..300_000 {
+        let grey = rng.next_f32();
+        let rho = pick(
+            rng.next_u32(),
+            &[
+                Vec3::splat(grey),
+                Vec3::new(grey, rng.next_f32(), rng.next_f32()),
+                Vec3::ZERO,
+                Vec3::new(-0.0, grey, -0.0),
+                Vec3::new(grey * 1.5, -0.1, 1.0),
+            ],
+        );
+        let lambertian_only = rng.next_f32() < 0.7;
+        let material = Material {
+            lambertian: rho,
+            exponent: pick(rng.next_u32(), &[0.0, 1.0, 30.0, f32::INFINITY]),
+            glossy: Vec3::splat(if lambertian_only {
+                0.0
+            } else {
+                0.2 * rng.next_f32()
+            }),
+            transmission: Vec3::splat(if lambertian_only || rng.next_f32() < 0.5 {
+                0.0
+            } else {
+                0.3
+            }),
+            fresnel: !lambertian_only && rng.next_f32() < 0.5,
+            ior: 1.5,
+            ..Material::default()
+        };
+        let over = rng.next_f32() < 0.2;
+        let b = Bsdf::new(&material, over.then(|| rho * 0.5));
+        shortcut += usize::from(b.is_lambertian_only());
+        let n_g = uniform_sphere(rng.next_2());
+        let n_s = (n_g + 0.3 * uniform_sphere(rng.next_2())).normalize_or(n_g);
+        let wo = uniform_sphere(rng.next_2());
+        let power = pick(
+            rng.next_u32(),
+            &[
+                Vec3::ZERO,
+                Vec3::new(rng.next_f32(), 0.0, rng.next_f32() * 4.0),
+                Vec3::new(1.0, -1.0, 2.0),
+                Vec3::new(f32::INFINITY, 1.0, 1.0),
+                Vec3::splat(rng.next_f32() + 0.1),
+            ],
+        );
+        let u = rng.next_3();
+        let lobes = |power: Option<Vec3>| {
+            let o = b.orient(wo, n_s, n_g);
+            [
+                sample_bits(&o.and_then(|o| b.roulette_lobes::<true, true>(&o, u, power))),
+                sample_bits(&o.and_then(|o| b.roulette_lobes::<true, false>(&o, u, power))),
+                sample_bits(&o.and_then(|o| b.roulette_lobes::<false, true>(&o, u, power))),
+                sample_bits(&o.and_then(|o| b.roulette_lobes::<false, false>(&o, u, power))),
+            ]
+        };
+        let public = |power: Option<Vec3>| {
+            let s = |r: Option<BsdfSample>| sample_bits(&r);
+            match power {
+                None => [
+                    s(b.sample_russian_roulette_in::<true, true>(wo, n_s, n_g, u)),
+                    s(b.sample_russian_roulette_in::<true, false>(wo, n_s, n_g, u)),
+                    s(b.sample_russian_roulette_in::<false, true>(wo, n_s, n_g, u)),
+                    s(b.sample_russian_roulette_in::<false, false>(wo, n_s, n_g, u)),
+                ],
+                Some(p) => [
+                    s(b.sample_russian_roulette_for::<true, true>(p, wo, n_s, n_g, u)),
+                    s(b.sample_russian_roulette_for::<true, false>(p, wo, n_s, n_g, u)),
+                    s(b.sample_russian_roulette_for::<false, true>(p, wo, n_s, n_g, u)),
+                    s(b.sample_russian_roulette_for::<false, false>(p, wo, n_s, n_g, u)),
+                ],
+            }
+        };
+        for power in [None, Some(power)] {
+            let expected = lobes(power);
+            assert_eq!(
+                public(power),
+                expected,
+                "{b:?} {wo} {n_s} {n_g} {power:?} {u:?}"
+            );
+            taken += usize::from(b.is_lambertian_only() && expected[3].is_some());
+        }
+    }
+    // Both paths were taken often, and the shortcut's comparisons were mostly of samples, not
+    // of `None`s.
+    assert!(
+        (150_000..250_000).contains(&shortcut),
+        "{shortcut} Lambertian-only"
+    );
+    assert!(taken > 100_000, "{taken} shortcut samples taken");
+    // A glossy, refracting or Fresnel-weighted BSDF never takes the shortcut.
+    for b in [
+        bsdf(0.5, 0.1, 20.0, 0.0, 1.5, false),
+        bsdf(0.5, 0.0, 0.0, 0.1, 1.5, false),
+        bsdf(0.5, 0.0, 0.0, 0.0, 1.5, true),
+    ] {
+        assert!(!b.is_lambertian_only());
+    }
+}
+
+#[test]
+fn unit_keeps_unit_vectors_and_normalises_the_rest() {
+    // Normalised vectors (whose squared length rounding leaves near 1) come back as they are.
+    let mut rng = Rng::new(5);
+    let mut kept = 0;
+    for _ in 0..100_000 {
+        let v = (uniform_sphere(rng.next_2()) * (0.1 + 10.0 * rng.next_f32())).normalize();
+        let u = unit(v).expect("unit");
+        assert!((u.length() - 1.0).abs() < 3e-7, "{u}");
+        kept += usize::from(u == v);
+    }
+    assert_eq!(kept, 100_000, "normalised vectors divided again");
+    // Anything further from unit length is divided by its length.
+    for v in [
+        Vec3::new(1.0, 1e-3, 0.0),
+        Vec3::new(0.0, 0.0, 1.0 + 1e-6),
+        Vec3::new(0.0, 0.0, 1.0 - 1e-6),
+        Vec3::new(3.0, 4.0, 0.0),
+        Vec3::splat(1e-5),
+    ] {
+        let u = unit(v).expect("unit");
+        assert!(u != v && (u.length() - 1.0).abs() < 3e-7, "{v} → {u}");
+    }
+    for v in [
+        Vec3::ZERO,
+        Vec3::splat(1e-7),
+        Vec3::new(f32::NAN, 0.0, 1.0),
+        Vec3::INFINITY,
+    ] {
+        assert_eq!(unit(v), None, "{v}");
+    }
+}
