@@ -26,10 +26,11 @@ use glam::Vec3;
 use std::collections::HashMap;
 use std::sync::Arc;
 
-/// A point to classify, and how far from every surface it must be for its side to count (the
-/// near-plane reach of a camera, say).
+/// Where a camera, a light or an environment probe's centre looks from: a point to classify,
+/// and how far from every surface it must be for its side to count (the near-plane reach of a
+/// camera, say).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Probe {
+pub struct Viewpoint {
     pub position: Vec3,
     pub clearance: f32,
 }
@@ -212,18 +213,18 @@ impl Enclosures {
     }
 
     /// `Some(true)` inside `surface`, `Some(false)` outside, `None` when not provable.
-    fn inside(surface: &Surface, probe: &Probe) -> Option<bool> {
-        let p = probe.position;
+    fn inside(surface: &Surface, viewpoint: &Viewpoint) -> Option<bool> {
+        let p = viewpoint.position;
         if !p.is_finite() {
             return None;
         }
-        if distance_to_box(p, surface.bounds.min, surface.bounds.max) > probe.clearance {
+        if distance_to_box(p, surface.bounds.min, surface.bounds.max) > viewpoint.clearance {
             return Some(false);
         }
         let near = surface.triangles.iter().any(|t| {
             let min = t[0].min(t[1]).min(t[2]);
             let max = t[0].max(t[1]).max(t[2]);
-            distance_to_box(p, min, max) <= probe.clearance
+            distance_to_box(p, min, max) <= viewpoint.clearance
         });
         if near {
             return None;
@@ -249,7 +250,7 @@ impl Enclosures {
 
     /// The name of a closed opaque surface with `a` provably on one side and `b` on the other,
     /// if there is one.
-    pub fn separating(&self, a: &Probe, b: &Probe) -> Option<&str> {
+    pub fn separating(&self, a: &Viewpoint, b: &Viewpoint) -> Option<&str> {
         self.surfaces
             .iter()
             .find(|s| match (Self::inside(s, a), Self::inside(s, b)) {

@@ -3,7 +3,7 @@
 //! the scene and the visible part of it, and so gets shadow views and photons; then the photon
 //! budget re-split over the lights that emit them.
 
-use super::{reach, LightPlan, Probe, SceneAnalysis};
+use super::{reach, LightPlan, SceneAnalysis, Viewpoint};
 use crate::photon::emit::photon_budget_among;
 use crate::scene::{Camera, LightKind, Scene};
 use glam::Vec3;
@@ -24,14 +24,14 @@ impl SceneAnalysis {
         let aspect = settings.width.max(1) as f32 / settings.height.max(1) as f32;
         let visible = reach::visible_box(camera, aspect, bounds);
         let diag = bounds.extent().length().max(1e-6);
-        let mut viewers = vec![Probe {
+        let mut viewers = vec![Viewpoint {
             position: camera.position(),
             clearance: reach::near_reach(camera, aspect),
         }];
         if translucent {
             // The environment cubes see the whole scene from their probes' centres.
             for probe in &self.probes {
-                viewers.push(Probe {
+                viewers.push(Viewpoint {
                     position: probe.center(),
                     clearance: (1e-3 * diag).max(1e-4),
                 });
@@ -61,7 +61,7 @@ impl SceneAnalysis {
                     }
                     _ => light.position,
                 };
-                let source = Probe {
+                let source = Viewpoint {
                     position,
                     clearance: 1e-4 * diag,
                 };

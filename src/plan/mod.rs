@@ -40,7 +40,7 @@ mod reach;
 mod tests;
 
 pub(crate) use analysis::welds_enclosures;
-pub use enclosure::{Enclosures, Probe, StaticEnclosures};
+pub use enclosure::{Enclosures, StaticEnclosures, Viewpoint};
 pub use motion::MotionPlan;
 
 use crate::config::settings::Effects;

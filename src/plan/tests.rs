@@ -345,7 +345,7 @@ fn enclosures_need_welded_closed_surfaces_and_a_clear_point() {
     let scene = grey_box(0.5, 1.0);
     let e = Enclosures::new(&scene);
     assert_eq!(e.len(), 1);
-    let probe = |x: f32, clearance: f32| Probe {
+    let probe = |x: f32, clearance: f32| Viewpoint {
         position: Vec3::new(x, 0.1, 0.2),
         clearance,
     };
@@ -626,14 +626,14 @@ fn welding_the_static_part_once_finds_the_surfaces_a_full_weld_finds() {
         }
         s
     };
-    let probes: Vec<Probe> = [
+    let probes: Vec<Viewpoint> = [
         Vec3::ZERO,
         Vec3::new(0.2, 0.1, 0.3),
         Vec3::new(-6.0, 0.1, 0.2),
         Vec3::new(3.0, 3.0, 3.0),
         Vec3::new(5.1, 0.0, 0.2),
     ]
-    .map(|position| Probe {
+    .map(|position| Viewpoint {
         position,
         clearance: 0.01,
     })
