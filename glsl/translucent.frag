@@ -81,11 +81,11 @@ float box_entry(ObjectNode b, vec3 o, vec3 inv, float t_min, float t_max) {
 }
 
 // The closest triangle of the tree at `root` but triangle `skip` that the object-space ray
-// o + t·d meets at t in (t_min, t_hit): its t, index (in `hit`) and interpolated
-// (object-space, not unit) normal. Children are visited nearer first; a child is skipped when
+// o + t·d meets at t in (t_min, t_hit): its t, index (in `hit`), interpolated (object-space,
+// not unit) normal and plane normal (`face`, not unit). Children are visited nearer first; a child is skipped when
 // the ray enters it beyond the closest hit found by the time its parent is visited.
 bool object_hit(uint root, uint skip, vec3 o, vec3 d, float t_min, inout float t_hit,
-                out uint hit, out vec3 n_hit) {
+                out uint hit, out vec3 n_hit, out vec3 face) {
     // Tiny components (zeros, subnormals) as ±1e-30: no infinity times zero in the slabs.
     vec3 inv = 1.0 / mix(d, mix(vec3(1e-30), vec3(-1e-30), lessThan(d, vec3(0.0))),
                          lessThan(abs(d), vec3(1e-30)));
@@ -94,6 +94,7 @@ bool object_hit(uint root, uint skip, vec3 o, vec3 d, float t_min, inout float t
     hit = 0xffffffffu;
     vec2 hit_uv = vec2(0.0);
     n_hit = vec3(0.0);
+    face = vec3(0.0);
     uint node = root;
     if (box_entry(object_nodes[root], o, inv, t_min, t_hit) > t_hit) {
         return false;
@@ -153,19 +154,33 @@ bool object_hit(uint root, uint skip, vec3 o, vec3 d, float t_min, inout float t
         ObjectTriangle tri = object_triangles[hit];
         n_hit = (1.0 - hit_uv.x - hit_uv.y) * tri.n0.xyz + hit_uv.x * tri.n1.xyz
             + hit_uv.y * tri.n2.xyz;
+        face = cross(tri.p1.xyz - tri.p0.xyz, tri.p2.xyz - tri.p0.xyz);
         if (dot(n_hit, n_hit) == 0.0) {
-            n_hit = cross(tri.p1.xyz - tri.p0.xyz, tri.p2.xyz - tri.p0.xyz);
+            n_hit = face;
         }
     }
     return found;
 }
 
+// True when a ray along `d` from a point on a face of a convex object, the face's plane
+// normal `face` (either way round) and the object's centre `to_centre` away, leaves the object
+// through that plane: it meets no more of it (src/passes/translucent/object_bvh.rs, "Convex
+// meshes"). False for a ray along the plane or a degenerate face.
+bool leaves_convex(vec3 d, vec3 face, vec3 to_centre) {
+    return dot(d, face) * dot(to_centre, face) < 0.0;
+}
+
 // Radiance arriving at camera-relative `p` along unit `d`, a ray that has just left this
 // draw's object at p (reflected or refracted by it): the object's own surfaces it meets first
-// (module comment), then the environment.
-vec3 follow(Bsdf bsdf, vec3 p, vec3 d) {
+// (module comment), then the environment. `face` is the plane normal (camera-relative world,
+// either way round) of the face p lies on.
+vec3 follow(Bsdf bsdf, vec3 p, vec3 d, vec3 face) {
     uint root = draw.material.z;
-    if (root == 0u) {
+    bool convex = draw.material.w != 0u;
+    // A convex object's centre, object space.
+    vec3 centre = vec3(draw.normal0.w, draw.normal1.w, draw.normal2.w);
+    if (root == 0u
+        || convex && leaves_convex(d, face, (draw.model * vec4(centre, 1.0)).xyz - p)) {
         return environment(p, d);
     }
     // The normal matrix is the inverse transpose of the model's linear part, so its transpose
@@ -186,7 +201,8 @@ vec3 follow(Bsdf bsdf, vec3 p, vec3 d) {
         vec3 od = to_object * d;
         float t = 3.4e38;
         vec3 n_object;
-        if (!object_hit(root - 1u, last, o, od, t_min, t, last, n_object)) {
+        vec3 face_object;
+        if (!object_hit(root - 1u, last, o, od, t_min, t, last, n_object, face_object)) {
             return sum + weight * environment(p, d);
         }
         vec3 q = p + t * d;
@@ -229,6 +245,10 @@ vec3 follow(Bsdf bsdf, vec3 p, vec3 d) {
             d = wr;
         }
         p = q;
+        // The same test in object space, with the plane of the triangle just met.
+        if (convex && leaves_convex(to_object * d, face_object, centre - (o + t * od))) {
+            return sum + weight * environment(p, d);
+        }
     }
     return sum + weight * environment(p, d);
 }
@@ -246,6 +266,8 @@ void main() {
     Bsdf bsdf = material_bsdf(m, albedo);
     vec3 wo = normalize(frame.viewer.xyz - p);
     vec3 radiance = material_emission(m, side) + direct_light(bsdf, p, n, n_mesh, wo);
+    // The plane of the face this fragment lies on (derivatives: before any branch).
+    vec3 face = cross(dFdx(p), dFdy(p));
     BsdfOriented o;
     if (bsdf_orient(bsdf, wo, n_mesh, n_mesh, o)) {
         vec3 c[4];
@@ -254,11 +276,11 @@ void main() {
         float eta;
         if (any(greaterThan(c[LOBE_MIRROR], vec3(0.0)))
             && bsdf_sample_direction(bsdf, LOBE_MIRROR, o, vec2(0.0), wi, eta)) {
-            radiance += c[LOBE_MIRROR] * follow(bsdf, p, wi);
+            radiance += c[LOBE_MIRROR] * follow(bsdf, p, wi, face);
         }
         if (any(greaterThan(c[LOBE_REFRACTION], vec3(0.0)))
             && bsdf_sample_direction(bsdf, LOBE_REFRACTION, o, vec2(0.0), wi, eta)) {
-            radiance += c[LOBE_REFRACTION] * follow(bsdf, p, wi);
+            radiance += c[LOBE_REFRACTION] * follow(bsdf, p, wi, face);
         }
     }
     out_radiance = vec4(max(radiance, vec3(0.0)), 1.0);

@@ -70,10 +70,11 @@ struct BounceView {
 struct DrawPush {
     mat4 model;       // object -> camera-relative world (eye) or object -> light clip (shadow)
     vec4 normal0;     // xyz: columns of the object -> world normal matrix (inverse transpose);
-    vec4 normal1;     // w: 0
+    vec4 normal1;     // w: 0, or (translucent pass, convex mesh) the mesh's centre, object space
     vec4 normal2;
     uvec4 material;   // x: material index; z: 1 + the root of the BVH over the mesh's own
-                      // triangles (translucent pass; 0: none); y, w: 0
+                      // triangles (translucent pass; 0: none); w: 1 when that mesh is convex
+                      // (src/passes/translucent/object_bvh.rs); y: 0
 };
 
 // A node of the BVH over one delta mesh's own triangles, object space (storage buffer, std430;

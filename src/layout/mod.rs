@@ -113,7 +113,8 @@ pub struct DrawPush {
     pub normal1: Vec4,
     pub normal2: Vec4,
     /// x: material index; z: 1 + the root of the mesh's own BVH (the translucent pass sets it;
-    /// 0: none); y, w: 0.
+    /// 0: none); w: 1 when that mesh is convex, its centre then in the `normal*.w`
+    /// (`passes/translucent/object_bvh.rs`, "Convex meshes"); y: 0.
     pub material: UVec4,
 }
 const _: () = assert!(size_of::<DrawPush>() == 128);

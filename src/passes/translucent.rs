@@ -23,6 +23,7 @@ use crate::layout::{DrawPush, Vertex};
 use crate::photon::bsdf::BsdfVariant;
 use crate::scene::Scene;
 use crate::timing::pass_id::PassId;
+use glam::Vec3;
 use object_bvh::ObjectBvhs;
 use std::sync::Arc;
 
@@ -60,7 +61,9 @@ pub struct TranslucentPass {
     /// 1 + its tree's root (0: not a delta mesh).
     object_nodes: Buffer,
     object_triangles: Buffer,
-    object_roots: Vec<u32>,
+    /// Per mesh: 1 + its tree's root (0: none), and its centre when it is convex
+    /// ([`object_bvh::convex_centre`]).
+    object_roots: Vec<(u32, Option<Vec3>)>,
 }
 
 impl TranslucentPass {
@@ -100,9 +103,9 @@ impl TranslucentPass {
             .map(|m| {
                 let delta = scene.material_delta.get(m.material) == Some(&true);
                 if delta && !m.triangles.is_empty() {
-                    bvhs.add(m) + 1
+                    (bvhs.add(m) + 1, object_bvh::convex_centre(m))
                 } else {
-                    0
+                    (0, None)
                 }
             })
             .collect();
@@ -233,7 +236,14 @@ impl TranslucentPass {
             .iter()
             .map(|d| {
                 let mut d = *d;
-                d.push.material.z = self.object_roots.get(d.mesh).copied().unwrap_or(0);
+                let (root, centre) = self.object_roots.get(d.mesh).copied().unwrap_or_default();
+                d.push.material.z = root;
+                if let Some(c) = centre {
+                    d.push.material.w = 1;
+                    d.push.normal0.w = c.x;
+                    d.push.normal1.w = c.y;
+                    d.push.normal2.w = c.z;
+                }
                 d
             })
             .collect();

@@ -13,10 +13,22 @@
 //! centroid of their longest axis, leaves of at most [`LEAF_SIZE`] triangles; an inner node's
 //! two children are next to each other. All meshes' trees share one node and one triangle
 //! array; `DrawPush::material.z` is 1 + the draw's root (0: the mesh has none).
+//!
+//! # Convex meshes
+//! A ray that leaves a convex object through the plane of the face it starts on meets no more
+//! of it, so the shader skips the traversal for it ([`convex_centre`]; `translucent.frag`,
+//! `leaves_convex`). A glass ball seen from outside traces three rays per pixel (the
+//! reflection, the refraction in, the refraction out at the far side); two of them leave it.
+//! `DrawPush::material.w` is 1 for a convex mesh, and `normal0.w`, `normal1.w`, `normal2.w`
+//! hold its centre (object space), which tells the shader which side of a face is outside.
+//! The test uses the faces' planes, not the interpolated normals: a reflection about a
+//! shading normal can point into the geometric surface, and such a ray does meet the object
+//! again.
 
 use crate::layout::{ObjectNode, ObjectTriangle};
 use crate::scene::Mesh;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
+use std::collections::HashMap;
 
 /// Most triangles in a leaf.
 pub const LEAF_SIZE: usize = 4;
@@ -136,6 +148,119 @@ impl ObjectBvhs {
     }
 }
 
+/// The centre of `mesh`'s vertices (object space) when the mesh bounds a convex body, `None`
+/// otherwise. Convex means, with the vertices welded by position (meshes split them for
+/// normals and uvs):
+/// - closed and consistently wound: every edge is shared by exactly two triangles, which run
+///   along it in opposite directions, and no triangle is degenerate;
+/// - connected: one piece (two balls in one mesh are not one convex body);
+/// - convex at every edge: the far vertex of each of its two triangles lies behind the
+///   other's plane (coplanar within 10⁻⁵ of the mesh's size, so a box's split faces pass);
+/// - with the centre strictly behind every face's plane, on the same side for all (inward-
+///   wound meshes pass too), so the shader can tell outside from inside by it.
+///
+/// A closed connected surface that is convex at every edge bounds a convex body. The checks
+/// are linear in the triangles.
+pub fn convex_centre(mesh: &Mesh) -> Option<Vec3> {
+    let mut ids: HashMap<[u32; 3], u32> = HashMap::new();
+    let mut welded: Vec<Vec3> = Vec::new();
+    let mut triangles = Vec::with_capacity(mesh.triangles.len());
+    for t in &mesh.triangles {
+        let mut w = [0u32; 3];
+        for (k, &i) in t.iter().enumerate() {
+            let p = *mesh.positions.get(i as usize)?;
+            if !p.is_finite() {
+                return None;
+            }
+            w[k] = *ids
+                .entry(p.to_array().map(f32::to_bits))
+                .or_insert_with(|| {
+                    welded.push(p);
+                    welded.len() as u32 - 1
+                });
+        }
+        triangles.push(w);
+    }
+    if triangles.is_empty() {
+        return None;
+    }
+    // Each edge's triangles, and whether each runs along it from the lower vertex id.
+    let mut edges: HashMap<(u32, u32), Vec<(usize, bool)>> = HashMap::new();
+    for (i, t) in triangles.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            if a == b {
+                return None;
+            }
+            edges
+                .entry((a.min(b), a.max(b)))
+                .or_default()
+                .push((i, a < b));
+        }
+    }
+    let mut parent: Vec<usize> = (0..triangles.len()).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    for sides in edges.values() {
+        let [(t1, up1), (t2, up2)] = sides[..] else {
+            return None;
+        };
+        if up1 == up2 {
+            return None;
+        }
+        let (r1, r2) = (root(&mut parent, t1), root(&mut parent, t2));
+        parent[r1] = r2;
+    }
+    let one = root(&mut parent, 0);
+    if (0..triangles.len()).any(|i| root(&mut parent, i) != one) {
+        return None;
+    }
+    let sum: DVec3 = welded.iter().map(|p| p.as_dvec3()).sum();
+    let centre = (sum / welded.len() as f64).as_vec3();
+    let size = welded
+        .iter()
+        .map(|p| p.distance(centre))
+        .fold(0.0, f32::max);
+    let tolerance = 1e-5 * size;
+    let planes: Vec<(Vec3, Vec3)> = triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| welded[i as usize]);
+            (a, (b - a).cross(c - a).normalize_or_zero())
+        })
+        .collect();
+    // Outward-wound (the centre behind the faces) or inward-wound: +1 or −1, the same for all.
+    let (a, n) = planes[0];
+    let wound = if n.dot(centre - a) < 0.0 { 1.0 } else { -1.0 };
+    let behind = |(a, n): (Vec3, Vec3), p: Vec3| wound * n.dot(p - a);
+    if planes
+        .iter()
+        .any(|&plane| plane.1 == Vec3::ZERO || behind(plane, centre) > -tolerance)
+    {
+        return None;
+    }
+    let convex_edge = |(a, b): (u32, u32), sides: &[(usize, bool)]| {
+        let far = |t: usize| triangles[t].into_iter().find(|&v| v != a && v != b);
+        let (t1, t2) = (sides[0].0, sides[1].0);
+        match (far(t1), far(t2)) {
+            (Some(f1), Some(f2)) => {
+                behind(planes[t1], welded[f2 as usize]) <= tolerance
+                    && behind(planes[t2], welded[f1 as usize]) <= tolerance
+            }
+            _ => false,
+        }
+    };
+    edges
+        .iter()
+        .all(|(&edge, sides)| convex_edge(edge, sides))
+        .then_some(centre)
+}
+
 /// Triangle `t` of `mesh` with its vertices' normals (the face's where the mesh has none, or
 /// a zero one).
 fn object_triangle(mesh: &Mesh, t: [u32; 3]) -> ObjectTriangle {
@@ -216,6 +341,153 @@ mod tests {
         let v = d.dot(q) / det;
         let t = e2.dot(q) / det;
         (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0).then_some(t)
+    }
+
+    fn delta_meshes(scene: &str) -> Vec<Mesh> {
+        let scene = crate::scene::bundled::resolve(Some(scene)).expect("bundled scene");
+        scene
+            .meshes
+            .iter()
+            .filter(|m| scene.materials[m.material].has_delta_lobe())
+            .cloned()
+            .collect()
+    }
+
+    #[test]
+    fn convex_meshes_are_told_from_the_rest() {
+        let ball = crate::photon::shapes::icosphere(3);
+        let centre = convex_centre(&ball).expect("a ball is convex");
+        assert!(centre.length() < 1e-5, "{centre}");
+        // Wound inwards, or with its vertices split per triangle (flat shading): still convex.
+        let mut inward = ball.clone();
+        inward.triangles.iter_mut().for_each(|t| t.swap(1, 2));
+        assert!(convex_centre(&inward).is_some());
+        let mut split = ball.clone();
+        split.positions = ball
+            .triangles
+            .iter()
+            .flatten()
+            .map(|&i| ball.positions[i as usize])
+            .collect();
+        split.triangles = (0..ball.triangles.len() as u32)
+            .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+            .collect();
+        assert!(convex_centre(&split).is_some());
+        // Moved off the origin and stretched: the centre moves with it.
+        let mut moved = ball.clone();
+        moved
+            .positions
+            .iter_mut()
+            .for_each(|p| *p = *p * Vec3::new(3.0, 0.5, 1.0) + 7.0);
+        assert!(
+            convex_centre(&moved)
+                .expect("convex")
+                .distance(Vec3::splat(7.0))
+                < 1e-4
+        );
+        // The bundled glass: glass-cube's cube (split faces: coplanar edges) and ball, and
+        // glass-sphere's ball, are convex; caustic-ring's ring is not.
+        for scene in ["glass-cube", "glass-sphere"] {
+            for m in delta_meshes(scene) {
+                assert!(convex_centre(&m).is_some(), "{scene}: {}", m.name);
+            }
+        }
+        let ring = delta_meshes("caustic-ring");
+        assert!(!ring.is_empty() && ring.iter().all(|m| convex_centre(m).is_none()));
+        // Not convex: a dent, a hole, two balls in one mesh, a degenerate triangle.
+        let mut dented = ball.clone();
+        dented.positions[0] *= 0.8;
+        assert!(convex_centre(&dented).is_none(), "dent");
+        let mut open = ball.clone();
+        open.triangles.pop();
+        assert!(convex_centre(&open).is_none(), "hole");
+        let mut two = ball.clone();
+        let n = ball.positions.len() as u32;
+        two.positions
+            .extend(ball.positions.iter().map(|p| *p + Vec3::X * 3.0));
+        two.triangles
+            .extend(ball.triangles.iter().map(|t| t.map(|i| i + n)));
+        assert!(convex_centre(&two).is_none(), "two balls");
+        let mut flipped = ball.clone();
+        flipped.triangles[5].swap(1, 2);
+        assert!(
+            convex_centre(&flipped).is_none(),
+            "one triangle wound the other way"
+        );
+        let mut flat = ball.clone();
+        flat.positions
+            .push(ball.positions[ball.triangles[0][1] as usize]);
+        let last = flat.positions.len() as u32 - 1;
+        flat.triangles[0][1] = last;
+        assert!(convex_centre(&flat).is_some(), "a split vertex is welded");
+        flat.triangles[0][1] = flat.triangles[0][0];
+        assert!(convex_centre(&flat).is_none(), "degenerate triangle");
+    }
+
+    /// `translucent.frag`'s `leaves_convex`.
+    fn leaves_convex(d: Vec3, face: Vec3, to_centre: Vec3) -> bool {
+        d.dot(face) * to_centre.dot(face) < 0.0
+    }
+
+    /// Rays from random points of random faces in random directions: of those the shader's
+    /// test lets leave, how many meet the mesh again (brute force, past a small distance).
+    fn leaving_rays_that_hit(mesh: &Mesh, centre: Vec3, rays: usize) -> (usize, usize) {
+        let mut bvhs = ObjectBvhs::default();
+        bvhs.add(mesh);
+        let size = mesh
+            .positions
+            .iter()
+            .map(|p| p.distance(centre))
+            .fold(0.0, f32::max);
+        let mut rng = Rng::new(17);
+        let (mut leaving, mut hit_again) = (0, 0);
+        for _ in 0..rays {
+            let i = (rng.next_u32() as usize) % bvhs.triangles.len();
+            let t = &bvhs.triangles[i];
+            let (a, b, c) = (t.p0.truncate(), t.p1.truncate(), t.p2.truncate());
+            let (mut u, mut v) = (rng.next_f32(), rng.next_f32());
+            if u + v > 1.0 {
+                (u, v) = (1.0 - u, 1.0 - v);
+            }
+            let p = a + u * (b - a) + v * (c - a);
+            let d = crate::photon::sampling::uniform_sphere(rng.next_2());
+            let face = (b - a).cross(c - a);
+            if !leaves_convex(d, face, centre - p) {
+                continue;
+            }
+            leaving += 1;
+            let again = (0..bvhs.triangles.len())
+                .filter(|&j| j != i)
+                .filter_map(|j| hit(&bvhs.triangles[j], p, d))
+                .any(|t| t > 1e-4 * size);
+            hit_again += usize::from(again);
+        }
+        (leaving, hit_again)
+    }
+
+    #[test]
+    fn a_ray_the_shader_lets_leave_a_convex_mesh_meets_no_more_of_it() {
+        // The bundled convex glass: no ray through its face's plane away from the centre meets
+        // it again, so skipping the traversal changes nothing.
+        for scene in ["glass-cube", "glass-sphere"] {
+            for m in delta_meshes(scene) {
+                let centre = convex_centre(&m).expect("convex");
+                let (leaving, again) = leaving_rays_that_hit(&m, centre, 4000);
+                assert!(
+                    leaving > 1500,
+                    "{scene} {}: {leaving} of 4000 leave",
+                    m.name
+                );
+                assert_eq!(again, 0, "{scene} {}", m.name);
+            }
+        }
+        // The same test on caustic-ring's ring (not convex, so the shader never applies it
+        // there) does find rays that meet the ring again: the check above can fail.
+        for m in delta_meshes("caustic-ring") {
+            let centre = m.positions.iter().copied().sum::<Vec3>() / m.positions.len() as f32;
+            let (_, again) = leaving_rays_that_hit(&m, centre, 4000);
+            assert!(again > 0, "{}", m.name);
+        }
     }
 
     /// The bundled `glass-cube`'s delta meshes (its 12-triangle cube and its ball) in one pair
