@@ -165,9 +165,12 @@ bool object_hit(uint root, uint skip, vec3 o, vec3 d, float t_min, inout float t
 // True when a ray along `d` from a point on a face of a convex object, the face's plane
 // normal `face` (either way round) and the object's centre `to_centre` away, leaves the object
 // through that plane: it meets no more of it (src/passes/translucent/object_bvh.rs, "Convex
-// meshes"). False for a ray along the plane or a degenerate face.
+// meshes"). False for a degenerate face and for a ray within 10⁻⁴ rad of the plane, whose
+// side the plane's own rounding (from screen derivatives at the pixel) could get wrong: the
+// traversal decides those.
 bool leaves_convex(vec3 d, vec3 face, vec3 to_centre) {
-    return dot(d, face) * dot(to_centre, face) < 0.0;
+    float along = dot(d, face);
+    return along * dot(to_centre, face) < 0.0 && abs(along) > 1e-4 * length(d) * length(face);
 }
 
 // Radiance arriving at camera-relative `p` along unit `d`, a ray that has just left this

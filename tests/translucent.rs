@@ -382,3 +382,74 @@ fn scene_without_delta_materials_runs_no_translucent_pass() {
         assert!(ran(frame, "direct"), "{:?}", frame.stats.passes_run);
     }
 }
+
+/// Rays leaving a convex glass through the plane of their face skip the traversal of its own
+/// triangles (`passes/translucent/object_bvh.rs`, "Convex meshes"), and no pixel changes for
+/// it. glass-sphere's ball, placed mirrored and stretched (a model matrix of negative
+/// determinant and unequal scales), is rendered as it is and with a speck inside it: a triangle
+/// 10⁻⁵ m wide at its centre, which no ray meets but which makes the mesh not convex, so that
+/// every ray is traversed. The camera outside, then inside the ball.
+#[test]
+fn skipping_the_traversal_for_rays_leaving_convex_glass_changes_no_pixel() {
+    use ispm::passes::translucent::object_bvh::convex_centre;
+    let mut scene = bundled::resolve(Some("glass-sphere")).expect("bundled scene");
+    let delta: Vec<usize> = (0..scene.instances.len())
+        .filter(|&i| {
+            let mesh = &scene.meshes[scene.instances[i].mesh];
+            scene.materials[mesh.material].has_delta_lobe()
+        })
+        .collect();
+    assert!(!delta.is_empty());
+    for &i in &delta {
+        scene.instances[i].transform *= glam::Mat4::from_scale(Vec3::new(-1.0, 0.8, 1.2));
+    }
+    let mut specked = scene.clone();
+    for &i in &delta {
+        let mesh = &mut specked.meshes[scene.instances[i].mesh];
+        assert!(convex_centre(mesh).is_some(), "{} is convex", mesh.name);
+        let centre = mesh.positions.iter().copied().sum::<Vec3>() / mesh.positions.len() as f32;
+        let n = mesh.positions.len() as u32;
+        for corner in [Vec3::ZERO, Vec3::X, Vec3::Z] {
+            mesh.positions.push(centre + corner * 1e-5);
+            mesh.normals.push(Vec3::Y);
+            mesh.uvs.push(Vec2::ZERO);
+        }
+        mesh.triangles.push([n, n + 1, n + 2]);
+        assert!(
+            convex_centre(mesh).is_none(),
+            "the speck makes {} not convex",
+            mesh.name
+        );
+    }
+    let ball = {
+        let inst = &scene.instances[delta[0]];
+        let mesh = &scene.meshes[inst.mesh];
+        let centre = mesh.positions.iter().copied().sum::<Vec3>() / mesh.positions.len() as f32;
+        inst.transform.transform_point3(centre)
+    };
+    for inside in [false, true] {
+        let (mut a, mut b) = (scene.clone(), specked.clone());
+        if inside {
+            for s in [&mut a, &mut b] {
+                s.camera.transform.w_axis = (ball + Vec3::new(0.01, 0.02, 0.03)).extend(1.0);
+            }
+        }
+        let (fa, fb) = (
+            &render(&a, Method::Direct, 1)[0],
+            &render(&b, Method::Direct, 1)[0],
+        );
+        assert!(ran(fa, "translucent") && ran(fb, "translucent"));
+        let worst = fa
+            .hdr
+            .iter()
+            .zip(&fb.hdr)
+            .map(|(x, y)| (x - y).abs() / (x.abs() + 1e-2))
+            .fold(0.0, f32::max);
+        assert!(
+            worst < 1e-4,
+            "camera inside: {inside}: relative difference {worst} ({}, {})",
+            save(&format!("convex_shortcut_{inside}_skipped"), fa).display(),
+            save(&format!("convex_shortcut_{inside}_traversed"), fb).display()
+        );
+    }
+}
