@@ -81,9 +81,10 @@ float box_entry(ObjectNode b, vec3 o, vec3 inv, float t_min, float t_max) {
 }
 
 // The closest triangle of the tree at `root` but triangle `skip` that the object-space ray
-// o + t·d meets at t in (t_min, t_hit): its t, index (in `hit`), interpolated (object-space,
-// not unit) normal and plane normal (`face`, not unit). Children are visited nearer first; a child is skipped when
-// the ray enters it beyond the closest hit found by the time its parent is visited.
+// o + t·d meets at t in (t_min, t_hit): its t, index (in `hit`), interpolated normal and plane
+// normal (`face`; both object space, not unit). Children are visited nearer first; a child is
+// skipped when the ray enters it beyond the closest hit found by the time its parent is
+// visited.
 bool object_hit(uint root, uint skip, vec3 o, vec3 d, float t_min, inout float t_hit,
                 out uint hit, out vec3 n_hit, out vec3 face) {
     // Tiny components (zeros, subnormals) as ±1e-30: no infinity times zero in the slabs.
