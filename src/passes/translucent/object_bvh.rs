@@ -17,8 +17,9 @@
 //! # Convex meshes
 //! A ray that leaves a convex object through the plane of the face it starts on meets no more
 //! of it, so the shader skips the traversal for it ([`convex_centre`] decides which meshes are
-//! convex enough for that; `translucent.frag`, `leaves_convex`). A glass ball seen from outside traces three rays per pixel (the
-//! reflection, the refraction in, the refraction out at the far side); two of them leave it.
+//! convex enough for that; `translucent.frag`, `leaves_convex`). A glass ball seen from
+//! outside traces three rays per pixel (the reflection, the refraction in, the refraction out
+//! at the far side); two of them leave it.
 //! `DrawPush::material.w` is 1 for a convex mesh, and `normal0.w`, `normal1.w`, `normal2.w`
 //! hold its centre (object space), which tells the shader which side of a face is outside.
 //! The test uses the faces' planes, not the interpolated normals: a reflection about a
