@@ -57,11 +57,10 @@ pub struct TranslucentPass {
     material_sets: Vec<DescriptorSet>,
     shadow: Sampler,
     linear: Sampler,
-    /// The delta meshes' own triangles (`object_bvh`): nodes, triangles, and per scene mesh
-    /// 1 + its tree's root (0: not a delta mesh).
+    /// The delta meshes' own triangles (`object_bvh`): nodes and triangles.
     object_nodes: Buffer,
     object_triangles: Buffer,
-    /// Per mesh: 1 + its tree's root (0: none), and its centre when it is convex
+    /// Per scene mesh: 1 + its tree's root (0: not a delta mesh), and its centre when it is convex
     /// ([`object_bvh::convex_centre`]).
     object_roots: Vec<(u32, Option<Vec3>)>,
 }

@@ -675,10 +675,8 @@ impl Bsdf {
         power: Option<Vec3>,
     ) -> Option<BsdfSample> {
         let c = self.variant_reflectances::<GLOSSY, DELTA>(o);
-        let w = match power.filter(|p| p.is_finite() && p.min_element() >= 0.0) {
-            Some(p) if p.element_sum() > 0.0 => c.map(|cj| cj.dot(p) / p.element_sum()),
-            _ => c.map(mean),
-        };
+        let by = roulette_colour(power);
+        let w = c.map(|cj| roulette_weight(cj, by));
         if u[0] >= w.iter().sum::<f32>() {
             return None;
         }
@@ -705,10 +703,7 @@ impl Bsdf {
         power: Option<Vec3>,
     ) -> Option<BsdfSample> {
         let c = self.lambertian;
-        let w = match power.filter(|p| p.is_finite() && p.min_element() >= 0.0) {
-            Some(p) if p.element_sum() > 0.0 => c.dot(p) / p.element_sum(),
-            _ => mean(c),
-        };
+        let w = roulette_weight(c, roulette_colour(power));
         if u[0] >= w {
             return None;
         }
@@ -717,6 +712,23 @@ impl Bsdf {
         s.pdf *= w;
         debug_assert_sample(&s);
         Some(s)
+    }
+}
+
+/// The photon power a roulette weighs the lobes by: `power` when it is finite, non-negative and
+/// not zero; `None` (weigh by the mean) otherwise ([`Bsdf::sample_russian_roulette_for`]).
+#[inline(always)]
+fn roulette_colour(power: Option<Vec3>) -> Option<Vec3> {
+    power.filter(|p| p.is_finite() && p.min_element() >= 0.0 && p.element_sum() > 0.0)
+}
+
+/// A lobe of reflectance `c`'s share of the roulette: `P·c / ΣP` by the photon's colour `by`,
+/// else the mean of `c`.
+#[inline(always)]
+fn roulette_weight(c: Vec3, by: Option<Vec3>) -> f32 {
+    match by {
+        Some(p) => c.dot(p) / p.element_sum(),
+        None => mean(c),
     }
 }
 
