@@ -163,6 +163,11 @@ bool object_hit(uint root, uint skip, vec3 o, vec3 d, float t_min, inout float t
     return found;
 }
 
+// True for the pipeline that draws convex objects (`DrawPush::material.w` set, the centre in
+// the normal rows' w; `passes/translucent.rs`); the other pipeline, for every other delta
+// object, has the shortcut compiled out.
+layout(constant_id = SPEC_ID_CONVEX_SHORTCUT) const bool CONVEX_SHORTCUT = false;
+
 // True when a ray along `d` from a point on a face of a convex object, the face's plane
 // normal `face` (either way round) and the object's centre `to_centre` away, leaves the object
 // through that plane: it meets no more of it (src/passes/translucent/object_bvh.rs, "Convex
@@ -180,7 +185,7 @@ bool leaves_convex(vec3 d, vec3 face, vec3 to_centre) {
 // either way round) of the face p lies on.
 vec3 follow(Bsdf bsdf, vec3 p, vec3 d, vec3 face) {
     uint root = draw.material.z;
-    bool convex = draw.material.w != 0u;
+    bool convex = CONVEX_SHORTCUT && draw.material.w != 0u;
     // A convex object's centre, object space.
     vec3 centre = vec3(draw.normal0.w, draw.normal1.w, draw.normal2.w);
     if (root == 0u
@@ -270,8 +275,9 @@ void main() {
     Bsdf bsdf = material_bsdf(m, albedo);
     vec3 wo = normalize(frame.viewer.xyz - p);
     vec3 radiance = material_emission(m, side) + direct_light(bsdf, p, n, n_mesh, wo);
-    // The plane of the face this fragment lies on (derivatives: before any branch).
-    vec3 face = cross(dFdx(p), dFdy(p));
+    // The plane of the face this fragment lies on (derivatives: before any branch); only the
+    // convex shortcut reads it.
+    vec3 face = CONVEX_SHORTCUT ? cross(dFdx(p), dFdy(p)) : vec3(0.0);
     BsdfOriented o;
     if (bsdf_orient(bsdf, wo, n_mesh, n_mesh, o)) {
         vec3 c[4];

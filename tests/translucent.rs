@@ -388,7 +388,9 @@ fn scene_without_delta_materials_runs_no_translucent_pass() {
 /// it. glass-sphere's ball, placed mirrored and stretched (a model matrix of negative
 /// determinant and unequal scales), is rendered as it is and with a speck inside it: a triangle
 /// 10⁻⁵ m wide at its centre, which no ray meets but which makes the mesh not convex, so that
-/// every ray is traversed. The camera outside, then inside the ball.
+/// every ray is traversed. A second, specked ball beside it in both makes the pass draw the
+/// first with the convex pipeline and the second with the plain one in the same frame
+/// (`passes/translucent.rs`). The camera outside, then inside the first ball.
 #[test]
 fn skipping_the_traversal_for_rays_leaving_convex_glass_changes_no_pixel() {
     use ispm::passes::translucent::object_bvh::convex_centre;
@@ -421,12 +423,32 @@ fn skipping_the_traversal_for_rays_leaving_convex_glass_changes_no_pixel() {
             mesh.name
         );
     }
-    let ball = {
+    let (ball, radius) = {
         let inst = &scene.instances[delta[0]];
         let mesh = &scene.meshes[inst.mesh];
         let centre = mesh.positions.iter().copied().sum::<Vec3>() / mesh.positions.len() as f32;
-        inst.transform.transform_point3(centre)
+        let world = |p: Vec3| inst.transform.transform_point3(p);
+        let radius = (mesh.positions.iter())
+            .map(|&p| world(p).distance(world(centre)))
+            .fold(0.0, f32::max);
+        (world(centre), radius)
     };
+    // The second ball: the first's specked mesh, its centre 1.1 diameters to the camera's
+    // right.
+    let beside = glam::Mat4::from_translation(
+        scene.camera.transform.x_axis.truncate().normalize() * 2.2 * radius,
+    );
+    let first = scene.instances[delta[0]].clone();
+    let mut mesh = specked.meshes[first.mesh].clone();
+    mesh.name = format!("{} beside", mesh.name);
+    for s in [&mut scene, &mut specked] {
+        s.meshes.push(mesh.clone());
+        s.instances.push(ispm::scene::Instance {
+            name: format!("{} beside", first.name),
+            mesh: s.meshes.len() - 1,
+            transform: beside * first.transform,
+        });
+    }
     for inside in [false, true] {
         let (mut a, mut b) = (scene.clone(), specked.clone());
         if inside {

@@ -45,6 +45,10 @@ pub const SPEC_ID_DELTA_LOBES: u32 = 1;
 // The direct pass writes the Lambertian lobe's BRDF c_L/π for the upsample (`passes/direct.rs`),
 // beside the über-BSDF's two.
 pub const SPEC_ID_WRITE_LAMBERT: u32 = 2;
+// The translucent pass's pipeline for convex objects: rays leaving the object through the face
+// they start on skip its traversal (`passes/translucent.rs`). The other pipeline, for every
+// other delta object, has the test compiled out.
+pub const SPEC_ID_CONVEX_SHORTCUT: u32 = 3;
 
 // Kinds of light (`GpuLight.shadow.x`, `BounceView.kind.x`; `plan/lighting.rs`).
 pub const LIGHT_POINT: u32 = 0;

@@ -9,7 +9,8 @@
 //! glass appear as the cube map saw them (direct light and the photons' indirect light, from
 //! the cube's centre). Each delta instance looks up the cubes of its probe (its own, while the
 //! scene has at most `MAX_PROBES` delta instances): one descriptor set a probe, bound before
-//! that probe's draws.
+//! that probe's draws. Convex objects are drawn with a pipeline of their own, whose rays
+//! leaving the object skip its traversal ([`object_bvh`], "Convex meshes").
 
 pub mod object_bvh;
 
@@ -17,8 +18,9 @@ use super::eye_gbuffer::{draw_instances, material_texture_sets};
 use crate::gpu::scene::{Draw, GpuScene};
 use crate::gpu::{
     uses, vk, Access, Attachment, Binding, Blend, Buffer, Cmd, Depth, DescriptorLayout,
-    DescriptorSet, Filter, Gpu, GraphicsDesc, Image, Load, Pipeline, Sampler, Use,
+    DescriptorSet, Filter, Gpu, GraphicsDesc, Image, Load, Pipeline, Sampler, SpecConstant, Use,
 };
+use crate::layout::shared_constants::SPEC_ID_CONVEX_SHORTCUT;
 use crate::layout::{DrawPush, Vertex};
 use crate::photon::bsdf::BsdfVariant;
 use crate::scene::Scene;
@@ -49,7 +51,12 @@ pub struct ProbeInputs<'a> {
 }
 
 pub struct TranslucentPass {
-    pipeline: Pipeline,
+    /// `[plain, convex]`: the pipeline for objects that are not convex, with the convex
+    /// shortcut compiled out, and the one for convex objects, whose rays leaving the object
+    /// through the face they start on skip its traversal (`translucent.frag`, `leaves_convex`).
+    /// Each is made only when the scene has such an object. Either draws any object correctly
+    /// (the shortcut needs the draw's `material.w` too); the other is the fallback.
+    pipelines: [Option<Pipeline>; 2],
     _layout: DescriptorLayout,
     _texture_layout: DescriptorLayout,
     /// One per probe.
@@ -96,7 +103,7 @@ impl TranslucentPass {
         )?;
         let linear = Sampler::new(gpu, "translucent.environment", Filter::Linear, false)?;
         let mut bvhs = ObjectBvhs::default();
-        let object_roots = meshes
+        let object_roots: Vec<(u32, Option<Vec3>)> = meshes
             .meshes
             .iter()
             .map(|m| {
@@ -148,31 +155,51 @@ impl TranslucentPass {
             .map(|probe| layout.allocate(&uses::writes(&probe_uses(probe))))
             .collect::<Result<Vec<_>, _>>()?;
         let attributes = super::vertex_attributes();
-        let pipeline = Pipeline::graphics(
-            gpu,
-            &GraphicsDesc {
-                name: PassId::Translucent.name(),
-                vertex: &crate::gpu::shader_table::EYE_GBUFFER_VERT,
-                fragment: Some(&crate::gpu::shader_table::TRANSLUCENT_FRAG),
-                vertex_stride: size_of::<Vertex>() as u32,
-                vertex_attributes: &attributes,
-                color_formats: &[radiance_format],
-                blend: Blend::Off,
-                depth: Some(Depth {
-                    format: depth_format,
-                    test: true,
-                    write: true,
-                    compare: vk::CompareOp::GREATER,
-                    bias: None,
-                }),
-                cull: vk::CullModeFlags::NONE,
-                set_layouts: &[&layout, &texture_layout],
-                push_constant_size: size_of::<DrawPush>() as u32,
-                specialization: &super::bsdf_constants(variant),
-            },
-        )?;
+        let [glossy, delta] = super::bsdf_constants(variant);
+        let pipeline = |convex: bool| {
+            Pipeline::graphics(
+                gpu,
+                &GraphicsDesc {
+                    name: if convex {
+                        "translucent.convex"
+                    } else {
+                        PassId::Translucent.name()
+                    },
+                    vertex: &crate::gpu::shader_table::EYE_GBUFFER_VERT,
+                    fragment: Some(&crate::gpu::shader_table::TRANSLUCENT_FRAG),
+                    vertex_stride: size_of::<Vertex>() as u32,
+                    vertex_attributes: &attributes,
+                    color_formats: &[radiance_format],
+                    blend: Blend::Off,
+                    depth: Some(Depth {
+                        format: depth_format,
+                        test: true,
+                        write: true,
+                        compare: vk::CompareOp::GREATER,
+                        bias: None,
+                    }),
+                    cull: vk::CullModeFlags::NONE,
+                    set_layouts: &[&layout, &texture_layout],
+                    push_constant_size: size_of::<DrawPush>() as u32,
+                    specialization: &[
+                        glossy,
+                        delta,
+                        SpecConstant::bool(SPEC_ID_CONVEX_SHORTCUT, convex),
+                    ],
+                },
+            )
+        };
+        // Which kinds of delta object the scene has: a scene without convex glass or mirrors
+        // pays nothing for the shortcut, and one with only convex ones builds only its pipeline.
+        let delta_meshes = || object_roots.iter().filter(|(root, _)| *root != 0);
+        let convex = delta_meshes().any(|(_, centre)| centre.is_some());
+        let plain = !convex || delta_meshes().any(|(_, centre)| centre.is_none());
+        let pipelines = [
+            plain.then(|| pipeline(false)).transpose()?,
+            convex.then(|| pipeline(true)).transpose()?,
+        ];
         Ok(Self {
-            pipeline,
+            pipelines,
             _layout: layout,
             _texture_layout: texture_layout,
             sets,
@@ -246,7 +273,9 @@ impl TranslucentPass {
                 d
             })
             .collect();
-        draws.sort_by_key(probe);
+        // Convex or not (`material.w`): which pipeline draws it.
+        let convex = |d: &Draw| d.push.material.w != 0;
+        draws.sort_by_key(|d| (probe(d), convex(d)));
         cmd.begin_pass(
             &uses,
             &[Attachment {
@@ -266,10 +295,17 @@ impl TranslucentPass {
                 .is_some_and(|&k| k < self.sets.len())),
             "every draw has a probe"
         );
-        cmd.bind_pipeline(&self.pipeline);
-        for group in draws.chunk_by(|a, b| probe(a) == probe(b)) {
-            cmd.bind_sets(&self.pipeline, 0, &[self.sets[probe(&group[0])]]);
-            draw_instances(cmd, &self.pipeline, scene, group, &self.material_sets);
+        for group in draws.chunk_by(|a, b| (probe(a), convex(a)) == (probe(b), convex(b))) {
+            let kind = usize::from(convex(&group[0]));
+            let Some(pipeline) = self.pipelines[kind]
+                .as_ref()
+                .or(self.pipelines[1 - kind].as_ref())
+            else {
+                unreachable!("the pass makes at least one pipeline")
+            };
+            cmd.bind_pipeline(pipeline);
+            cmd.bind_sets(pipeline, 0, &[self.sets[probe(&group[0])]]);
+            draw_instances(cmd, pipeline, scene, group, &self.material_sets);
         }
         cmd.end_rendering();
     }

@@ -22,6 +22,8 @@
 //! at the far side); two of them leave it.
 //! `DrawPush::material.w` is 1 for a convex mesh, and `normal0.w`, `normal1.w`, `normal2.w`
 //! hold its centre (object space), which tells the shader which side of a face is outside.
+//! Convex meshes are drawn with a pipeline of their own (`SPEC_ID_CONVEX_SHORTCUT`); the
+//! others' pipeline has the test compiled out, so they pay nothing for it.
 //! The test uses the faces' planes, not the interpolated normals: a reflection about a
 //! shading normal can point into the geometric surface, and such a ray does meet the object
 //! again.
