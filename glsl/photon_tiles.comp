@@ -49,7 +49,7 @@ layout(set = 0, binding = 12, rgba32f) uniform image2D out3;  // unused | weight
 layout(std430, set = 0, binding = 13) readonly buffer Spheres { uvec2 spheres[]; };
 
 // Ids 0 and 1 are the über-BSDF's lobes (bsdf.glsl).
-layout(constant_id = 2) const bool SUBSAMPLED = false;
+layout(constant_id = SPEC_ID_SUBSAMPLED) const bool SUBSAMPLED = false;
 
 layout(push_constant) uniform Push {
     float r_min;

@@ -20,7 +20,7 @@ layout(set = 0, binding = 5, rgba32f) uniform image2D global_weight;  // r: Î£ Î
 // At --subsample N > 1: the low-resolution glossy estimate (otherwise `total` again, unused).
 layout(set = 0, binding = 6, rgba32f) uniform image2D total_glossy;
 
-layout(constant_id = 0) const bool SUBSAMPLED = false;
+layout(constant_id = SPEC_ID_SUBSAMPLED) const bool SUBSAMPLED = false;
 
 layout(push_constant) uniform Push {
     uint width;      // the targets'

@@ -31,7 +31,7 @@ layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D indirect;
 
 // The block's side, ⌈N / ⌈N / UPSAMPLE_BLOCK⌉⌉ (`passes/upsample.rs`): a constant, so that
 // llvmpipe unrolls the pixel loop.
-layout(constant_id = 0) const int BLOCK = 4;
+layout(constant_id = SPEC_ID_UPSAMPLE_BLOCK) const int BLOCK = 4;
 
 layout(push_constant) uniform Push {
     uvec2 size;

@@ -390,7 +390,8 @@ fn scene_without_delta_materials_runs_no_translucent_pass() {
 /// 10⁻⁵ m wide at its centre, which no ray meets but which makes the mesh not convex, so that
 /// every ray is traversed. A second, specked ball beside it in both makes the pass draw the
 /// first with the convex pipeline and the second with the plain one in the same frame
-/// (`passes/translucent.rs`). The camera outside, then inside the first ball.
+/// (`passes/translucent.rs`; both on screen from outside). The camera outside, then inside the
+/// first ball.
 #[test]
 fn skipping_the_traversal_for_rays_leaving_convex_glass_changes_no_pixel() {
     use ispm::passes::translucent::object_bvh::convex_centre;
@@ -460,6 +461,20 @@ fn skipping_the_traversal_for_rays_leaving_convex_glass_changes_no_pixel() {
             &render(&a, Method::Direct, 1)[0],
             &render(&b, Method::Direct, 1)[0],
         );
+        if !inside {
+            let on_screen = |p: Vec3| {
+                a.camera
+                    .project_to_pixel(p, fa.width, fa.height)
+                    .is_some_and(|px| {
+                        (0.0..fa.width as f32).contains(&px.x)
+                            && (0.0..fa.height as f32).contains(&px.y)
+                    })
+            };
+            assert!(
+                on_screen(ball) && on_screen(beside.transform_point3(ball)),
+                "both balls' centres on screen"
+            );
+        }
         assert!(ran(fa, "translucent") && ran(fb, "translucent"));
         let worst = fa
             .hdr

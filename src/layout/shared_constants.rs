@@ -49,6 +49,37 @@ pub const SPEC_ID_WRITE_LAMBERT: u32 = 2;
 // they start on skip its traversal (`passes/translucent.rs`). The other pipeline, for every
 // other delta object, has the test compiled out.
 pub const SPEC_ID_CONVEX_SHORTCUT: u32 = 3;
+// The photon estimate runs on the 1/N grid (`--subsample N > 1`): photon_tiles.comp and
+// support.comp's `SUBSAMPLED`.
+pub const SPEC_ID_SUBSAMPLED: u32 = 4;
+// upsample.comp's `BLOCK` (an int): the side of the block of pixels an invocation shades.
+pub const SPEC_ID_UPSAMPLE_BLOCK: u32 = 5;
+// Each id its own, checked at compile time: a pipeline gives every stage all its entries, so a
+// shader that declared two constants with one id would read one value for both.
+const _: () = assert!(distinct(&[
+    SPEC_ID_GLOSSY_LOBE,
+    SPEC_ID_DELTA_LOBES,
+    SPEC_ID_WRITE_LAMBERT,
+    SPEC_ID_CONVEX_SHORTCUT,
+    SPEC_ID_SUBSAMPLED,
+    SPEC_ID_UPSAMPLE_BLOCK,
+]));
+
+/// True when no two of `ids` are equal.
+const fn distinct(ids: &[u32]) -> bool {
+    let mut i = 0;
+    while i < ids.len() {
+        let mut j = i + 1;
+        while j < ids.len() {
+            if ids[i] == ids[j] {
+                return false;
+            }
+            j += 1;
+        }
+        i += 1;
+    }
+    true
+}
 
 // Kinds of light (`GpuLight.shadow.x`, `BounceView.kind.x`; `plan/lighting.rs`).
 pub const LIGHT_POINT: u32 = 0;

@@ -44,7 +44,7 @@ use crate::gpu::{
     uses, vk, Binding, Buffer, Cmd, ComputeDesc, DescriptorLayout, DescriptorSet, Filter, Gpu,
     Image, MemoryLocation, Pipeline, Sampler, Shaders, SpecConstant, Use,
 };
-use crate::layout::shared_constants::TILE_JOB;
+use crate::layout::shared_constants::{SPEC_ID_SUBSAMPLED, TILE_JOB};
 use crate::photon::bsdf::BsdfVariant;
 use crate::photon::kernel::KernelSettings;
 use crate::timing::pass_id::PassId;
@@ -186,7 +186,7 @@ impl PhotonTilesPass {
                 shader: &crate::gpu::shader_table::PHOTON_TILES_COMP,
                 set_layouts: &[&layout],
                 push_constant_size: size_of::<Push>() as u32,
-                specialization: &[a, b, SpecConstant::bool(2, subsample > 1)],
+                specialization: &[a, b, SpecConstant::bool(SPEC_ID_SUBSAMPLED, subsample > 1)],
             },
         )?;
         let mut pass = Self {

@@ -59,6 +59,7 @@
 use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
 use crate::gpu::{Buffer, Cmd, Filter, Gpu, Image, Sampler, Shaders, SpecConstant, Use};
+use crate::layout::shared_constants::SPEC_ID_SUBSAMPLED;
 use crate::timing::pass_id::PassId;
 use std::sync::Arc;
 
@@ -98,7 +99,7 @@ impl SupportPass {
             &crate::gpu::shader_table::SUPPORT_COMP,
             &Self::uses((frame, gbuffer), (total, glossy), support, &sampler),
             size_of::<Push>() as u32,
-            &[SpecConstant::bool(0, glossy.is_some())],
+            &[SpecConstant::bool(SPEC_ID_SUBSAMPLED, glossy.is_some())],
         )?;
         Ok(Self { kernel, sampler })
     }

@@ -189,11 +189,14 @@ impl TranslucentPass {
                 },
             )
         };
-        // Which kinds of delta object the scene has: a scene without convex glass or mirrors
-        // pays nothing for the shortcut, and one with only convex ones builds only its pipeline.
-        let delta_meshes = || object_roots.iter().filter(|(root, _)| *root != 0);
-        let convex = delta_meshes().any(|(_, centre)| centre.is_some());
-        let plain = !convex || delta_meshes().any(|(_, centre)| centre.is_none());
+        // Which kinds of delta object the scene's instances are: a scene without convex glass or
+        // mirrors pays nothing for the shortcut, and one with only convex ones builds only its
+        // pipeline.
+        let kinds = (meshes.instances.iter())
+            .filter_map(|inst| object_roots.get(inst.mesh))
+            .filter(|(root, _)| *root != 0)
+            .map(|(_, centre)| centre.is_some());
+        let [plain, convex] = pipelines_needed(kinds);
         let pipelines = [
             plain.then(|| pipeline(false)).transpose()?,
             convex.then(|| pipeline(true)).transpose()?,
@@ -296,17 +299,64 @@ impl TranslucentPass {
             "every draw has a probe"
         );
         for group in draws.chunk_by(|a, b| (probe(a), convex(a)) == (probe(b), convex(b))) {
-            let kind = usize::from(convex(&group[0]));
-            let Some(pipeline) = self.pipelines[kind]
-                .as_ref()
-                .or(self.pipelines[1 - kind].as_ref())
-            else {
-                unreachable!("the pass makes at least one pipeline")
+            let made = self.pipelines.each_ref().map(Option::is_some);
+            let Some(pipeline) = &self.pipelines[pipeline_for(made, convex(&group[0]))] else {
+                unreachable!("`pipelines_needed` asks for at least one pipeline")
             };
             cmd.bind_pipeline(pipeline);
             cmd.bind_sets(pipeline, 0, &[self.sets[probe(&group[0])]]);
             draw_instances(cmd, pipeline, scene, group, &self.material_sets);
         }
         cmd.end_rendering();
+    }
+}
+
+/// Which of the pass's pipelines (`[plain, convex]`) a scene needs, from whether each of its
+/// delta instances' meshes is convex: those of the kinds it has, and the plain one when it has
+/// none.
+fn pipelines_needed(convex: impl IntoIterator<Item = bool>) -> [bool; 2] {
+    let mut kinds = [false; 2];
+    for c in convex {
+        kinds[usize::from(c)] = true;
+    }
+    if kinds == [false; 2] {
+        kinds[0] = true;
+    }
+    kinds
+}
+
+/// The pipeline (an index into `[plain, convex]`) that draws a convex (or other) object, of
+/// those `made`: its own kind's when made, else the other (either draws any object correctly:
+/// the shortcut also needs the draw's `material.w`).
+fn pipeline_for(made: [bool; 2], convex: bool) -> usize {
+    let own = usize::from(convex);
+    if made[own] {
+        own
+    } else {
+        1 - own
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_scene_builds_the_pipelines_of_the_kinds_of_delta_object_it_has() {
+        assert_eq!(pipelines_needed([true, true]), [false, true], "convex only");
+        assert_eq!(pipelines_needed([false]), [true, false], "not convex only");
+        assert_eq!(pipelines_needed([true, false, true]), [true, true], "both");
+        assert_eq!(pipelines_needed([]), [true, false], "none: the plain one");
+    }
+
+    #[test]
+    fn each_draw_takes_its_own_kinds_pipeline_and_falls_back_on_the_other() {
+        assert_eq!(pipeline_for([true, true], true), 1);
+        assert_eq!(pipeline_for([true, true], false), 0);
+        assert_eq!(pipeline_for([false, true], true), 1);
+        assert_eq!(pipeline_for([true, false], false), 0);
+        // Only when its own was not made (`pipelines_needed` makes both kinds a scene has).
+        assert_eq!(pipeline_for([true, false], true), 0);
+        assert_eq!(pipeline_for([false, true], false), 1);
     }
 }

@@ -42,7 +42,7 @@ use super::eye_gbuffer::GBuffer;
 use super::ComputeKernel;
 use crate::config::settings::Upsample;
 use crate::gpu::{vk, Cmd, Filter, Gpu, Image, Sampler, Shaders, SpecConstant, Use};
-use crate::layout::shared_constants::UPSAMPLE_BLOCK;
+use crate::layout::shared_constants::{SPEC_ID_UPSAMPLE_BLOCK, UPSAMPLE_BLOCK};
 use crate::timing::pass_id::PassId;
 use std::sync::Arc;
 
@@ -127,7 +127,7 @@ impl UpsamplePass {
             size_of::<Push>() as u32,
             // upsample.comp's BLOCK.
             &[SpecConstant {
-                id: 0,
+                id: SPEC_ID_UPSAMPLE_BLOCK,
                 value: block(subsample),
             }],
         )?;
