@@ -88,6 +88,12 @@ fn glass_sphere_shows_its_surroundings_instead_of_black() {
             "passes run: {:?}",
             frame.stats.passes_run
         );
+        // The ball is convex: nothing is drawn without the shortcut.
+        assert!(
+            (frame.stats.variants_skipped.iter()).all(|v| v.name != "convex_shortcut"),
+            "{:?}",
+            frame.stats.variants_skipped
+        );
         let glass = radiance_at(&scene, frame, Vec3::new(0.0, 0.5, 0.0), 6);
         let floor = radiance_at(&scene, frame, Vec3::new(0.0, 0.0, 0.9), 2);
         assert!(
@@ -476,6 +482,26 @@ fn skipping_the_traversal_for_rays_leaving_convex_glass_changes_no_pixel() {
             );
         }
         assert!(ran(fa, "translucent") && ran(fb, "translucent"));
+        // The stats name the meshes drawn without the shortcut: the specked ones.
+        let not_convex = |f: &FrameImage| {
+            (f.stats.variants_skipped.iter())
+                .find(|v| v.name == "convex_shortcut")
+                .map(|v| v.reason.clone())
+                .unwrap_or_default()
+        };
+        let (ball_name, beside_name) = (&scene.meshes[first.mesh].name, &mesh.name);
+        assert!(
+            not_convex(fa).contains(&format!("'{beside_name}'"))
+                && !not_convex(fa).contains(&format!("'{ball_name}'")),
+            "{}",
+            not_convex(fa)
+        );
+        assert!(
+            not_convex(fb).contains(&format!("'{beside_name}'"))
+                && not_convex(fb).contains(&format!("'{ball_name}'")),
+            "{}",
+            not_convex(fb)
+        );
         let worst = fa
             .hdr
             .iter()

@@ -15,6 +15,7 @@
 pub mod object_bvh;
 
 use super::eye_gbuffer::{draw_instances, material_texture_sets};
+use crate::config::settings::SkippedPass;
 use crate::gpu::scene::{Draw, GpuScene};
 use crate::gpu::{
     uses, vk, Access, Attachment, Binding, Blend, Buffer, Cmd, Depth, DescriptorLayout,
@@ -57,6 +58,9 @@ pub struct TranslucentPass {
     /// Each is made only when the scene has such an object. Either draws any object correctly
     /// (the shortcut needs the draw's `material.w` too); the other is the fallback.
     pipelines: [Option<Pipeline>; 2],
+    /// The names of the delta meshes (of the scene's instances) that are not convex: drawn
+    /// without the shortcut, every ray through them traversed.
+    not_convex: Vec<String>,
     _layout: DescriptorLayout,
     _texture_layout: DescriptorLayout,
     /// One per probe.
@@ -192,17 +196,25 @@ impl TranslucentPass {
         // Which kinds of delta object the scene's instances are: a scene without convex glass or
         // mirrors pays nothing for the shortcut, and one with only convex ones builds only its
         // pipeline.
-        let kinds = (meshes.instances.iter())
-            .filter_map(|inst| object_roots.get(inst.mesh))
-            .filter(|(root, _)| *root != 0)
-            .map(|(_, centre)| centre.is_some());
-        let [plain, convex] = pipelines_needed(kinds);
+        let mut delta_meshes: Vec<usize> = (meshes.instances.iter())
+            .map(|inst| inst.mesh)
+            .filter(|&m| object_roots.get(m).is_some_and(|(root, _)| *root != 0))
+            .collect();
+        delta_meshes.sort_unstable();
+        delta_meshes.dedup();
+        let [plain, convex] =
+            pipelines_needed(delta_meshes.iter().map(|&m| object_roots[m].1.is_some()));
+        let not_convex = (delta_meshes.iter())
+            .filter(|&&m| object_roots[m].1.is_none())
+            .map(|&m| meshes.meshes[m].name.clone())
+            .collect();
         let pipelines = [
             plain.then(|| pipeline(false)).transpose()?,
             convex.then(|| pipeline(true)).transpose()?,
         ];
         Ok(Self {
             pipelines,
+            not_convex,
             _layout: layout,
             _texture_layout: texture_layout,
             sets,
@@ -212,6 +224,30 @@ impl TranslucentPass {
             object_nodes,
             object_triangles,
             object_roots,
+        })
+    }
+
+    /// The convex shortcut where it is compiled out, in the stats' form
+    /// (`FrameStats::variants_skipped`): the delta meshes that are not convex, by name; `None`
+    /// when every one is.
+    pub fn variants_skipped(&self) -> Option<SkippedPass> {
+        let names = &self.not_convex;
+        let listed: Vec<String> = names.iter().take(3).map(|n| format!("'{n}'")).collect();
+        let more = match names.len().saturating_sub(listed.len()) {
+            0 => String::new(),
+            n => format!(" and {n} more"),
+        };
+        let (noun, verb, them) = if names.len() == 1 {
+            ("mesh", "is", "it")
+        } else {
+            ("meshes", "are", "them")
+        };
+        (!names.is_empty()).then(|| SkippedPass {
+            name: "convex_shortcut".to_string(),
+            reason: format!(
+                "delta {noun} {}{more} {verb} not convex: every ray through {them} is traversed",
+                listed.join(", ")
+            ),
         })
     }
 

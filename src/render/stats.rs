@@ -64,7 +64,9 @@ pub struct FrameStats {
     pub passes_skipped: Vec<SkippedPass>,
     /// The optional über-BSDF lobes compiled out of the frame's shaders and CPU photon trace
     /// (`glossy_lobe`; `delta_lobes`: mirror and refraction, so no caustic paths), each with the
-    /// effects plan's reason (`EffectsPlan::variants_skipped`).
+    /// effects plan's reason (`EffectsPlan::variants_skipped`); then the translucent pass's
+    /// `convex_shortcut` when some glass or mirror is drawn without it, naming the meshes that
+    /// are not convex (`TranslucentPass::variants_skipped`).
     pub variants_skipped: Vec<SkippedPass>,
     /// Per light, what the effects plan gave it (shadow views and direct light, photons) and
     /// why: a light with neither was skipped.

@@ -216,6 +216,12 @@ impl TranslucentFrame {
         );
     }
 
+    /// The translucent pass's shader variants compiled out, in the stats' form
+    /// ([`TranslucentPass::variants_skipped`]).
+    pub fn variants_skipped(&self) -> Option<crate::config::settings::SkippedPass> {
+        self.pass.variants_skipped()
+    }
+
     /// World-space centre of each probe's cube maps.
     pub fn centres(&self) -> Vec<DVec3> {
         self.probes.iter().map(|p| p.centre).collect()

@@ -246,6 +246,9 @@ impl Renderer {
         stats.passes_run.dedup();
         stats.passes_skipped = self.skipped_passes(&stats);
         stats.variants_skipped = self.plan.variants_skipped(self.settings.bsdf_variant);
+        stats
+            .variants_skipped
+            .extend((self.translucent.as_ref()).and_then(|t| t.variants_skipped()));
         stats.light_plan = self.plan.lights.clone();
         stats.subsample = self.settings.subsample_factor();
         Ok((spans, stats))
