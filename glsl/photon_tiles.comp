@@ -48,7 +48,7 @@ layout(set = 0, binding = 12, rgba32f) uniform image2D out3;  // unused | weight
 // (lists.rs, pack_sphere: centre x | y, centre z | radius; rounded outwards).
 layout(std430, set = 0, binding = 13) readonly buffer Spheres { uvec2 spheres[]; };
 
-// Ids 0 and 1 are the über-BSDF's lobes (bsdf.glsl).
+// The estimate runs on the 1/N grid (`--subsample N > 1`).
 layout(constant_id = SPEC_ID_SUBSAMPLED) const bool SUBSAMPLED = false;
 
 layout(push_constant) uniform Push {

@@ -54,8 +54,9 @@ pub const SPEC_ID_CONVEX_SHORTCUT: u32 = 3;
 pub const SPEC_ID_SUBSAMPLED: u32 = 4;
 // upsample.comp's `BLOCK` (an int): the side of the block of pixels an invocation shades.
 pub const SPEC_ID_UPSAMPLE_BLOCK: u32 = 5;
-// Each id its own, checked at compile time: a pipeline gives every stage all its entries, so a
-// shader that declared two constants with one id would read one value for both.
+// Each id its own, checked at compile time (a new id goes in this list too): a pipeline gives
+// every stage all its entries, so a shader that declared two constants with one id would read
+// one value for both.
 const _: () = assert!(distinct(&[
     SPEC_ID_GLOSSY_LOBE,
     SPEC_ID_DELTA_LOBES,

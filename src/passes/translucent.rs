@@ -58,8 +58,9 @@ pub struct TranslucentPass {
     /// Each is made only when the scene has such an object. Either draws any object correctly
     /// (the shortcut needs the draw's `material.w` too); the other is the fallback.
     pipelines: [Option<Pipeline>; 2],
-    /// The names of the delta meshes (of the scene's instances) that are not convex: drawn
-    /// without the shortcut, every ray through them traversed.
+    /// The delta meshes (of the scene's instances) not known to be convex
+    /// ([`object_bvh::convex_centre`]: not convex, flat, or too large to check), as the stats
+    /// name them (`'name' (mesh i)`): drawn without the shortcut.
     not_convex: Vec<String>,
     _layout: DescriptorLayout,
     _texture_layout: DescriptorLayout,
@@ -206,7 +207,7 @@ impl TranslucentPass {
             pipelines_needed(delta_meshes.iter().map(|&m| object_roots[m].1.is_some()));
         let not_convex = (delta_meshes.iter())
             .filter(|&&m| object_roots[m].1.is_none())
-            .map(|&m| meshes.meshes[m].name.clone())
+            .map(|&m| format!("'{}' (mesh {m})", meshes.meshes[m].name))
             .collect();
         let pipelines = [
             plain.then(|| pipeline(false)).transpose()?,
@@ -228,24 +229,25 @@ impl TranslucentPass {
     }
 
     /// The convex shortcut where it is compiled out, in the stats' form
-    /// (`FrameStats::variants_skipped`): the delta meshes that are not convex, by name; `None`
-    /// when every one is.
+    /// (`FrameStats::variants_skipped`): the glass and mirror meshes not known to be convex, by
+    /// name and index (names need not be unique); `None` when every one is.
     pub fn variants_skipped(&self) -> Option<SkippedPass> {
         let names = &self.not_convex;
-        let listed: Vec<String> = names.iter().take(3).map(|n| format!("'{n}'")).collect();
+        let listed: Vec<&str> = names.iter().take(3).map(String::as_str).collect();
         let more = match names.len().saturating_sub(listed.len()) {
             0 => String::new(),
             n => format!(" and {n} more"),
         };
-        let (noun, verb, them) = if names.len() == 1 {
-            ("mesh", "is", "it")
+        let (noun, verb, them, its) = if names.len() == 1 {
+            ("mesh", "is", "it", "its")
         } else {
-            ("meshes", "are", "them")
+            ("meshes", "are", "them", "their")
         };
         (!names.is_empty()).then(|| SkippedPass {
             name: "convex_shortcut".to_string(),
             reason: format!(
-                "delta {noun} {}{more} {verb} not convex: every ray through {them} is traversed",
+                "glass or mirror {noun} {}{more} {verb} not known to be convex (not convex, flat, \
+                 or too large to check): rays leaving {them} always traverse {its} triangles",
                 listed.join(", ")
             ),
         })

@@ -6,6 +6,7 @@
 //! uniforms, [`TranslucentFrame::set_indirect`] after a photon trace and
 //! [`TranslucentFrame::record`] after the composite.
 
+use crate::config::settings::SkippedPass;
 use crate::gpu::scene::{Draw, GpuScene};
 use crate::gpu::{vk, Buffer, Gpu, Image, ImageDesc, MemoryLocation, ViewKind};
 use crate::layout::{EnvironmentUniforms, FrameUniforms};
@@ -218,7 +219,7 @@ impl TranslucentFrame {
 
     /// The translucent pass's shader variants compiled out, in the stats' form
     /// ([`TranslucentPass::variants_skipped`]).
-    pub fn variants_skipped(&self) -> Option<crate::config::settings::SkippedPass> {
+    pub fn variants_skipped(&self) -> Option<SkippedPass> {
         self.pass.variants_skipped()
     }
 

@@ -23,8 +23,9 @@
 //! renderer, the overlapped frame as the effects plan makes it (`Effects::Auto`:
 //! passes, lobes, lights and bounces the scene does not need skipped, and a static scene's
 //! photon map reused), joins the alternation, and `effects_speedup` = all ÷ planned frame
-//! period. Every configuration's last frame reports the passes it ran and skipped and the lobes
-//! compiled out, with the plan's reasons (`FrameStats`).
+//! period. Every configuration's last frame reports the passes it ran and skipped and the shader
+//! variants compiled out (the plan's lobes, the translucent pass's convex shortcut), with the
+//! reasons (`FrameStats`).
 //!
 //! `--compare-density` adds the overlapped frame with the other density estimator, and
 //! `--compare-subsample N` the overlapped frame with the indirect light estimated at 1/N
@@ -98,7 +99,8 @@ pub struct ConfigResult {
     pub passes_run: Vec<String>,
     /// The passes it skipped, with the effects plan's reasons.
     pub passes_skipped: Vec<SkippedPass>,
-    /// The über-BSDF lobes compiled out of its shaders and CPU trace, with the reasons.
+    /// The über-BSDF lobes compiled out of its shaders and CPU trace, and the translucent
+    /// pass's convex shortcut where it is, with the reasons (`FrameStats::variants_skipped`).
     pub variants_skipped: Vec<SkippedPass>,
     /// The lights whose photons the last measured frame traced, and those it kept.
     pub lights_retraced: Vec<usize>,
