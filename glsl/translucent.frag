@@ -84,9 +84,10 @@ float box_entry(ObjectNode b, vec3 o, vec3 inv, float t_min, float t_max) {
 // o + t·d meets at t in (t_min, t_hit): its t, index (in `hit`), interpolated normal and plane
 // normal (`face`; both object space, not unit). Children are visited nearer first; a child is
 // skipped when the ray enters it beyond the closest hit found by the time its parent is
-// visited.
-bool object_hit(uint root, uint skip, vec3 o, vec3 d, float t_min, inout float t_hit,
-                out uint hit, out vec3 n_hit, out vec3 face) {
+// visited. With `first_hit`, the first hit found ends the traversal: for a ray from a point on a
+// convex object's surface, whose line meets that surface at most once more, it is the closest.
+bool object_hit(uint root, uint skip, vec3 o, vec3 d, float t_min, bool first_hit,
+                inout float t_hit, out uint hit, out vec3 n_hit, out vec3 face) {
     // Tiny components (zeros, subnormals) as ±1e-30: no infinity times zero in the slabs.
     vec3 inv = 1.0 / mix(d, mix(vec3(1e-30), vec3(-1e-30), lessThan(d, vec3(0.0))),
                          lessThan(abs(d), vec3(1e-30)));
@@ -142,7 +143,13 @@ bool object_hit(uint root, uint skip, vec3 o, vec3 d, float t_min, inout float t
                     t_hit = t;
                     hit = i;
                     hit_uv = vec2(u, v);
+                    if (first_hit) {
+                        break;
+                    }
                 }
+            }
+            if (first_hit && hit != 0xffffffffu) {
+                break;
             }
         }
         if (depth == 0) {
@@ -211,7 +218,9 @@ vec3 follow(Bsdf bsdf, vec3 p, vec3 d, vec3 face) {
         float t = 3.4e38;
         vec3 n_object;
         vec3 face_object;
-        if (!object_hit(root - 1u, last, o, od, t_min, t, last, n_object, face_object)) {
+        // Inside a convex object every traversal is of a ray from its surface: the first hit is
+        // the only one.
+        if (!object_hit(root - 1u, last, o, od, t_min, convex, t, last, n_object, face_object)) {
             return sum + weight * environment(p, d);
         }
         vec3 q = p + t * d;
