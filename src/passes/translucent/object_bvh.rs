@@ -23,7 +23,9 @@
 //! `DrawPush::material.w` is 1 for a convex mesh, and `normal0.w`, `normal1.w`, `normal2.w`
 //! hold its centre (object space), which tells the shader which side of a face is outside.
 //! Convex meshes are drawn with a pipeline of their own (`SPEC_ID_CONVEX_SHORTCUT`); the
-//! others' pipeline has the test compiled out, so they pay nothing for it.
+//! others' pipeline has the test compiled out, so they pay nothing for it. The rays of a convex
+//! mesh that are traversed start on its surface, and a line meets a convex surface at most
+//! twice, so their traversal ends at the first hit found (`object_hit`'s `first_hit`).
 //! The test uses the faces' planes, not the interpolated normals: a reflection about a
 //! shading normal can point into the geometric surface, and such a ray does meet the object
 //! again.
