@@ -58,10 +58,9 @@ pub struct TranslucentPass {
     /// Each is made only when the scene has such an object. Either draws any object correctly
     /// (the shortcut needs the draw's `material.w` too); the other is the fallback.
     pipelines: [Option<Pipeline>; 2],
-    /// The delta meshes (of the scene's instances) not known to be convex
-    /// ([`object_bvh::convex_centre`]: not convex, flat, or too large to check), as the stats
-    /// name them (`'name' (mesh i)`): drawn without the shortcut.
-    not_convex: Vec<String>,
+    /// The stats' entry for the delta meshes (of the scene's instances) drawn without the
+    /// shortcut ([`convex_shortcut_skipped`]), made once.
+    convex_skipped: Option<SkippedPass>,
     _layout: DescriptorLayout,
     _texture_layout: DescriptorLayout,
     /// One per probe.
@@ -205,7 +204,7 @@ impl TranslucentPass {
         delta_meshes.dedup();
         let [plain, convex] =
             pipelines_needed(delta_meshes.iter().map(|&m| object_roots[m].1.is_some()));
-        let not_convex = (delta_meshes.iter())
+        let not_convex: Vec<String> = (delta_meshes.iter())
             .filter(|&&m| object_roots[m].1.is_none())
             .map(|&m| format!("'{}' (mesh {m})", meshes.meshes[m].name))
             .collect();
@@ -215,7 +214,7 @@ impl TranslucentPass {
         ];
         Ok(Self {
             pipelines,
-            not_convex,
+            convex_skipped: convex_shortcut_skipped(&not_convex),
             _layout: layout,
             _texture_layout: texture_layout,
             sets,
@@ -229,28 +228,9 @@ impl TranslucentPass {
     }
 
     /// The convex shortcut where it is compiled out, in the stats' form
-    /// (`FrameStats::variants_skipped`): the glass and mirror meshes not known to be convex, by
-    /// name and index (names need not be unique); `None` when every one is.
+    /// (`FrameStats::variants_skipped`; [`convex_shortcut_skipped`]).
     pub fn variants_skipped(&self) -> Option<SkippedPass> {
-        let names = &self.not_convex;
-        let listed: Vec<&str> = names.iter().take(3).map(String::as_str).collect();
-        let more = match names.len().saturating_sub(listed.len()) {
-            0 => String::new(),
-            n => format!(" and {n} more"),
-        };
-        let (noun, verb, them, its) = if names.len() == 1 {
-            ("mesh", "is", "it", "its")
-        } else {
-            ("meshes", "are", "them", "their")
-        };
-        (!names.is_empty()).then(|| SkippedPass {
-            name: "convex_shortcut".to_string(),
-            reason: format!(
-                "glass or mirror {noun} {}{more} {verb} not known to be convex (not convex, flat, \
-                 or too large to check): rays leaving {them} always traverse {its} triangles",
-                listed.join(", ")
-            ),
-        })
+        self.convex_skipped.clone()
     }
 
     /// What the pass uses with `probe`'s set, in the shaders' binding order.
@@ -349,6 +329,30 @@ impl TranslucentPass {
     }
 }
 
+/// The convex shortcut where it is compiled out, in the stats' form: the glass and mirror meshes
+/// not known to be convex ([`object_bvh::convex_centre`]: not convex, flat, or too large to
+/// check), `names` as `'name' (mesh i)` (names need not be unique); `None` when there are none.
+fn convex_shortcut_skipped(names: &[String]) -> Option<SkippedPass> {
+    let listed: Vec<&str> = names.iter().take(3).map(String::as_str).collect();
+    let more = match names.len().saturating_sub(listed.len()) {
+        0 => String::new(),
+        n => format!(" and {n} more"),
+    };
+    let (noun, verb, them, its) = if names.len() == 1 {
+        ("mesh", "is", "it", "its")
+    } else {
+        ("meshes", "are", "them", "their")
+    };
+    (!names.is_empty()).then(|| SkippedPass {
+        name: "convex_shortcut".to_string(),
+        reason: format!(
+            "glass or mirror {noun} {}{more} {verb} not known to be convex (not convex, flat, \
+             or too large to check): rays leaving {them} always traverse {its} triangles",
+            listed.join(", ")
+        ),
+    })
+}
+
 /// Which of the pass's pipelines (`[plain, convex]`) a scene needs, from whether each of its
 /// delta instances' meshes is convex: those of the kinds it has, and the plain one when it has
 /// none.
@@ -385,6 +389,32 @@ mod tests {
         assert_eq!(pipelines_needed([false]), [true, false], "not convex only");
         assert_eq!(pipelines_needed([true, false, true]), [true, true], "both");
         assert_eq!(pipelines_needed([]), [true, false], "none: the plain one");
+    }
+
+    #[test]
+    fn the_stats_name_the_meshes_without_the_shortcut_three_at_most() {
+        assert_eq!(convex_shortcut_skipped(&[]), None);
+        let names = |n: usize| {
+            (0..n)
+                .map(|i| format!("'m' (mesh {i})"))
+                .collect::<Vec<_>>()
+        };
+        let one = convex_shortcut_skipped(&names(1)).expect("one mesh").reason;
+        assert!(
+            one.starts_with("glass or mirror mesh 'm' (mesh 0) is not"),
+            "{one}"
+        );
+        assert!(
+            one.ends_with("rays leaving it always traverse its triangles"),
+            "{one}"
+        );
+        let five = convex_shortcut_skipped(&names(5))
+            .expect("five meshes")
+            .reason;
+        assert!(
+            five.contains("(mesh 2) and 2 more are not") && !five.contains("(mesh 3)"),
+            "{five}"
+        );
     }
 
     #[test]
