@@ -228,7 +228,7 @@ impl TranslucentPass {
     }
 
     /// The convex shortcut where it is compiled out, in the stats' form
-    /// (`FrameStats::variants_skipped`; [`convex_shortcut_skipped`]).
+    /// (`FrameStats::variants_skipped`; made once by `convex_shortcut_skipped`).
     pub fn variants_skipped(&self) -> Option<SkippedPass> {
         self.convex_skipped.clone()
     }
