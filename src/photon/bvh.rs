@@ -145,6 +145,8 @@ impl Blas {
     }
 
     /// Closest (or, with `any`, first found) hit with `0 < t < t_max`: leaf index and hit.
+    /// With `skip`, triangles of the instances it marks (`skip[instance]`, the static part's
+    /// `Attributes::instance`) are not hit.
     #[inline(always)]
     fn trace(
         &self,
@@ -152,6 +154,7 @@ impl Blas {
         dir: Vec3,
         t_max: f32,
         any: bool,
+        skip: Option<&[bool]>,
     ) -> Option<(usize, TriangleHit)> {
         let watertight = WatertightRay::new(origin, dir);
         let mut box_ray = BoxRay::new(origin, dir, t_max);
@@ -167,7 +170,11 @@ impl Blas {
                 intersect_node(node, &box_ray, state.oct_inv4),
                 {
                     let i = state.primitive_id as usize;
-                    if let Some(hit) = watertight.intersect_transposed(&self.rows[i], closest) {
+                    if skip.is_some_and(|s| s[self.attributes[i].instance as usize]) {
+                        // Not there for this ray (`SceneBvh::intersect_skipping`).
+                    } else if let Some(hit) =
+                        watertight.intersect_transposed(&self.rows[i], closest)
+                    {
                         best = Some((i, hit));
                         if any {
                             break 'traversal;
@@ -189,7 +196,13 @@ impl Blas {
 /// operation rounds as in the portable copy (no FMA contraction).
 #[multiversion(targets("x86_64+avx2+bmi1+bmi2+lzcnt+popcnt"))]
 fn intersect_fastest(bvh: &SceneBvh, ray: &Ray) -> Option<Hit> {
-    bvh.intersect_portable(ray)
+    bvh.intersect_portable(ray, None)
+}
+
+/// [`SceneBvh::intersect_skipping`], compiled as [`intersect_fastest`] is.
+#[multiversion(targets("x86_64+avx2+bmi1+bmi2+lzcnt+popcnt"))]
+fn intersect_skipping_fastest(bvh: &SceneBvh, ray: &Ray, skip: &[bool]) -> Option<Hit> {
+    bvh.intersect_portable(ray, Some(skip))
 }
 
 /// [`SceneBvh::occluded`], compiled as [`intersect_fastest`] is.
@@ -387,14 +400,32 @@ impl SceneBvh {
         intersect_fastest(self, ray)
     }
 
-    /// [`Self::intersect`]'s body, inlined into each copy [`intersect_fastest`] compiles.
+    /// The closest hit with `0 < t < ray.t_max` on an instance `skip` does not mark
+    /// (`skip[instance]`, one entry per instance): the others are not there for this ray.
+    /// What an environment probe's ray needs, which looks past the glass and mirrors its cube
+    /// leaves out (`render/photon_frame/environment.rs`).
+    ///
+    /// # Panics
+    /// When `skip` has fewer entries than the scene has instances.
+    pub fn intersect_skipping(&self, ray: &Ray, skip: &[bool]) -> Option<Hit> {
+        assert!(
+            skip.len() >= self.instances.len(),
+            "intersect_skipping: {} entries for {} instances",
+            skip.len(),
+            self.instances.len()
+        );
+        intersect_skipping_fastest(self, ray, skip)
+    }
+
+    /// [`Self::intersect`]'s body (and, with `skip`, [`Self::intersect_skipping`]'s), inlined
+    /// into each copy [`intersect_fastest`] and [`intersect_skipping_fastest`] compile.
     #[inline(always)]
-    fn intersect_portable(&self, ray: &Ray) -> Option<Hit> {
+    fn intersect_portable(&self, ray: &Ray, skip: Option<&[bool]>) -> Option<Hit> {
         let mut closest = ray.t_max;
         // (instance, the BLAS it was hit in, its leaf-order triangle, hit).
         let mut best: Option<(usize, &Blas, usize, TriangleHit)> = None;
         if let Some(blas) = &self.static_part {
-            if let Some((leaf, hit)) = blas.trace(ray.origin, ray.dir, closest, false) {
+            if let Some((leaf, hit)) = blas.trace(ray.origin, ray.dir, closest, false, skip) {
                 closest = hit.t;
                 best = Some((blas.attributes[leaf].instance as usize, blas, leaf, hit));
             }
@@ -404,11 +435,12 @@ impl SceneBvh {
             let Some(blas) = &self.mesh_bvhs[inst.mesh] else {
                 continue;
             };
-            if !ray_hits_box(ray, inst.placement.world_box, closest) {
+            if skip.is_some_and(|s| s[i]) || !ray_hits_box(ray, inst.placement.world_box, closest) {
                 continue;
             }
             let (origin, dir) = to_instance_space(&inst.placement, ray);
-            if let Some((leaf, hit)) = blas.trace(origin, dir, closest, false) {
+            // A mesh BLAS's `Attributes::instance` is unused: the instance is skipped above.
+            if let Some((leaf, hit)) = blas.trace(origin, dir, closest, false, None) {
                 closest = hit.t;
                 best = Some((i, blas, leaf, hit));
             }
@@ -425,7 +457,10 @@ impl SceneBvh {
     #[inline(always)]
     fn occluded_portable(&self, ray: &Ray) -> bool {
         if let Some(blas) = &self.static_part {
-            if blas.trace(ray.origin, ray.dir, ray.t_max, true).is_some() {
+            if blas
+                .trace(ray.origin, ray.dir, ray.t_max, true, None)
+                .is_some()
+            {
                 return true;
             }
         }
@@ -438,7 +473,7 @@ impl SceneBvh {
                 return false;
             }
             let (origin, dir) = to_instance_space(&inst.placement, ray);
-            blas.trace(origin, dir, ray.t_max, true).is_some()
+            blas.trace(origin, dir, ray.t_max, true, None).is_some()
         })
     }
 
@@ -565,6 +600,7 @@ mod tests {
         ] {
             let mut rng = Rng::new(11);
             let mut hits = 0;
+            let no_skip = vec![false; scene.instances.len()];
             for i in 0..20_000 {
                 let o = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.4 - 1.2;
                 let d = uniform_sphere(rng.next_2());
@@ -576,7 +612,7 @@ mod tests {
                 let ray = Ray::with_t_max(o, d, t_max);
                 // The query as dispatched (the x86-64-v3 copy where the CPU has it) against
                 // its body compiled here, for any x86-64.
-                let (portable, avx2) = (bvh.intersect_portable(&ray), bvh.intersect(&ray));
+                let (portable, avx2) = (bvh.intersect_portable(&ray, None), bvh.intersect(&ray));
                 let bits = |h: Option<Hit>| {
                     h.map(|h| {
                         (
@@ -588,12 +624,70 @@ mod tests {
                 };
                 assert_eq!(bits(portable), bits(avx2), "{ray:?}");
                 assert_eq!(portable, avx2);
+                let skipping_none = bvh.intersect_skipping(&ray, &no_skip);
+                assert_eq!(bits(skipping_none), bits(avx2), "{ray:?}");
                 let occluded = (bvh.occluded_portable(&ray), bvh.occluded(&ray));
                 assert_eq!(occluded.0, occluded.1, "{ray:?}");
                 assert_eq!(occluded.0, portable.is_some(), "{ray:?}");
                 hits += portable.is_some() as u32;
             }
             assert!(hits > 10_000, "{hits} hits");
+        }
+    }
+
+    /// The bundled `glass-cube`'s cube rests on the floor: its bottom face and the floor are
+    /// one plane. Seen from the cube's centre with the glass and mirrors skipped, every ray
+    /// down through the bottom face meets the floor right there, static or moving; without the
+    /// skip the closest hit is the glass's own face or the floor, whichever rounding favours,
+    /// and a ray spawned on past the glass starts beyond the floor (the speckled tops the
+    /// environment probes showed, `render/photon_frame/environment.rs`).
+    #[test]
+    fn skipping_the_glass_finds_the_floor_it_stands_on_along_every_ray() {
+        let scene = crate::scene::bundled::resolve(Some("glass-cube")).expect("bundled scene");
+        let delta: Vec<bool> = (scene.instances.iter())
+            .map(|i| scene.materials[scene.meshes[i.mesh].material].has_delta_lobe())
+            .collect();
+        let cube = (0..scene.instances.len())
+            .find(|&i| scene.meshes[scene.instances[i].mesh].triangles.len() == 12)
+            .expect("the 12-triangle cube");
+        assert!(delta[cube]);
+        let corners: Vec<Vec3> = (scene.meshes[scene.instances[cube].mesh].positions.iter())
+            .map(|&p| scene.instances[cube].transform.transform_point3(p))
+            .collect();
+        let (min, max) = corners
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), &p| {
+                (a.min(p), b.max(p))
+            });
+        assert!(min.y.abs() < 1e-6, "the cube rests on y = 0: {min}");
+        let centre = (min + max) / 2.0;
+        for bvh in [
+            SceneBvh::new(&scene),
+            SceneBvh::with_moving_instances(&scene, &[cube]),
+        ] {
+            let mut rng = Rng::new(5);
+            let mut glass_first = 0;
+            for _ in 0..2000 {
+                // A point on the bottom face, off its edges.
+                let (u, v) = (rng.next_f32() * 0.98 + 0.01, rng.next_f32() * 0.98 + 0.01);
+                let target = Vec3::new(
+                    min.x + u * (max.x - min.x),
+                    min.y,
+                    min.z + v * (max.z - min.z),
+                );
+                let ray = Ray::new(centre, (target - centre).normalize());
+                let hit = bvh.intersect_skipping(&ray, &delta).expect("the floor");
+                assert!(!delta[hit.instance as usize], "{ray:?} hit {hit:?}");
+                assert!(hit.position.y.abs() < 1e-5, "{ray:?} hit {hit:?}");
+                assert!(hit.position.distance(target) < 1e-4, "{ray:?} hit {hit:?}");
+                let closest = bvh.intersect(&ray).expect("the cube or the floor");
+                glass_first += delta[closest.instance as usize] as u32;
+            }
+            // The case is real: without the skip the glass's face is often hit first.
+            assert!(
+                glass_first > 0,
+                "no ray met the glass's face before the floor"
+            );
         }
     }
 }

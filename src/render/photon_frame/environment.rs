@@ -5,12 +5,13 @@
 //! (`passes/environment.rs`, `translucent.frag`).
 //!
 //! ```text
-//!   centre ──ray through texel (face, x, y)──► glass? pass through ──► first opaque hit s
+//!   centre ──ray through texel (face, x, y), glass and mirrors left out──► first hit s
 //!                                                                      L = Σ f(s, ωi, ωo)·Φ·κ
 //! ```
 //!
-//! Each texel's ray leaves from the probe's centre, passes through delta-material surfaces (the
-//! environment pass does not draw them either) and gathers at the first opaque surface with the
+//! Each texel's ray leaves from the probe's centre, with the delta-material instances left out
+//! of the scene as the environment pass leaves them out of the cube it draws
+//! ([`SceneBvh::intersect_skipping`]), and gathers at the first opaque surface with the
 //! photon volumes' estimate, seen from the centre instead of the eye: the same photons, kNN
 //! radii, kernel and regularised BSDF (`reference::gather::GatherMap`). Not carried over: the
 //! pixel-footprint floor (it belongs to the eye's pixels; without it the cube does not depend
@@ -29,7 +30,7 @@ use crate::photon::kernel::KernelSettings;
 use crate::photon::ray::Ray;
 use crate::photon::trace::{bsdf_at, PhotonMap};
 use crate::reference::gather::GatherMap;
-use crate::scene::Scene;
+use crate::scene::{Material, Scene};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
@@ -38,8 +39,6 @@ use rayon::prelude::*;
 /// the cube directly: at 640×480, 10k photons, its relMSE went 0.0345 → 0.0477 (cornell-box
 /// 0.0122 → 0.0116, glass-sphere 0.0121 → 0.0121; lavapipe, 2026-11-27).
 pub const FACE_SIZE: u32 = 32;
-/// Most delta surfaces a texel's ray passes through before it gives up (black).
-const MAX_PASS_THROUGH: u32 = 8;
 
 impl PhotonFrame {
     /// The indirect cube of each environment probe centred at `centres` (world space): RGBA
@@ -87,6 +86,7 @@ pub fn indirect_cube(
     gather_exponent_max: f32,
 ) -> Vec<[f32; 4]> {
     let n = FACE_SIZE;
+    let delta = delta_instances(scene);
     (0..6 * n * n)
         .into_par_iter()
         .map(|i| {
@@ -96,6 +96,7 @@ pub fn indirect_cube(
                 scene,
                 bvh,
                 gather,
+                &delta,
                 Ray::new(centre, dir),
                 gather_exponent_max,
             );
@@ -109,24 +110,30 @@ fn radiance_from(
     scene: &Scene,
     bvh: &SceneBvh,
     gather: &GatherMap,
-    mut ray: Ray,
+    delta: &[bool],
+    ray: Ray,
     gather_exponent_max: f32,
 ) -> Vec3 {
-    for _ in 0..MAX_PASS_THROUGH {
-        let Some(hit) = bvh.intersect(&ray) else {
-            return Vec3::ZERO;
-        };
-        if scene.materials[hit.material].has_delta_lobe() {
-            ray = hit.spawn_ray(ray.dir);
-            continue;
-        }
-        let bsdf = bsdf_at(scene, &hit).regularized(gather_exponent_max);
-        let l = gather.radiance(&hit, &bsdf, -ray.dir);
-        return if l.is_finite() {
-            l.max(Vec3::ZERO)
-        } else {
-            Vec3::ZERO
-        };
+    let Some(hit) = bvh.intersect_skipping(&ray, delta) else {
+        return Vec3::ZERO;
+    };
+    let bsdf = bsdf_at(scene, &hit).regularized(gather_exponent_max);
+    let l = gather.radiance(&hit, &bsdf, -ray.dir);
+    if l.is_finite() {
+        l.max(Vec3::ZERO)
+    } else {
+        Vec3::ZERO
     }
-    Vec3::ZERO
+}
+
+/// For each of `scene`'s instances, whether its material has a delta lobe (glass, mirrors):
+/// the instances an environment cube leaves out (as `Scene::delta_instance_bounds` picks
+/// them).
+fn delta_instances(scene: &Scene) -> Vec<bool> {
+    (scene.instances.iter())
+        .map(|inst| {
+            (scene.materials.get(scene.meshes[inst.mesh].material))
+                .is_some_and(Material::has_delta_lobe)
+        })
+        .collect()
 }
