@@ -160,7 +160,17 @@ fn environment_cube(bencher: Bencher, emitted: usize) {
         ..Default::default()
     };
     let gather = GatherMap::with_knn_radii(photon_map, &radii, &kernel, centre);
-    bencher.bench(|| indirect_cube(&SCENE, &bvh, &gather, centre, kernel.gather_exponent_max()));
+    let delta = SCENE.delta_instance_mask();
+    bencher.bench(|| {
+        indirect_cube(
+            &SCENE,
+            &bvh,
+            &gather,
+            &delta,
+            centre,
+            kernel.gather_exponent_max(),
+        )
+    });
 }
 
 /// The same in the bundled `caustic-ring` (the metal ring's cube, centred in the ring 0.1 m
@@ -181,5 +191,15 @@ fn environment_cube_caustic_ring(bencher: Bencher, emitted: usize) {
     let kernel = KernelSettings::scene_relative(&scene.bounds(), emitted, None);
     let centre = glam::Vec3::new(0.0, 0.1, 0.0);
     let gather = GatherMap::with_knn_radii(map, &radii, &kernel, centre);
-    bencher.bench(|| indirect_cube(&scene, &bvh, &gather, centre, kernel.gather_exponent_max()));
+    let delta = scene.delta_instance_mask();
+    bencher.bench(|| {
+        indirect_cube(
+            &scene,
+            &bvh,
+            &gather,
+            &delta,
+            centre,
+            kernel.gather_exponent_max(),
+        )
+    });
 }

@@ -1,4 +1,5 @@
-//! [`SceneBvh`]: closest-hit and any-hit ray queries against a [`Scene`]: obvhs's compressed
+//! [`SceneBvh`]: closest-hit and any-hit ray queries against a [`Scene`] (and a closest hit
+//! with some instances left out, [`SceneBvh::intersect_skipping`]): obvhs's compressed
 //! wide BVH8 (CWBVH, Ylitie et al. 2017) and its traversal, with a conservative SIMD node test
 //! of our own and our watertight triangle test ([`super::triangle`]) for every leaf primitive
 //! (obvhs's own Möller–Trumbore test is not watertight).
@@ -146,7 +147,9 @@ impl Blas {
 
     /// Closest (or, with `any`, first found) hit with `0 < t < t_max`: leaf index and hit.
     /// With `skip`, triangles of the instances it marks (`skip[instance]`, the static part's
-    /// `Attributes::instance`) are not hit.
+    /// `Attributes::instance`) are not hit; a mesh BLAS takes `None` (its `instance` is
+    /// `u32::MAX`). The skip reads each candidate triangle's `Attributes`, not only the hit's:
+    /// cheap for the probes' few thousand rays, not free for a tracer's millions.
     #[inline(always)]
     fn trace(
         &self,
@@ -400,17 +403,17 @@ impl SceneBvh {
         intersect_fastest(self, ray)
     }
 
-    /// The closest hit with `0 < t < ray.t_max` on an instance `skip` does not mark
-    /// (`skip[instance]`, one entry per instance): the others are not there for this ray.
-    /// What an environment probe's ray needs, which looks past the glass and mirrors its cube
-    /// leaves out (`render/photon_frame/environment.rs`).
+    /// The closest hit with `0 < t < ray.t_max` among the instances `skip` does not mark
+    /// (`skip[instance]`, one entry per instance): those it marks are treated as absent. What
+    /// an environment probe's ray needs, which looks past the glass and mirrors its cube leaves
+    /// out (`render/photon_frame/environment.rs`).
     ///
     /// # Panics
-    /// When `skip` has fewer entries than the scene has instances.
+    /// When `skip` does not have one entry per instance.
     pub fn intersect_skipping(&self, ray: &Ray, skip: &[bool]) -> Option<Hit> {
         assert!(
-            skip.len() >= self.instances.len(),
-            "intersect_skipping: {} entries for {} instances",
+            skip.len() == self.instances.len(),
+            "intersect_skipping: a skip mask of {} entries for {} instances",
             skip.len(),
             self.instances.len()
         );
@@ -439,7 +442,8 @@ impl SceneBvh {
                 continue;
             }
             let (origin, dir) = to_instance_space(&inst.placement, ray);
-            // A mesh BLAS's `Attributes::instance` is unused: the instance is skipped above.
+            // A mesh BLAS's `Attributes::instance` is `u32::MAX` (the mask would be indexed
+            // past its end): the instance is skipped above instead.
             if let Some((leaf, hit)) = blas.trace(origin, dir, closest, false, None) {
                 closest = hit.t;
                 best = Some((i, blas, leaf, hit));
@@ -589,7 +593,9 @@ mod tests {
 
     /// The queries as dispatched (the x86-64-v3 copy on a CPU that has it, as on every
     /// machine this project measures on) give the same hits, bit for bit, as their bodies
-    /// compiled for any x86-64, static and moving.
+    /// compiled for any x86-64, static and moving; `intersect_skipping` with nothing marked is
+    /// `intersect`, and with the last instance marked (moving or in the static part) its own
+    /// portable body.
     #[test]
     fn dispatched_queries_equal_their_portable_bodies_bit_for_bit() {
         let scene = crate::reference::scenes::cornell(3);
@@ -601,6 +607,9 @@ mod tests {
             let mut rng = Rng::new(11);
             let mut hits = 0;
             let no_skip = vec![false; scene.instances.len()];
+            let mut skip_last = no_skip.clone();
+            skip_last[last] = true;
+            let mut skipped_hits = 0;
             for i in 0..20_000 {
                 let o = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.4 - 1.2;
                 let d = uniform_sphere(rng.next_2());
@@ -626,27 +635,37 @@ mod tests {
                 assert_eq!(portable, avx2);
                 let skipping_none = bvh.intersect_skipping(&ray, &no_skip);
                 assert_eq!(bits(skipping_none), bits(avx2), "{ray:?}");
+                let skipping = bvh.intersect_skipping(&ray, &skip_last);
+                let portable_skipping = bvh.intersect_portable(&ray, Some(&skip_last));
+                assert_eq!(bits(skipping), bits(portable_skipping), "{ray:?}");
+                assert!(
+                    skipping.is_none_or(|h| h.instance as usize != last),
+                    "{ray:?}"
+                );
+                skipped_hits += avx2.is_some_and(|h| h.instance as usize == last) as u32;
                 let occluded = (bvh.occluded_portable(&ray), bvh.occluded(&ray));
                 assert_eq!(occluded.0, occluded.1, "{ray:?}");
                 assert_eq!(occluded.0, portable.is_some(), "{ray:?}");
                 hits += portable.is_some() as u32;
             }
             assert!(hits > 10_000, "{hits} hits");
+            assert!(
+                skipped_hits > 100,
+                "{skipped_hits} rays hit the skipped instance"
+            );
         }
     }
 
     /// The bundled `glass-cube`'s cube rests on the floor: its bottom face and the floor are
-    /// one plane. Seen from the cube's centre with the glass and mirrors skipped, every ray
-    /// down through the bottom face meets the floor right there, static or moving; without the
-    /// skip the closest hit is the glass's own face or the floor, whichever rounding favours,
-    /// and a ray spawned on past the glass starts beyond the floor (the speckled tops the
-    /// environment probes showed, `render/photon_frame/environment.rs`).
+    /// one plane. Seen from the cube's centre with the glass and mirrors skipped, each of 2000
+    /// random rays down through the bottom face meets the floor right there, static or moving;
+    /// without the skip the closest hit is the glass's own face or the floor, whichever
+    /// rounding favours, and a ray spawned on past the glass starts beyond the floor (the
+    /// blocky tops the environment probes showed, `render/photon_frame/environment.rs`).
     #[test]
-    fn skipping_the_glass_finds_the_floor_it_stands_on_along_every_ray() {
+    fn skipping_the_glass_finds_the_floor_it_stands_on_through_its_bottom_face() {
         let scene = crate::scene::bundled::resolve(Some("glass-cube")).expect("bundled scene");
-        let delta: Vec<bool> = (scene.instances.iter())
-            .map(|i| scene.materials[scene.meshes[i.mesh].material].has_delta_lobe())
-            .collect();
+        let delta = scene.delta_instance_mask();
         let cube = (0..scene.instances.len())
             .find(|&i| scene.meshes[scene.instances[i].mesh].triangles.len() == 12)
             .expect("the 12-triangle cube");
@@ -689,5 +708,14 @@ mod tests {
                 "no ray met the glass's face before the floor"
             );
         }
+    }
+
+    /// A skip mask made for another scene (another instance count) is refused up front.
+    #[test]
+    #[should_panic(expected = "a skip mask of 2 entries for")]
+    fn a_skip_mask_of_the_wrong_length_panics() {
+        let scene = crate::reference::scenes::cornell(1);
+        assert_ne!(scene.instances.len(), 2);
+        SceneBvh::new(&scene).intersect_skipping(&Ray::new(Vec3::ZERO, Vec3::Y), &[false; 2]);
     }
 }

@@ -265,18 +265,27 @@ impl Scene {
         b
     }
 
-    /// Each instance of a delta material (a perfect mirror or glass: [`Material::has_delta_lobe`])
-    /// with geometry, in instance order: its index and world-space bounds. The glass and
-    /// mirrors' environment probes (`plan/probes.rs`) are made of these.
+    /// For each instance, in instance order, whether its material has a delta lobe (a perfect
+    /// mirror or glass: [`Material::has_delta_lobe`]): the instances the environment cubes
+    /// leave out (`passes/environment.rs`, `render/photon_frame/environment.rs`).
+    pub fn delta_instance_mask(&self) -> Vec<bool> {
+        (self.instances.iter())
+            .map(|inst| {
+                (self.materials.get(self.meshes[inst.mesh].material))
+                    .is_some_and(Material::has_delta_lobe)
+            })
+            .collect()
+    }
+
+    /// Each instance of a delta material ([`Self::delta_instance_mask`]) with geometry, in
+    /// instance order: its index and world-space bounds. The glass and mirrors' environment
+    /// probes (`plan/probes.rs`) are made of these.
     pub fn delta_instance_bounds(&self) -> Vec<(usize, Aabb)> {
         let mut delta = Vec::new();
+        let mask = self.delta_instance_mask();
         for (i, inst) in self.instances.iter().enumerate() {
             let mesh = &self.meshes[inst.mesh];
-            if !self
-                .materials
-                .get(mesh.material)
-                .is_some_and(Material::has_delta_lobe)
-            {
+            if !mask[i] {
                 continue;
             }
             let mut b = Aabb::EMPTY;
