@@ -710,6 +710,46 @@ mod tests {
         }
     }
 
+    /// Skipping instances is the same as leaving them out of the scene: along 5000 random rays
+    /// through `cornell` with its sphere and one wall skipped, `intersect_skipping` finds the
+    /// hit (the same `t`, to the bit, and the same point) that `intersect` finds in the scene
+    /// without them, static and with the sphere moving.
+    #[test]
+    fn skipping_instances_is_leaving_them_out_of_the_scene() {
+        let scene = crate::reference::scenes::cornell(3);
+        let last = scene.instances.len() - 1;
+        let mut skip = vec![false; scene.instances.len()];
+        (skip[0], skip[last]) = (true, true);
+        let mut without = scene.clone();
+        without.instances = (scene.instances.iter().zip(&skip))
+            .filter(|(_, &s)| !s)
+            .map(|(i, _)| i.clone())
+            .collect();
+        for (bvh, reduced) in [
+            (SceneBvh::new(&scene), SceneBvh::new(&without)),
+            (
+                SceneBvh::with_moving_instances(&scene, &[last]),
+                SceneBvh::new(&without),
+            ),
+        ] {
+            let mut rng = Rng::new(17);
+            let mut hits = 0;
+            for _ in 0..5000 {
+                let o = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 1.8 - 0.9;
+                let ray = Ray::new(o, uniform_sphere(rng.next_2()));
+                let skipping = bvh.intersect_skipping(&ray, &skip);
+                let left_out = reduced.intersect(&ray);
+                assert_eq!(skipping.is_some(), left_out.is_some(), "{ray:?}");
+                if let (Some(a), Some(b)) = (skipping, left_out) {
+                    assert_eq!(a.t.to_bits(), b.t.to_bits(), "{ray:?}");
+                    assert!(a.position.distance(b.position) < 1e-5, "{ray:?}");
+                    hits += 1;
+                }
+            }
+            assert!(hits > 3000, "{hits} hits");
+        }
+    }
+
     /// A skip mask made for another scene (another instance count) is refused up front.
     #[test]
     #[should_panic(expected = "a skip mask of 2 entries for")]
