@@ -43,6 +43,12 @@
 //! `|1/dir|` capped at 2⁴⁰ (a direction component below 2⁻⁴⁰ is treated as ±2⁻⁴⁰, which can
 //! cull a hit only farther than 2⁴⁰ times the origin's distance to the box face).
 //!
+//! A ray spawned from a hit names the triangle it leaves ([`Ray::leaves`], a [`TriangleKey`]
+//! the hit record carries), and the traversal skips that leaf without testing it. The
+//! offset origin already keeps the ray off its own triangle (`ray.rs`); the skip spares a test
+//! that could only reject, and the photon tracer's rays, which leave a wall, used to make it
+//! first (about one triangle test in three on `benches/photon_trace.rs`'s room).
+//!
 //! # Speed
 //!
 //! On x86-64 CPUs with AVX2, BMI, LZCNT and POPCNT (detected at run time, once, by the
@@ -66,7 +72,7 @@ mod node;
 
 use node::{intersect_node, BoxRay};
 
-use super::ray::{gamma, Hit, Ray};
+use super::ray::{gamma, Hit, Ray, TriangleKey};
 use super::triangle::{transpose, TriangleHit, WatertightRay};
 use crate::scene::{Mesh, Scene};
 
@@ -146,10 +152,12 @@ impl Blas {
     }
 
     /// Closest (or, with `any`, first found) hit with `0 < t < t_max`: leaf index and hit.
-    /// With `skip`, triangles of the instances it marks (`skip[instance]`, the static part's
-    /// `Attributes::instance`) are not hit; a mesh BLAS takes `None` (its `instance` is
-    /// `u32::MAX`). The skip reads each candidate triangle's `Attributes`, not only the hit's:
-    /// cheap for the probes' few thousand rays, not free for a tracer's millions.
+    /// Leaf `leaves` (the triangle the ray leaves, `usize::MAX` for none) is not tested
+    /// ([`TriangleKey`]). With `skip`, triangles of the instances it marks (`skip[instance]`,
+    /// the static part's `Attributes::instance`) are not hit; a mesh BLAS takes `None` (its
+    /// `instance` is `u32::MAX`). The skip reads each candidate triangle's `Attributes`, not
+    /// only the hit's: cheap for the probes' few thousand rays, not free for a tracer's
+    /// millions.
     #[inline(always)]
     fn trace(
         &self,
@@ -157,6 +165,7 @@ impl Blas {
         dir: Vec3,
         t_max: f32,
         any: bool,
+        leaves: usize,
         skip: Option<&[bool]>,
     ) -> Option<(usize, TriangleHit)> {
         let watertight = WatertightRay::new(origin, dir);
@@ -173,7 +182,9 @@ impl Blas {
                 intersect_node(node, &box_ray, state.oct_inv4),
                 {
                     let i = state.primitive_id as usize;
-                    if skip.is_some_and(|s| s[self.attributes[i].instance as usize]) {
+                    if i == leaves {
+                        // The triangle the ray leaves: behind its origin (`TriangleKey`).
+                    } else if skip.is_some_and(|s| s[self.attributes[i].instance as usize]) {
                         // Not there for this ray (`SceneBvh::intersect_skipping`).
                     } else if let Some(hit) =
                         watertight.intersect_transposed(&self.rows[i], closest)
@@ -428,7 +439,14 @@ impl SceneBvh {
         // (instance, the BLAS it was hit in, its leaf-order triangle, hit).
         let mut best: Option<(usize, &Blas, usize, TriangleHit)> = None;
         if let Some(blas) = &self.static_part {
-            if let Some((leaf, hit)) = blas.trace(ray.origin, ray.dir, closest, false, skip) {
+            if let Some((leaf, hit)) = blas.trace(
+                ray.origin,
+                ray.dir,
+                closest,
+                false,
+                self.static_leaf(ray),
+                skip,
+            ) {
                 closest = hit.t;
                 best = Some((blas.attributes[leaf].instance as usize, blas, leaf, hit));
             }
@@ -444,7 +462,9 @@ impl SceneBvh {
             let (origin, dir) = to_instance_space(&inst.placement, ray);
             // A mesh BLAS's `Attributes::instance` is `u32::MAX` (the mask would be indexed
             // past its end): the instance is skipped above instead.
-            if let Some((leaf, hit)) = blas.trace(origin, dir, closest, false, None) {
+            if let Some((leaf, hit)) =
+                blas.trace(origin, dir, closest, false, moving_leaf(ray, i), None)
+            {
                 closest = hit.t;
                 best = Some((i, blas, leaf, hit));
             }
@@ -462,7 +482,14 @@ impl SceneBvh {
     fn occluded_portable(&self, ray: &Ray) -> bool {
         if let Some(blas) = &self.static_part {
             if blas
-                .trace(ray.origin, ray.dir, ray.t_max, true, None)
+                .trace(
+                    ray.origin,
+                    ray.dir,
+                    ray.t_max,
+                    true,
+                    self.static_leaf(ray),
+                    None,
+                )
                 .is_some()
             {
                 return true;
@@ -477,8 +504,19 @@ impl SceneBvh {
                 return false;
             }
             let (origin, dir) = to_instance_space(&inst.placement, ray);
-            blas.trace(origin, dir, ray.t_max, true, None).is_some()
+            blas.trace(origin, dir, ray.t_max, true, moving_leaf(ray, i), None)
+                .is_some()
         })
+    }
+
+    /// The static part's leaf that `ray` leaves (`usize::MAX` for none: [`TriangleKey`]).
+    #[inline(always)]
+    fn static_leaf(&self, ray: &Ray) -> usize {
+        if ray.leaves.part == self.static_builds {
+            ray.leaves.leaf as usize
+        } else {
+            usize::MAX
+        }
     }
 
     /// The world-space triangle `primitive` of `instance`, as [`Self::intersect`] sees it.
@@ -553,7 +591,29 @@ impl SceneBvh {
             uv,
             material: mesh.material,
             front_face: geometric_normal.dot(ray.dir) < 0.0,
+            key: TriangleKey {
+                part: if inst.placement.moving {
+                    MOVING_PART | instance as u32
+                } else {
+                    self.static_builds
+                },
+                leaf: leaf as u32,
+            },
         }
+    }
+}
+
+/// [`TriangleKey::part`] of moving instance `i`: `MOVING_PART | i` (the static part's is its
+/// build count, which stays below this bit).
+const MOVING_PART: u32 = 1 << 31;
+
+/// Moving instance `i`'s leaf that `ray` leaves (`usize::MAX` for none: [`TriangleKey`]).
+#[inline(always)]
+fn moving_leaf(ray: &Ray, i: usize) -> usize {
+    if ray.leaves.part == MOVING_PART | i as u32 {
+        ray.leaves.leaf as usize
+    } else {
+        usize::MAX
     }
 }
 

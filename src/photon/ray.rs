@@ -27,27 +27,67 @@ pub struct Ray {
     pub origin: Vec3,
     pub dir: Vec3,
     pub t_max: f32,
+    /// The triangle the ray leaves, which the BVH's queries skip without testing it
+    /// ([`TriangleKey`]); [`TriangleKey::NONE`] for a ray that leaves no surface.
+    pub leaves: TriangleKey,
 }
 
 impl Ray {
     /// A ray without an upper bound on `t`.
     pub fn new(origin: Vec3, dir: Vec3) -> Self {
-        Self {
-            origin,
-            dir,
-            t_max: f32::INFINITY,
-        }
+        Self::with_t_max(origin, dir, f32::INFINITY)
     }
 
     /// A ray limited to `t < t_max`.
     pub fn with_t_max(origin: Vec3, dir: Vec3, t_max: f32) -> Self {
-        Self { origin, dir, t_max }
+        Self {
+            origin,
+            dir,
+            t_max,
+            leaves: TriangleKey::NONE,
+        }
+    }
+
+    /// This ray, leaving the triangle `key` names.
+    pub fn leaving(self, key: TriangleKey) -> Self {
+        Self {
+            leaves: key,
+            ..self
+        }
     }
 
     /// The point at parameter `t`.
     pub fn at(&self, t: f32) -> Vec3 {
         self.origin + t * self.dir
     }
+}
+
+/// A triangle as [`crate::photon::bvh::SceneBvh`] stores it (which part of the BVH, where in its
+/// leaves), so that a ray spawned from a hit can skip the triangle it leaves without testing it
+/// (`Ray::leaves`).
+///
+/// Skipping it changes no hit. The spawned origin is moved off the triangle's plane, to the side
+/// the ray goes, past the hit point's error bound ([`offset_ray_origin`]). A plane is met at most
+/// once, so the ray can meet its own triangle only behind its origin, which the triangle test
+/// rejects (its `t` must be conservatively positive). The skip only spares that test. The
+/// photon tracer's rays leave a wall and, before, tested its triangles first: about one
+/// triangle test in three on the benchmark's room (`docs/performance.md`, "CPU photon
+/// tracing").
+///
+/// A key is valid for the BVH that made the hit until that BVH's static part is rebuilt (an
+/// instance leaving it, [`crate::photon::bvh::SceneBvh::update`]). A stale key skips nothing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct TriangleKey {
+    /// `crate::photon::bvh`'s name of the BVH part: the static part's build count, or a moving
+    /// instance's index with the top bit set; `0` for none.
+    pub(crate) part: u32,
+    /// Leaf-order index of the triangle in that part.
+    pub(crate) leaf: u32,
+}
+
+impl TriangleKey {
+    /// No triangle: nothing is skipped.
+    pub const NONE: Self = Self { part: 0, leaf: 0 };
 }
 
 /// The closest intersection of a ray with the scene.
@@ -80,11 +120,14 @@ pub struct Hit {
     pub material: usize,
     /// True when the ray arrived at the front (counter-clockwise) side.
     pub front_face: bool,
+    /// The triangle hit, as the BVH names it: what a ray spawned from here skips.
+    pub key: TriangleKey,
 }
 
 impl Hit {
     /// A ray leaving this hit in direction `dir` (either side of the surface) that cannot
-    /// re-hit this hit's triangle.
+    /// re-hit this hit's triangle: it starts off the surface ([`offset_ray_origin`]) and skips
+    /// the triangle ([`TriangleKey`]).
     pub fn spawn_ray(&self, dir: Vec3) -> Ray {
         let origin = offset_ray_origin(
             self.position,
@@ -92,7 +135,7 @@ impl Hit {
             self.geometric_normal,
             dir,
         );
-        Ray::new(origin, dir)
+        Ray::new(origin, dir).leaving(self.key)
     }
 
     /// A shadow ray from this hit towards the point `target` (`t_max` stops just short of it).
@@ -104,7 +147,7 @@ impl Hit {
             self.geometric_normal,
             dir,
         );
-        Ray::with_t_max(origin, target - origin, 1.0 - SHADOW_EPSILON)
+        Ray::with_t_max(origin, target - origin, 1.0 - SHADOW_EPSILON).leaving(self.key)
     }
 }
 
@@ -122,6 +165,7 @@ pub const fn gamma(n: i32) -> f32 {
 /// normal `n_geom` to the side of `dir`, out of its error box and one float further
 /// (pbrt-v4's `OffsetRayOrigin`). A ray from there in direction `dir` cannot re-hit the
 /// surface that `p` lies on.
+#[inline(always)]
 pub fn offset_ray_origin(p: Vec3, p_error: Vec3, n_geom: Vec3, dir: Vec3) -> Vec3 {
     let d = n_geom.abs().dot(p_error);
     let mut offset = d * n_geom;
@@ -146,6 +190,7 @@ pub fn offset_ray_origin(p: Vec3, p_error: Vec3, n_geom: Vec3, dir: Vec3) -> Vec
 }
 
 /// The smallest `f32` greater than `v` (`v` itself for +∞ and NaN).
+#[inline]
 pub fn next_float_up(v: f32) -> f32 {
     if v.is_infinite() && v > 0.0 || v.is_nan() {
         return v;
@@ -156,6 +201,7 @@ pub fn next_float_up(v: f32) -> f32 {
 }
 
 /// The largest `f32` less than `v` (`v` itself for −∞ and NaN).
+#[inline]
 pub fn next_float_down(v: f32) -> f32 {
     if v.is_infinite() && v < 0.0 || v.is_nan() {
         return v;

@@ -87,7 +87,7 @@
 use super::bsdf::{Bsdf, BsdfVariant, Lobe};
 use super::bvh::SceneBvh;
 use super::emit::EmittedPhoton;
-use super::ray::{Hit, Ray};
+use super::ray::{Hit, Ray, TriangleKey};
 use super::rng::{hash2, hash_vec3, Rng};
 use super::types::{pack_direction, unpack_direction, BounceMapPhoton, Photon};
 use crate::scene::{Material, Scene, Texture};
@@ -172,6 +172,8 @@ pub struct PhotonState {
     /// start point for the CPU references, of the bounce-map texel for the GPU's photons
     /// (module docs, "Determinism").
     pub path_key: u32,
+    /// The triangle the photon leaves, which its next ray skips ([`TriangleKey`]).
+    pub leaves: TriangleKey,
 }
 
 impl PhotonState {
@@ -200,7 +202,13 @@ impl PhotonState {
             eta: if p.eta > 0.0 { p.eta } else { 1.0 },
             bounces: 1,
             path_key,
+            leaves: TriangleKey::NONE,
         })
+    }
+
+    /// The ray the photon travels along next.
+    pub fn ray(&self) -> Ray {
+        Ray::new(self.origin, self.direction).leaving(self.leaves)
     }
 
     /// The bounce-map record of this state at light G-buffer depth `depth`.
@@ -353,14 +361,16 @@ fn scatter<const GLOSSY: bool, const DELTA: bool>(
     } else {
         state.eta
     };
+    let ray = hit.spawn_ray(s.wi);
     let next = PhotonState {
-        origin: hit.spawn_ray(s.wi).origin,
+        origin: ray.origin,
         direction: s.wi,
         power,
         rho_p: state.rho_p * s.path_density_factor,
         eta,
         bounces: state.bounces + 1,
         path_key: state.path_key,
+        leaves: ray.leaves,
     };
     Some((next, s.lobe))
 }
@@ -391,6 +401,7 @@ fn first_bounce_with(
         eta: 1.0,
         bounces: 0,
         path_key: 0,
+        leaves: TriangleKey::NONE,
     };
     let mut rng = Rng::new(hash2(photon.seed, FIRST_BOUNCE_STREAM));
     let (bounced, _) =
@@ -409,10 +420,12 @@ struct Chunk {
 }
 
 impl Chunk {
-    fn new(max_bounces: u32) -> Self {
+    /// An empty chunk for `paths` paths, with room for two photons a path (most rooms store
+    /// one to three; a vector that grows copies what it holds).
+    fn new(max_bounces: u32, paths: usize) -> Self {
         let n = max_bounces as usize + 1;
         Self {
-            photons: Vec::new(),
+            photons: Vec::with_capacity(2 * paths),
             attrition: vec![0; n],
             stored_power: vec![Vec3::ZERO; n],
         }
@@ -438,7 +451,7 @@ fn trace_path<const GLOSSY: bool, const DELTA: bool>(
     // Delta scatterings in a row (a start's own first bounce is not known: 0).
     let mut delta_chain = 0;
     loop {
-        let Some(hit) = bvh.intersect(&Ray::new(state.origin, state.direction)) else {
+        let Some(hit) = bvh.intersect(&state.ray()) else {
             return;
         };
         let bsdf = bsdfs.at(scene, &hit);
@@ -483,7 +496,7 @@ fn trace_path<const GLOSSY: bool, const DELTA: bool>(
 }
 
 fn merge(chunks: Vec<Chunk>, max_bounces: u32, emitted: u64) -> PhotonMap {
-    let mut total = Chunk::new(max_bounces);
+    let mut total = Chunk::new(max_bounces, 0);
     let count = chunks.iter().map(|c| c.photons.len()).sum();
     total.photons.reserve_exact(count);
     for c in chunks {
@@ -548,7 +561,7 @@ pub fn trace_photon_groups(
         .par_iter()
         .map(|chunk| {
             let _span = crate::timing::span_in("trace_chunk", frame);
-            let mut out = Chunk::new(max_bounces);
+            let mut out = Chunk::new(max_bounces, chunk.len());
             for s in *chunk {
                 trace_path(scene, bvh, &bsdfs, s, &settings, &mut out);
             }

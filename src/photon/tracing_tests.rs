@@ -4,7 +4,7 @@
 use glam::{Mat4, Quat, Vec3};
 
 use super::bvh::SceneBvh;
-use super::ray::{Hit, Ray};
+use super::ray::{Hit, Ray, TriangleKey};
 use super::shapes::{grid, icosphere, scene_of};
 use super::triangle::intersect_triangle;
 use crate::scene::Scene;
@@ -121,10 +121,11 @@ fn rays_from_outside_through_edges_and_vertices_hit_on_entry_and_exit() {
                     entry.front_face && (entry.t - 10.0).abs() < 0.1,
                     "{entry:?}"
                 );
-                let onwards = entry.spawn_ray(dir);
+                let onwards = offset_only(entry.spawn_ray(dir));
                 let exit = bvh
                     .intersect(&onwards)
                     .unwrap_or_else(|| panic!("{onwards:?} leaked out of the sphere"));
+                assert_eq!(bvh.intersect(&entry.spawn_ray(dir)), Some(exit));
                 assert!(
                     !exit.front_face && exit.triangle != entry.triangle,
                     "{exit:?}"
@@ -134,8 +135,16 @@ fn rays_from_outside_through_edges_and_vertices_hit_on_entry_and_exit() {
     }
 }
 
+/// `ray` without the triangle it leaves: only its offset origin keeps it off that triangle.
+/// The self-intersection tests check the offset this way, since the skip (`TriangleKey`)
+/// would pass them on its own; the skip is sound because the offset holds.
+fn offset_only(ray: Ray) -> Ray {
+    ray.leaving(TriangleKey::NONE)
+}
+
 /// Hit a sphere from outside; spawn reflected rays (they must not re-hit anything on a convex
-/// surface) and refracted rays (they must cross and hit another triangle).
+/// surface) and refracted rays (they must cross and hit another triangle), by their offset
+/// origins alone; with the skip of the triangle they leave, every query answers the same.
 fn check_self_intersection(scale: f32, translation: Vec3, moving: bool) {
     let transform = Mat4::from_scale_rotation_translation(
         Vec3::splat(scale),
@@ -156,8 +165,11 @@ fn check_self_intersection(scale: f32, translation: Vec3, moving: bool) {
         let outward = hit.geometric_normal;
         for _ in 0..20 {
             let reflected = rng.hemisphere(outward);
-            let ray = hit.spawn_ray(reflected);
+            let skipping = hit.spawn_ray(reflected);
+            assert_eq!(skipping.leaves, hit.key);
+            let ray = offset_only(skipping);
             let again = bvh.intersect(&ray);
+            assert_eq!(bvh.intersect(&skipping), again);
             assert!(
                 again.is_none_or(|h: Hit| h.triangle != hit.triangle),
                 "reflected ray re-hit its triangle at scale {scale}, offset {translation}"
@@ -169,12 +181,17 @@ fn check_self_intersection(scale: f32, translation: Vec3, moving: bool) {
                 );
             }
             assert!(!bvh.occluded(&Ray::with_t_max(ray.origin, ray.dir, scale * 1e-2)));
+            assert!(
+                !bvh.occluded(&Ray::with_t_max(ray.origin, ray.dir, scale * 1e-2).leaving(hit.key))
+            );
 
             let refracted = rng.hemisphere(-outward);
-            let ray = hit.spawn_ray(refracted);
+            let skipping = hit.spawn_ray(refracted);
+            let ray = offset_only(skipping);
             let exit = bvh
                 .intersect(&ray)
                 .expect("refracted ray must cross and exit");
+            assert_eq!(bvh.intersect(&skipping), Some(exit));
             assert_ne!(
                 exit.triangle, hit.triangle,
                 "refracted ray re-hit its triangle"
@@ -184,6 +201,52 @@ fn check_self_intersection(scale: f32, translation: Vec3, moving: bool) {
         }
     }
     assert_eq!(spawned, 8000);
+}
+
+/// The skip itself: a ray that would hit a triangle does not when it is said to leave it (it
+/// goes on to the sphere's far side), in the static part and in a moving instance, only in the
+/// instance named (two moving instances share one mesh BVH and so their leaf numbers), and a
+/// key made stale by a rebuild of the static part skips nothing.
+#[test]
+fn a_ray_skips_the_triangle_it_leaves_and_only_that_one() {
+    let at = |x: f32| Mat4::from_translation(Vec3::new(x, 0.0, 0.0));
+    let sphere = icosphere(2);
+    let scene = scene_of(vec![(sphere.clone(), at(-3.0)), (sphere, at(3.0))]);
+    let up = |x: f32| Ray::new(Vec3::new(x + 0.1, -10.0, 0.05), Vec3::Y);
+    for moving in [&[][..], &[0, 1][..]] {
+        let bvh = SceneBvh::with_moving_instances(&scene, moving);
+        let a = bvh.intersect(&up(-3.0)).unwrap();
+        let b = bvh.intersect(&up(3.0)).unwrap();
+        assert_eq!((a.instance, b.instance), (0, 1));
+        assert_ne!(a.key, b.key, "{moving:?}");
+        for (hit, x) in [(a, -3.0), (b, 3.0)] {
+            let through = bvh.intersect(&up(x).leaving(hit.key)).unwrap();
+            assert!(
+                through.instance == hit.instance && !through.front_face && through.t > hit.t + 1.5,
+                "{moving:?}: {through:?} after skipping {hit:?}"
+            );
+            assert!(bvh.occluded(&up(x).leaving(hit.key)));
+        }
+        // A's key says nothing of B, though with moving instances both are leaf `a.key.leaf`
+        // of the one mesh BVH.
+        assert_eq!(
+            bvh.intersect(&up(3.0).leaving(a.key)),
+            Some(b),
+            "{moving:?}"
+        );
+        if !moving.is_empty() {
+            assert_eq!(a.key.leaf, b.key.leaf, "the same point of the same mesh");
+        }
+    }
+    // Instance 1 leaves the static part: the part is rebuilt, and instance 0's old key is stale.
+    let mut bvh = SceneBvh::new(&scene);
+    let old = bvh.intersect(&up(-3.0)).unwrap();
+    bvh.set_instance_transform(1, at(4.0));
+    bvh.update();
+    let fresh = bvh.intersect(&up(-3.0)).unwrap();
+    assert_ne!(old.key, fresh.key);
+    assert_eq!(bvh.intersect(&up(-3.0).leaving(old.key)), Some(fresh));
+    assert!(bvh.intersect(&up(-3.0).leaving(fresh.key)).unwrap().t > fresh.t + 1.5);
 }
 
 #[test]
@@ -379,8 +442,15 @@ fn moving_an_instance_then_updating_matches_a_fresh_build() {
     let mut agree_with_static = 0;
     for _ in 0..3000 {
         let ray = random_ray(&mut rng);
+        // The same hits; their keys name parts of two different BVHs (`TriangleKey`).
+        let unkeyed = |h: Option<Hit>| {
+            h.map(|h| Hit {
+                key: TriangleKey::NONE,
+                ..h
+            })
+        };
         let (a, b) = (bvh.intersect(&ray), fresh.intersect(&ray));
-        assert_eq!(a, b, "{ray:?}");
+        assert_eq!(unkeyed(a), unkeyed(b), "{ray:?}");
         assert_eq!(bvh.occluded(&ray), fresh.occluded(&ray));
         let c = fresh_static.intersect(&ray);
         let same = match (a, c) {
