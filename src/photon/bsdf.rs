@@ -650,10 +650,10 @@ impl Bsdf {
         u: [f32; 3],
         power: Option<Vec3>,
     ) -> Option<BsdfSample> {
-        let o = self.orient(wo, n_s, n_g)?;
         if self.is_lambertian_only() {
-            self.roulette_lambertian(&o, u, power)
+            self.roulette_lambertian(wo, n_s, n_g, u, power)
         } else {
+            let o = self.orient(wo, n_s, n_g)?;
             self.roulette_lobes::<GLOSSY, DELTA>(&o, u, power)
         }
     }
@@ -698,16 +698,22 @@ impl Bsdf {
     #[inline(always)]
     fn roulette_lambertian(
         &self,
-        o: &Oriented,
+        wo: Vec3,
+        n_s: Vec3,
+        n_g: Vec3,
         u: [f32; 3],
         power: Option<Vec3>,
     ) -> Option<BsdfSample> {
         let c = self.lambertian;
         let w = roulette_weight(c, roulette_colour(power));
+        // The one lobe's weight does not depend on the directions, so the roulette is played
+        // before orienting: an absorbed photon (None either way) skips the normalisations and
+        // the frame.
         if u[0] >= w {
             return None;
         }
-        let mut s = self.sample_oriented::<false, false>(Lobe::Lambertian, o, c, [u[1], u[2]])?;
+        let o = self.orient(wo, n_s, n_g)?;
+        let mut s = self.sample_oriented::<false, false>(Lobe::Lambertian, &o, c, [u[1], u[2]])?;
         s.weight /= w;
         s.pdf *= w;
         debug_assert_sample(&s);

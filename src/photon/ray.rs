@@ -128,6 +128,7 @@ impl Hit {
     /// A ray leaving this hit in direction `dir` (either side of the surface) that cannot
     /// re-hit this hit's triangle: it starts off the surface ([`offset_ray_origin`]) and skips
     /// the triangle ([`TriangleKey`]).
+    #[inline(always)]
     pub fn spawn_ray(&self, dir: Vec3) -> Ray {
         let origin = offset_ray_origin(
             self.position,
