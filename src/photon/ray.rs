@@ -17,6 +17,11 @@
 //! magnitudes that actually produced the point, at every scale. The companion half of the
 //! scheme is in [`super::triangle`]: a hit is accepted only when its `t` is conservatively
 //! positive, so a ray starting on the correct side of the error box cannot re-hit its surface.
+//!
+//! A spawned ray also names the triangle it leaves ([`TriangleKey`], [`Ray::leaves`]), and the
+//! BVH skips that triangle without testing it. That changes no hit (the two halves above
+//! already keep the ray off it); it spares the one test a ray leaving a surface would otherwise
+//! always make.
 
 use glam::{Vec2, Vec3};
 
