@@ -640,7 +640,8 @@ impl Bsdf {
 
     /// [`Self::sample_russian_roulette_in`] (`power` `None`) and
     /// [`Self::sample_russian_roulette_for`]: orients `wo` and the normals, then plays the
-    /// roulette over the lobes, or over the one lobe of a Lambertian-only BSDF.
+    /// roulette over the lobes; a Lambertian-only BSDF plays its one lobe's roulette first
+    /// ([`Self::roulette_lambertian`]).
     #[inline(always)]
     fn roulette<const GLOSSY: bool, const DELTA: bool>(
         &self,
@@ -690,8 +691,10 @@ impl Bsdf {
         Some(s)
     }
 
-    /// [`Self::roulette_lobes`] of a Lambertian-only BSDF ([`Self::is_lambertian_only`]): the
-    /// same operations on the one lobe that can be taken, so the same sample bit for bit
+    /// [`Self::roulette`] of a Lambertian-only BSDF ([`Self::is_lambertian_only`]): the same
+    /// operations on the one lobe that can be taken, the roulette before `orient` (its weight
+    /// does not depend on the directions, and a failure of either gives `None`), so the same
+    /// sample bit for bit
     /// (`lambertian_roulette_is_the_lobes_roulette_bit_for_bit`), without the three empty
     /// lobes' reflectances, weights and choice. The photon tracer spends most of its bounces
     /// here (`docs/performance.md`, "CPU photon tracing").
@@ -707,8 +710,8 @@ impl Bsdf {
         let c = self.lambertian;
         let w = roulette_weight(c, roulette_colour(power));
         // The one lobe's weight does not depend on the directions, so the roulette is played
-        // before orienting: an absorbed photon (None either way) skips the normalisations and
-        // the frame.
+        // before orienting: an absorbed photon (None either way) skips the unit checks and the
+        // frame.
         if u[0] >= w {
             return None;
         }

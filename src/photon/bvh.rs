@@ -46,8 +46,9 @@
 //! A ray spawned from a hit names the triangle it leaves ([`Ray::leaves`], a [`TriangleKey`]
 //! the hit record carries), and the traversal skips that leaf without testing it. The
 //! offset origin already keeps the ray off its own triangle (`ray.rs`); the skip spares a test
-//! that could only reject, and the photon tracer's rays, which leave a wall, used to make it
-//! first (about one triangle test in three on `benches/photon_trace.rs`'s room).
+//! that could only reject. The photon tracer's rays, which leave a wall, made that test on
+//! nearly every ray: 1 of 3.39 triangle tests a ray on `benches/photon_trace.rs`'s room, whose
+//! rays from the light name no triangle (0.57 a ray over all of them).
 //!
 //! # Speed
 //!
@@ -61,6 +62,7 @@
 //! functions for the three vertices at once. `docs/performance.md` ("CPU photon tracing") has
 //! the profile and the measurements.
 
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
 use glam::{Mat3, Mat4, UVec2, Vec2, Vec3, Vec3A};
@@ -152,7 +154,7 @@ impl Blas {
     }
 
     /// Closest (or, with `any`, first found) hit with `0 < t < t_max`: leaf index and hit.
-    /// Leaf `leaves` (the triangle the ray leaves, `usize::MAX` for none) is not tested
+    /// Leaf `skip_leaf` (the triangle the ray leaves, `usize::MAX` for none) is not tested
     /// ([`TriangleKey`]). With `skip`, triangles of the instances it marks (`skip[instance]`,
     /// the static part's `Attributes::instance`) are not hit; a mesh BLAS takes `None` (its
     /// `instance` is `u32::MAX`). The skip reads each candidate triangle's `Attributes`, not
@@ -165,7 +167,7 @@ impl Blas {
         dir: Vec3,
         t_max: f32,
         any: bool,
-        leaves: usize,
+        skip_leaf: usize,
         skip: Option<&[bool]>,
     ) -> Option<(usize, TriangleHit)> {
         let watertight = WatertightRay::new(origin, dir);
@@ -182,7 +184,7 @@ impl Blas {
                 intersect_node(node, &box_ray, state.oct_inv4),
                 {
                     let i = state.primitive_id as usize;
-                    if i == leaves {
+                    if i == skip_leaf {
                         // The triangle the ray leaves: behind its origin (`TriangleKey`).
                     } else if skip.is_some_and(|s| s[self.attributes[i].instance as usize]) {
                         // Not there for this ray (`SceneBvh::intersect_skipping`).
@@ -228,6 +230,8 @@ fn occluded_fastest(bvh: &SceneBvh, ray: &Ray) -> bool {
 /// An instance's placement and what is derived from it.
 #[derive(Clone, Debug)]
 struct Placement {
+    /// [`TriangleKey::part`] of a moving instance's hits at this placement ([`fresh_part`]).
+    part: u32,
     transform: Mat4,
     inverse: Mat4,
     normal_matrix: Mat3,
@@ -241,6 +245,7 @@ struct Placement {
 impl Placement {
     fn new(transform: Mat4, moving: bool) -> Self {
         Self {
+            part: fresh_part(),
             transform,
             inverse: transform.inverse(),
             normal_matrix: Mat3::from_mat4(transform).inverse().transpose(),
@@ -266,6 +271,8 @@ pub struct SceneBvh {
     /// Builds of the static part so far (1 after construction; more only when an instance
     /// left it).
     static_builds: u32,
+    /// [`TriangleKey::part`] of the static part's hits, new at each build ([`fresh_part`]).
+    static_key_part: u32,
     triangle_count: usize,
 }
 
@@ -310,6 +317,7 @@ impl SceneBvh {
             moving: Vec::new(),
             static_dirty: true,
             static_builds: 0,
+            static_key_part: fresh_part(),
             triangle_count: count as usize,
         };
         bvh.update();
@@ -368,6 +376,7 @@ impl SceneBvh {
             self.static_part = Blas::build(triangles, attributes);
             self.static_dirty = false;
             self.static_builds += 1;
+            self.static_key_part = fresh_part();
         }
         self.moving.clear();
         for i in 0..self.instances.len() {
@@ -462,9 +471,14 @@ impl SceneBvh {
             let (origin, dir) = to_instance_space(&inst.placement, ray);
             // A mesh BLAS's `Attributes::instance` is `u32::MAX` (the mask would be indexed
             // past its end): the instance is skipped above instead.
-            if let Some((leaf, hit)) =
-                blas.trace(origin, dir, closest, false, moving_leaf(ray, i), None)
-            {
+            if let Some((leaf, hit)) = blas.trace(
+                origin,
+                dir,
+                closest,
+                false,
+                moving_leaf(ray, &inst.placement),
+                None,
+            ) {
                 closest = hit.t;
                 best = Some((i, blas, leaf, hit));
             }
@@ -504,15 +518,22 @@ impl SceneBvh {
                 return false;
             }
             let (origin, dir) = to_instance_space(&inst.placement, ray);
-            blas.trace(origin, dir, ray.t_max, true, moving_leaf(ray, i), None)
-                .is_some()
+            blas.trace(
+                origin,
+                dir,
+                ray.t_max,
+                true,
+                moving_leaf(ray, &inst.placement),
+                None,
+            )
+            .is_some()
         })
     }
 
     /// The static part's leaf that `ray` leaves (`usize::MAX` for none: [`TriangleKey`]).
     #[inline(always)]
     fn static_leaf(&self, ray: &Ray) -> usize {
-        if ray.leaves.part == self.static_builds {
+        if ray.leaves.part == self.static_key_part {
             ray.leaves.leaf as usize
         } else {
             usize::MAX
@@ -593,9 +614,9 @@ impl SceneBvh {
             front_face: geometric_normal.dot(ray.dir) < 0.0,
             key: TriangleKey {
                 part: if inst.placement.moving {
-                    MOVING_PART | instance as u32
+                    inst.placement.part
                 } else {
-                    self.static_builds
+                    self.static_key_part
                 },
                 leaf: leaf as u32,
             },
@@ -603,14 +624,26 @@ impl SceneBvh {
     }
 }
 
-/// [`TriangleKey::part`] of moving instance `i`: `MOVING_PART | i` (the static part's is its
-/// build count, which stays below this bit).
-const MOVING_PART: u32 = 1 << 31;
+/// A number that no build of a static part and no placement of an instance has had before, in
+/// any [`SceneBvh`] of the process: what a [`TriangleKey`] names its part of a BVH by, so that a
+/// key used on another BVH, on a rebuilt static part or on an instance that has moved since
+/// skips nothing. Never 0 ([`TriangleKey::NONE`]); it would repeat only after 2³² − 1 builds
+/// and moves, long after any key made then has been used.
+fn fresh_part() -> u32 {
+    static NEXT: AtomicU32 = AtomicU32::new(1);
+    loop {
+        let part = NEXT.fetch_add(1, Ordering::Relaxed);
+        if part != TriangleKey::NONE.part {
+            return part;
+        }
+    }
+}
 
-/// Moving instance `i`'s leaf that `ray` leaves (`usize::MAX` for none: [`TriangleKey`]).
+/// The leaf of a moving instance at `placement` that `ray` leaves (`usize::MAX` for none:
+/// [`TriangleKey`]).
 #[inline(always)]
-fn moving_leaf(ray: &Ray, i: usize) -> usize {
-    if ray.leaves.part == MOVING_PART | i as u32 {
+fn moving_leaf(ray: &Ray, placement: &Placement) -> usize {
+    if ray.leaves.part == placement.part {
         ray.leaves.leaf as usize
     } else {
         usize::MAX

@@ -204,15 +204,21 @@ fn check_self_intersection(scale: f32, translation: Vec3, moving: bool) {
 }
 
 /// The skip itself: a ray that would hit a triangle does not when it is said to leave it (it
-/// goes on to the sphere's far side), in the static part and in a moving instance, only in the
-/// instance named (two moving instances share one mesh BVH and so their leaf numbers), and a
-/// key made stale by a rebuild of the static part skips nothing.
+/// goes on to the sphere's far side), for closest hits and for occlusion, in the static part
+/// and in a moving instance, and only in the instance named (two moving instances share one
+/// mesh BVH and so their leaf numbers). A key says nothing to another BVH, to a rebuilt static
+/// part, or to a moving instance that has moved since.
 #[test]
 fn a_ray_skips_the_triangle_it_leaves_and_only_that_one() {
     let at = |x: f32| Mat4::from_translation(Vec3::new(x, 0.0, 0.0));
     let sphere = icosphere(2);
     let scene = scene_of(vec![(sphere.clone(), at(-3.0)), (sphere, at(3.0))]);
     let up = |x: f32| Ray::new(Vec3::new(x + 0.1, -10.0, 0.05), Vec3::Y);
+    // The same ray, ending half-way through the sphere.
+    let short =
+        |x: f32, hit: &Hit| Ray::with_t_max(Vec3::new(x + 0.1, -10.0, 0.05), Vec3::Y, hit.t + 1.0);
+    // Leaf `leaf` of the part `key` names.
+    let in_part = |key: TriangleKey, leaf: u32| TriangleKey { leaf, ..key };
     for moving in [&[][..], &[0, 1][..]] {
         let bvh = SceneBvh::with_moving_instances(&scene, moving);
         let a = bvh.intersect(&up(-3.0)).unwrap();
@@ -225,7 +231,13 @@ fn a_ray_skips_the_triangle_it_leaves_and_only_that_one() {
                 through.instance == hit.instance && !through.front_face && through.t > hit.t + 1.5,
                 "{moving:?}: {through:?} after skipping {hit:?}"
             );
-            assert!(bvh.occluded(&up(x).leaving(hit.key)));
+            assert!(bvh.occluded(&short(x, &hit)));
+            assert!(
+                !bvh.occluded(&short(x, &hit).leaving(hit.key)),
+                "{moving:?}"
+            );
+            // A shadow ray names the triangle it leaves too.
+            assert_eq!(hit.spawn_ray_to(Vec3::ZERO).leaves, hit.key);
         }
         // A's key says nothing of B, though with moving instances both are leaf `a.key.leaf`
         // of the one mesh BVH.
@@ -236,17 +248,36 @@ fn a_ray_skips_the_triangle_it_leaves_and_only_that_one() {
         );
         if !moving.is_empty() {
             assert_eq!(a.key.leaf, b.key.leaf, "the same point of the same mesh");
+            assert_ne!(a.key.part, b.key.part);
+        } else {
+            // One static part: the leaf alone tells the two apart.
+            assert_eq!(in_part(a.key, b.key.leaf), b.key);
         }
+        // Nor does it say anything to another BVH of the same scene (the same leaves).
+        let other = SceneBvh::with_moving_instances(&scene, moving);
+        let a_there = other.intersect(&up(-3.0)).unwrap();
+        assert_eq!(a_there.key.leaf, a.key.leaf);
+        assert_eq!(other.intersect(&up(-3.0).leaving(a.key)), Some(a_there));
     }
-    // Instance 1 leaves the static part: the part is rebuilt, and instance 0's old key is stale.
+    // Instance 1 leaves the static part: the part is rebuilt, and instance 0's old keys are
+    // stale, whichever leaf they name.
     let mut bvh = SceneBvh::new(&scene);
     let old = bvh.intersect(&up(-3.0)).unwrap();
     bvh.set_instance_transform(1, at(4.0));
     bvh.update();
     let fresh = bvh.intersect(&up(-3.0)).unwrap();
-    assert_ne!(old.key, fresh.key);
-    assert_eq!(bvh.intersect(&up(-3.0).leaving(old.key)), Some(fresh));
+    assert_ne!(old.key.part, fresh.key.part);
+    let stale = in_part(old.key, fresh.key.leaf);
+    assert_eq!(bvh.intersect(&up(-3.0).leaving(stale)), Some(fresh));
     assert!(bvh.intersect(&up(-3.0).leaving(fresh.key)).unwrap().t > fresh.t + 1.5);
+    // Instance 1, moving now, moves again: its key from before names its old place.
+    let before = bvh.intersect(&up(4.0)).unwrap();
+    bvh.set_instance_transform(1, at(4.0));
+    bvh.update();
+    let after = bvh.intersect(&up(4.0)).unwrap();
+    assert_eq!(after.key.leaf, before.key.leaf);
+    assert_eq!(bvh.intersect(&up(4.0).leaving(before.key)), Some(after));
+    assert!(bvh.intersect(&up(4.0).leaving(after.key)).unwrap().t > after.t + 1.5);
 }
 
 #[test]
