@@ -46,9 +46,9 @@
 //! A ray spawned from a hit names the triangle it leaves ([`Ray::leaves`], a [`TriangleKey`]
 //! the hit record carries), and the traversal skips that leaf without testing it. The
 //! offset origin already keeps the ray off its own triangle (`ray.rs`); the skip spares a test
-//! that could only reject. The photon tracer's rays, which leave a wall, made that test on
-//! nearly every ray: 1 of 3.39 triangle tests a ray on `benches/photon_trace.rs`'s room, whose
-//! rays from the light name no triangle (0.57 a ray over all of them).
+//! that could only reject. The photon tracer's rays that leave a surface (57 % of them on
+//! `benches/photon_trace.rs`'s room; those from the light leave none) each made that test: 0.57
+//! of the 3.39 triangle tests a ray over all of them.
 //!
 //! # Speed
 //!
@@ -62,7 +62,7 @@
 //! functions for the three vertices at once. `docs/performance.md` ("CPU photon tracing") has
 //! the profile and the measurements.
 
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use glam::{Mat3, Mat4, UVec2, Vec2, Vec3, Vec3A};
@@ -231,7 +231,7 @@ fn occluded_fastest(bvh: &SceneBvh, ray: &Ray) -> bool {
 #[derive(Clone, Debug)]
 struct Placement {
     /// [`TriangleKey::part`] of a moving instance's hits at this placement ([`fresh_part`]).
-    part: u32,
+    part: u64,
     transform: Mat4,
     inverse: Mat4,
     normal_matrix: Mat3,
@@ -272,7 +272,7 @@ pub struct SceneBvh {
     /// left it).
     static_builds: u32,
     /// [`TriangleKey::part`] of the static part's hits, new at each build ([`fresh_part`]).
-    static_key_part: u32,
+    static_key_part: u64,
     triangle_count: usize,
 }
 
@@ -626,17 +626,13 @@ impl SceneBvh {
 
 /// A number that no build of a static part and no placement of an instance has had before, in
 /// any [`SceneBvh`] of the process: what a [`TriangleKey`] names its part of a BVH by, so that a
-/// key used on another BVH, on a rebuilt static part or on an instance that has moved since
-/// skips nothing. Never 0 ([`TriangleKey::NONE`]); it would repeat only after 2³² − 1 builds
-/// and moves, long after any key made then has been used.
-fn fresh_part() -> u32 {
-    static NEXT: AtomicU32 = AtomicU32::new(1);
-    loop {
-        let part = NEXT.fetch_add(1, Ordering::Relaxed);
-        if part != TriangleKey::NONE.part {
-            return part;
-        }
-    }
+/// key used on another BVH, on a rebuilt static part or on an instance placed anew since skips
+/// nothing. Never 0 ([`TriangleKey::NONE`]). 64 bits, so that it never repeats (a 32-bit count
+/// would, after about two weeks of 50 instances animated at 60 frames a second, while the
+/// static part's number of the start was still in use).
+fn fresh_part() -> u64 {
+    static NEXT: AtomicU64 = AtomicU64::new(1);
+    NEXT.fetch_add(1, Ordering::Relaxed)
 }
 
 /// The leaf of a moving instance at `placement` that `ray` leaves (`usize::MAX` for none:

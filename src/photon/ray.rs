@@ -85,15 +85,15 @@ impl Ray {
 /// (`docs/performance.md`, "CPU photon tracing").
 ///
 /// A key holds for the BVH that made the hit, until its static part is rebuilt (an instance
-/// leaving it, [`crate::photon::bvh::SceneBvh::update`]) or, for a moving instance, until the
-/// instance moves. Outside that it skips nothing: every build of a static part and every
-/// placement of an instance, in any BVH, names its hits anew.
+/// leaving it) or, for a moving instance, until [`crate::photon::bvh::SceneBvh::update`]
+/// places the instance again (even where it was). Outside that it skips nothing: every build
+/// of a static part and every placement of an instance, in any BVH, names its hits anew.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct TriangleKey {
     /// `crate::photon::bvh`'s name of the part of the BVH: a number drawn for each build of the
-    /// static part and each placement of a moving instance, unique in the process; `0` for
-    /// none.
-    pub(crate) part: u32,
+    /// static part and each placement of a moving instance, never the same twice in the
+    /// process; `0` for none.
+    pub(crate) part: u64,
     /// Leaf-order index of the triangle in that part.
     pub(crate) leaf: u32,
 }

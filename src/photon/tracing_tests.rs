@@ -207,7 +207,7 @@ fn check_self_intersection(scale: f32, translation: Vec3, moving: bool) {
 /// goes on to the sphere's far side), for closest hits and for occlusion, in the static part
 /// and in a moving instance, and only in the instance named (two moving instances share one
 /// mesh BVH and so their leaf numbers). A key says nothing to another BVH, to a rebuilt static
-/// part, or to a moving instance that has moved since.
+/// part, or to a moving instance placed anew since.
 #[test]
 fn a_ray_skips_the_triangle_it_leaves_and_only_that_one() {
     let at = |x: f32| Mat4::from_translation(Vec3::new(x, 0.0, 0.0));
@@ -270,7 +270,8 @@ fn a_ray_skips_the_triangle_it_leaves_and_only_that_one() {
     let stale = in_part(old.key, fresh.key.leaf);
     assert_eq!(bvh.intersect(&up(-3.0).leaving(stale)), Some(fresh));
     assert!(bvh.intersect(&up(-3.0).leaving(fresh.key)).unwrap().t > fresh.t + 1.5);
-    // Instance 1, moving now, moves again: its key from before names its old place.
+    // Instance 1, moving now, is placed again (where it was: any new placement renews its
+    // keys), and its key from before skips nothing.
     let before = bvh.intersect(&up(4.0)).unwrap();
     bvh.set_instance_transform(1, at(4.0));
     bvh.update();
