@@ -3,7 +3,10 @@
 //! of bare `obvhs` (its CWBVH and Möller–Trumbore triangles) and of our `SceneBvh` on the same
 //! scene, in the same run, with 1 and 2 rayon threads: on incoherent rays inside the box and on
 //! the tracer's own rays (`PHOTON_SEGMENTS`).
-//! `cargo bench --bench photon_trace`; results in `docs/performance.md`.
+//! `cargo bench --bench photon_trace`; results in `docs/performance.md`. Two checks instead of
+//! the benchmarks: `PHOTON_MAP_DIGEST=1` prints a digest of the photon map (a change to the
+//! tracer that should keep every bit must keep it), and `BVH_STATS=1` with `--features
+//! bvh-stats` prints the nodes and triangles tested per ray.
 //!
 //! Scene: the Cornell-like closed box of `reference::scenes::cornell` (walls of albedo 0.7,
 //! coloured side walls) with its sphere subdivided 6 times (81 920 + 12 triangles); a point
@@ -54,7 +57,70 @@ fn main() {
         );
         return;
     }
+    // `BVH_STATS=1` with `--features bvh-stats`: print the nodes and triangles tested per ray
+    // and exit (docs/performance.md, "The triangle a ray leaves").
+    #[cfg(feature = "bvh-stats")]
+    if std::env::var_os("BVH_STATS").is_some() {
+        print_bvh_stats();
+        return;
+    }
     divan::main();
+}
+
+/// Nodes and triangles tested per ray: by the tracer (its own rays, each skipping the triangle
+/// it leaves), by `SceneBvh` on [`PHOTON_SEGMENTS`], and by bare obvhs on them.
+#[cfg(feature = "bvh-stats")]
+fn print_bvh_stats() {
+    // obvhs's `traverse!` names `UVec2` unqualified.
+    use glam::UVec2;
+    use ispm::photon::bvh::stats;
+    let per_ray = |(nodes, triangles): (u64, u64), rays: usize| {
+        format!(
+            "{:.2} nodes, {:.2} triangles a ray ({rays} rays)",
+            nodes as f64 / rays as f64,
+            triangles as f64 / rays as f64
+        )
+    };
+    LazyLock::force(&BVH);
+    let segments = &*PHOTON_SEGMENTS;
+    stats::take();
+    let map = trace_from_lights(&SCENE, &BVH, &EMITTED, &SETTINGS);
+    let rays = map.attrition.iter().sum::<u64>() as usize;
+    println!("photon tracing: {}", per_ray(stats::take(), rays));
+    scene_bvh_hits(segments);
+    println!(
+        "SceneBvh, the tracer's segments: {}",
+        per_ray(stats::take(), segments.len())
+    );
+    let (bvh, tris) = &*RAW;
+    let (mut nodes, mut triangles) = (0u64, 0u64);
+    for r in segments {
+        let ray = obvhs::ray::Ray::new_inf(Vec3A::from(r.origin), Vec3A::from(r.dir));
+        let mut hit = RayHit::none();
+        let mut state = bvh.new_traversal(ray.direction);
+        let mut node;
+        obvhs::traverse!(
+            bvh,
+            node,
+            state,
+            {
+                nodes += 1;
+                node.intersect_ray(&ray, state.oct_inv4)
+            },
+            {
+                triangles += 1;
+                let t = tris[state.primitive_id as usize].intersect(&ray);
+                if t < hit.t {
+                    hit.t = t;
+                    hit.primitive_id = state.primitive_id;
+                }
+            }
+        );
+    }
+    println!(
+        "bare obvhs, the tracer's segments: {}",
+        per_ray((nodes, triangles), segments.len())
+    );
 }
 
 static SCENE: LazyLock<Scene> = LazyLock::new(|| cornell(6));

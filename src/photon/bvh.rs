@@ -71,6 +71,8 @@ use obvhs::BvhBuildParams;
 use obvhs::{cwbvh::builder::build_cwbvh_from_tris, cwbvh::CwBvh, triangle::Triangle};
 
 mod node;
+#[cfg(feature = "bvh-stats")]
+pub mod stats;
 
 use node::{intersect_node, BoxRay};
 
@@ -181,9 +183,17 @@ impl Blas {
                 self.bvh,
                 node,
                 state,
-                intersect_node(node, &box_ray, state.oct_inv4),
+                {
+                    #[cfg(feature = "bvh-stats")]
+                    stats::count_node();
+                    intersect_node(node, &box_ray, state.oct_inv4)
+                },
                 {
                     let i = state.primitive_id as usize;
+                    #[cfg(feature = "bvh-stats")]
+                    if i != skip_leaf {
+                        stats::count_triangle();
+                    }
                     if i == skip_leaf {
                         // The triangle the ray leaves: behind its origin (`TriangleKey`).
                     } else if skip.is_some_and(|s| s[self.attributes[i].instance as usize]) {
