@@ -155,6 +155,15 @@ impl Blas {
         [0, 1, 2].map(|v| Vec3::new(x[v], y[v], z[v]))
     }
 
+    /// The watertight test of leaf-order triangle `leaf` (counted with the `bvh-stats`
+    /// feature).
+    #[inline(always)]
+    fn test(&self, ray: &WatertightRay, leaf: usize, t_max: f32) -> Option<TriangleHit> {
+        #[cfg(feature = "bvh-stats")]
+        stats::count_triangle();
+        ray.intersect_transposed(&self.rows[leaf], t_max)
+    }
+
     /// Closest (or, with `any`, first found) hit with `0 < t < t_max`: leaf index and hit.
     /// Leaf `skip_leaf` (the triangle the ray leaves, `usize::MAX` for none) is not tested
     /// ([`TriangleKey`]). With `skip`, triangles of the instances it marks (`skip[instance]`,
@@ -190,17 +199,11 @@ impl Blas {
                 },
                 {
                     let i = state.primitive_id as usize;
-                    #[cfg(feature = "bvh-stats")]
-                    if i != skip_leaf {
-                        stats::count_triangle();
-                    }
                     if i == skip_leaf {
                         // The triangle the ray leaves: behind its origin (`TriangleKey`).
                     } else if skip.is_some_and(|s| s[self.attributes[i].instance as usize]) {
                         // Not there for this ray (`SceneBvh::intersect_skipping`).
-                    } else if let Some(hit) =
-                        watertight.intersect_transposed(&self.rows[i], closest)
-                    {
+                    } else if let Some(hit) = self.test(&watertight, i, closest) {
                         best = Some((i, hit));
                         if any {
                             break 'traversal;

@@ -14,7 +14,8 @@ pub(super) fn count_node() {
     NODES.fetch_add(1, Ordering::Relaxed);
 }
 
-/// One triangle test (the triangle a ray leaves is skipped, not tested, and not counted).
+/// One triangle test (the triangle a ray leaves and the instances `intersect_skipping` leaves
+/// out are not tested, and not counted).
 #[inline(always)]
 pub(super) fn count_triangle() {
     TRIANGLES.fetch_add(1, Ordering::Relaxed);
